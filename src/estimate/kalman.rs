@@ -1,0 +1,126 @@
+//! The Kalman update in Joseph form, with the intermittent and per-channel treatment of missing data
+//! (Lesecq's slides, `seeds/004`): nothing arrived → prediction only; a channel missing from every source →
+//! R̄ᵢᵢ = λ² Rᵢᵢ (equal to dropping the row when R is diagonal), or its row dropped when R is correlated.
+
+use nalgebra::{DMatrix, DVector};
+
+use super::{cholesky, symmetrize, wrap_rows, EstimateError};
+
+/// A state estimate: mean and covariance.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Gaussian {
+    pub x: DVector<f64>,
+    pub P: DMatrix<f64>,
+}
+
+/// How an observation maps the state: z = H x + v, v ~ N(0, R).
+#[derive(Debug, Clone)]
+pub struct Observation {
+    pub H: DMatrix<f64>,
+    pub R: DMatrix<f64>,
+    /// Rows that are angles: innovations on them wrap to (−π, π].
+    pub angle_rows: Vec<bool>,
+    /// Which rows travel in which channel (pose: position = 0, orientation = 1).
+    pub channel_of_row: Vec<usize>,
+}
+
+impl Observation {
+    pub fn dim(&self) -> usize {
+        self.H.nrows()
+    }
+    pub fn channels(&self) -> usize {
+        self.channel_of_row.iter().copied().max().map_or(0, |c| c + 1)
+    }
+    /// Innovation z − H x with angle rows wrapped.
+    pub fn innovation(&self, z: &DVector<f64>, x: &DVector<f64>) -> DVector<f64> {
+        let mut v = z - &self.H * x;
+        wrap_rows(&mut v, &self.angle_rows);
+        v
+    }
+}
+
+/// What to do with a row that no source delivered.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MissingChannels {
+    /// R̄ᵢᵢ = λ² Rᵢᵢ; valid only for a diagonal R (its coupling to the other rows is left as it is).
+    Inflate(f64),
+    /// Remove the row from H, R and z.
+    Drop,
+}
+
+impl MissingChannels {
+    /// Inflate when R is diagonal, drop rows when it is correlated (inflation is then not equivalent).
+    pub fn for_noise(R: &DMatrix<f64>, lambda: f64) -> MissingChannels {
+        let diagonal = (0..R.nrows()).all(|i| (0..R.ncols()).all(|j| i == j || R[(i, j)] == 0.0));
+        if diagonal {
+            MissingChannels::Inflate(lambda)
+        } else {
+            MissingChannels::Drop
+        }
+    }
+}
+
+/// The observation restricted to what arrived: (H, R̄, kept-row indices).
+pub fn effective_observation(
+    obs: &Observation,
+    present: &[bool],
+    policy: MissingChannels,
+) -> (DMatrix<f64>, DMatrix<f64>, Vec<usize>) {
+    match policy {
+        MissingChannels::Inflate(lambda) => {
+            let mut R = obs.R.clone();
+            for (i, p) in present.iter().enumerate() {
+                if !p {
+                    R[(i, i)] *= lambda * lambda;
+                }
+            }
+            (obs.H.clone(), R, (0..obs.dim()).collect())
+        }
+        MissingChannels::Drop => {
+            let keep: Vec<usize> = (0..obs.dim()).filter(|&i| present[i]).collect();
+            let H = obs.H.select_rows(keep.iter());
+            let R = obs.R.select_rows(keep.iter()).select_columns(keep.iter());
+            (H, R, keep)
+        }
+    }
+}
+
+/// Standard Kalman update (Joseph form, eq. (11) of the consensus seed) with the rows flagged in `present`;
+/// with no row present it returns the prior (intermittent observation, γ = 0).
+pub fn kalman_update(
+    prior: &Gaussian,
+    obs: &Observation,
+    z: &DVector<f64>,
+    present: &[bool],
+    policy: MissingChannels,
+) -> Result<Gaussian, EstimateError> {
+    if !present.iter().any(|p| *p) {
+        return Ok(prior.clone());
+    }
+    let (H, R, keep) = effective_observation(obs, present, policy);
+    let full = obs.innovation(z, &prior.x);
+    let nu = DVector::from_iterator(keep.len(), keep.iter().map(|&i| if present[i] { full[i] } else { 0.0 }));
+    let P = &prior.P;
+    let S = &H * P * H.transpose() + &R;
+    let chol = cholesky(&S, "innovation covariance S")?;
+    // K = P Hᵀ S⁻¹, computed as (S⁻¹ H P)ᵀ since S and P are symmetric.
+    let K = chol.solve(&(&H * P)).transpose();
+    let x = &prior.x + &K * nu;
+    let n = P.nrows();
+    let IKH = DMatrix::identity(n, n) - &K * &H;
+    let mut Pn = &IKH * P * IKH.transpose() + &K * R * K.transpose();
+    symmetrize(&mut Pn);
+    if x.iter().chain(Pn.iter()).any(|v| !v.is_finite()) {
+        return Err(EstimateError::NonFinite { what: "posterior" });
+    }
+    Ok(Gaussian { x, P: Pn })
+}
+
+/// Normalised estimation error squared eᵀ P⁻¹ e, e = truth − estimate (angle states wrapped).
+pub fn nees(g: &Gaussian, truth: &DVector<f64>, angle_states: &[bool]) -> Option<f64> {
+    let mut e = truth - &g.x;
+    wrap_rows(&mut e, angle_states);
+    let chol = cholesky(&g.P, "P").ok()?;
+    let v = e.dot(&chol.solve(&e));
+    v.is_finite().then_some(v)
+}

@@ -1,0 +1,60 @@
+//! Estimation, pure and allocation-light: Kalman prediction and update (Joseph form), intermittent and per-channel
+//! handling, the β-weighted consensus update of the consensus seed (eqs. 5–10) with its LMI conditions (17) and (19),
+//! covariance intersection, NEES.
+#![allow(non_snake_case)]
+
+pub mod consensus;
+pub mod fusion;
+pub mod kalman;
+pub mod process;
+
+use nalgebra::{DMatrix, DVector};
+
+pub use consensus::{consensus_update, ConsensusOutcome, LmiCheck, Source};
+pub use kalman::{kalman_update, nees, Gaussian, MissingChannels, Observation};
+pub use process::{ImuInterval, Process};
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum EstimateError {
+    #[error("{what} is not positive definite")]
+    NotPositiveDefinite { what: &'static str },
+    #[error("non-finite value in {what}")]
+    NonFinite { what: &'static str },
+    #[error("dimension mismatch: {what}")]
+    Dimension { what: String },
+}
+
+/// Lower Cholesky factor, or the error naming the matrix.
+pub fn cholesky(m: &DMatrix<f64>, what: &'static str) -> Result<nalgebra::Cholesky<f64, nalgebra::Dyn>, EstimateError> {
+    if m.iter().any(|v| !v.is_finite()) {
+        return Err(EstimateError::NonFinite { what });
+    }
+    nalgebra::Cholesky::new(m.clone()).ok_or(EstimateError::NotPositiveDefinite { what })
+}
+
+/// (M + Mᵀ)/2: rounding makes updated covariances drift from symmetry.
+pub fn symmetrize(m: &mut DMatrix<f64>) {
+    let n = m.nrows();
+    for i in 0..n {
+        for j in (i + 1)..n {
+            let a = 0.5 * (m[(i, j)] + m[(j, i)]);
+            m[(i, j)] = a;
+            m[(j, i)] = a;
+        }
+    }
+}
+
+/// True when `m` is symmetric (relative 1e-9) and its Cholesky factorisation succeeds.
+pub fn is_spd(m: &DMatrix<f64>) -> bool {
+    let scale = 1.0 + m.amax();
+    (m - m.transpose()).amax() <= 1e-9 * scale && cholesky(m, "P").is_ok()
+}
+
+/// Wrap the rows flagged as angles to (−π, π].
+pub fn wrap_rows(v: &mut DVector<f64>, angle: &[bool]) {
+    for (i, a) in angle.iter().enumerate() {
+        if *a {
+            v[i] = crate::geom::wrap_angle(v[i]);
+        }
+    }
+}

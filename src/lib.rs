@@ -1,0 +1,37 @@
+//! simnet: a wireless IMU sensor network over real UDP sockets, with a seeded fault layer and networked Kalman
+//! estimation (intermittent observations, per-channel inflation, β-weighted consensus with an LMI guard,
+//! covariance-intersection fusion).
+//!
+//! # Layout
+//!
+//! The modules follow one step of data (DESIGN §1). Everything except `net` and `cli` is pure: no sockets, no
+//! clocks, randomness from seeded streams.
+//!
+//! | module | owns |
+//! |---|---|
+//! | [`topology`] | topology TOML → validated [`topology::Topology`]; every error names the file and the key; built-ins |
+//! | [`motion`] | analytic ground-truth trajectories shared by every node |
+//! | [`sensor`] | accelerometer/gyro (noise, bias, Wiener drift), pose fixes, linear measurements |
+//! | [`estimate`] | Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection |
+//! | [`wire`] | the datagram format: postcard + CRC-32, checked decode |
+//! | [`link`] | per-datagram verdicts: Bernoulli / Gilbert–Elliott loss, delay, jitter, duplication, corruption, fault schedules |
+//! | [`node`] | one node's sans-IO state machine: `handle_step`, `handle_datagram`, `handle_deadline`, `poll_transmit` |
+//! | [`report`] | metrics, `summary.json`, the table, `trace.csv`, `links.csv`, SVG plots |
+//! | [`net`] | the only I/O: one tokio task and UDP socket per node, virtual and realtime clocks, shutdown |
+//! | [`cli`] | clap definitions, exit codes, tracing setup |
+//!
+//! Support: [`geom`] (Euler ZYX attitude), [`rng`] (seeded streams), [`stats`] (quantiles for tests and reports).
+
+pub mod cli;
+pub mod estimate;
+pub mod geom;
+pub mod link;
+pub mod motion;
+pub mod net;
+pub mod node;
+pub mod report;
+pub mod rng;
+pub mod sensor;
+pub mod stats;
+pub mod topology;
+pub mod wire;

@@ -1,0 +1,289 @@
+//! The fault layer: one pure decision per datagram and directed link, with its own seeded RNG and counters.
+//!
+//! Loss follows Bernoulli(p) or Gilbert–Elliott as Linux netem parameterises it (`loss gemodel p r 1-h 1-k`: start
+//! in Good; a packet's fate is drawn in the state it meets, then the chain moves). Delay plus uniform or normal
+//! jitter, duplication and one-bit corruption follow; [`FaultSchedule`] adds link-down windows, partitions and
+//! node crashes over simulated time.
+
+mod schedule;
+
+pub use schedule::{FaultSchedule, ScheduledFault};
+
+use rand::Rng as _;
+use rand_distr::StandardNormal;
+
+use crate::rng::Rng;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LossModel {
+    Bernoulli {
+        p: f64,
+    },
+    /// netem's gemodel: p = P(Good→Bad), r = P(Bad→Good), loss 1−h in Bad and 1−k in Good.
+    GilbertElliott {
+        p: f64,
+        r: f64,
+        one_minus_h: f64,
+        one_minus_k: f64,
+    },
+}
+
+impl LossModel {
+    /// Target loss L and mean burst B: r = 1/B, p = L·r/(1−L), 1−h = 1, 1−k = 0 (DESIGN §5).
+    pub fn gilbert_elliott_from(loss: f64, burst: f64) -> Result<LossModel, String> {
+        if !(0.0..1.0).contains(&loss) {
+            return Err(format!("loss must be in [0, 1) for gilbert-elliott, got {loss}"));
+        }
+        if burst.is_nan() || burst < 1.0 {
+            return Err(format!("mean burst must be ≥ 1 packet, got {burst}"));
+        }
+        let r = 1.0 / burst;
+        let p = loss * r / (1.0 - loss);
+        if p > 1.0 {
+            return Err(format!(
+                "loss {loss} with burst {burst} needs P(Good→Bad) = {p:.3} > 1; use a longer burst"
+            ));
+        }
+        Ok(LossModel::GilbertElliott {
+            p,
+            r,
+            one_minus_h: 1.0,
+            one_minus_k: 0.0,
+        })
+    }
+
+    /// Stationary loss probability: (r(1−k) + p(1−h)) / (p + r) for Gilbert–Elliott.
+    pub fn stationary_loss(&self) -> f64 {
+        match *self {
+            LossModel::Bernoulli { p } => p,
+            LossModel::GilbertElliott {
+                p,
+                r,
+                one_minus_h,
+                one_minus_k,
+            } => (r * one_minus_k + p * one_minus_h) / (p + r),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Jitter {
+    /// Uniform on ±jitter.
+    Uniform,
+    /// Normal with standard deviation jitter (delay clipped at 0).
+    Normal,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinkConfig {
+    pub loss: LossModel,
+    pub delay_ms: f64,
+    pub jitter_ms: f64,
+    pub jitter: Jitter,
+    pub duplicate: f64,
+    pub corrupt: f64,
+}
+
+impl Default for LinkConfig {
+    fn default() -> Self {
+        LinkConfig {
+            loss: LossModel::Bernoulli { p: 0.0 },
+            delay_ms: 0.0,
+            jitter_ms: 0.0,
+            jitter: Jitter::Uniform,
+            duplicate: 0.0,
+            corrupt: 0.0,
+        }
+    }
+}
+
+/// Why a datagram was not delivered.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DropCause {
+    /// The loss model (Bernoulli or Gilbert–Elliott).
+    Random,
+    /// A link-down window, a partition, or a crashed endpoint.
+    Down,
+}
+
+/// One copy to deliver.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Delivery {
+    /// Seconds after sending.
+    pub delay: f64,
+    /// Bit to flip, if this copy is corrupted.
+    pub flip_bit: Option<usize>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum Verdict {
+    Drop(DropCause),
+    /// One copy, or two when duplicated.
+    Deliver(Vec<Delivery>),
+}
+
+/// What the sender side of a link saw.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct LinkCounters {
+    pub sent: u64,
+    pub lost_random: u64,
+    pub lost_down: u64,
+    pub duplicated: u64,
+    pub corrupted: u64,
+    /// Completed runs of consecutive losses and their total length.
+    pub loss_runs: u64,
+    pub loss_run_total: u64,
+    pub longest_loss_run: u64,
+    pub current_run: u64,
+}
+
+impl LinkCounters {
+    /// Mean length of the loss runs, counting a run still open at the end.
+    pub fn mean_loss_run(&self) -> f64 {
+        let runs = self.loss_runs + (self.current_run > 0) as u64;
+        if runs == 0 {
+            0.0
+        } else {
+            (self.loss_run_total + self.current_run) as f64 / runs as f64
+        }
+    }
+}
+
+/// A directed link's state: configuration, RNG stream, Gilbert–Elliott state, counters.
+#[derive(Debug, Clone)]
+pub struct Link {
+    pub from: usize,
+    pub to: usize,
+    config: LinkConfig,
+    rng: Rng,
+    /// Gilbert–Elliott: currently in the Bad state.
+    bad: bool,
+    counters: LinkCounters,
+}
+
+impl Link {
+    pub fn new(from: usize, to: usize, config: LinkConfig, rng: Rng) -> Link {
+        Link {
+            from,
+            to,
+            config,
+            rng,
+            bad: false,
+            counters: LinkCounters::default(),
+        }
+    }
+
+    pub fn config(&self) -> &LinkConfig {
+        &self.config
+    }
+
+    pub fn counters(&self) -> &LinkCounters {
+        &self.counters
+    }
+
+    /// Decide the fate of one datagram of `len` bytes sent at simulated time `now` (seconds).
+    pub fn verdict(&mut self, now: f64, len: usize, schedule: &FaultSchedule) -> Verdict {
+        self.counters.sent += 1;
+        if !schedule.link_up(self.from, self.to, now) {
+            // Scheduled outages do not advance the loss chain: it models the channel, not the outage.
+            self.record_loss();
+            self.counters.lost_down += 1;
+            return Verdict::Drop(DropCause::Down);
+        }
+        if self.lose() {
+            self.record_loss();
+            self.counters.lost_random += 1;
+            return Verdict::Drop(DropCause::Random);
+        }
+        self.end_run();
+        let copies = if self.config.duplicate > 0.0 && self.rng.gen::<f64>() < self.config.duplicate {
+            self.counters.duplicated += 1;
+            2
+        } else {
+            1
+        };
+        let out = (0..copies)
+            .map(|_| {
+                let delay = self.delay();
+                let flip_bit = if self.config.corrupt > 0.0 && len > 0 && self.rng.gen::<f64>() < self.config.corrupt {
+                    self.counters.corrupted += 1;
+                    Some(self.rng.gen_range(0..len * 8))
+                } else {
+                    None
+                };
+                Delivery { delay, flip_bit }
+            })
+            .collect();
+        Verdict::Deliver(out)
+    }
+
+    fn lose(&mut self) -> bool {
+        match self.config.loss {
+            LossModel::Bernoulli { p } => p > 0.0 && self.rng.gen::<f64>() < p,
+            LossModel::GilbertElliott {
+                p,
+                r,
+                one_minus_h,
+                one_minus_k,
+            } => {
+                let loss_p = if self.bad { one_minus_h } else { one_minus_k };
+                let lost = loss_p > 0.0 && self.rng.gen::<f64>() < loss_p;
+                let u: f64 = self.rng.gen();
+                self.bad = if self.bad { u >= r } else { u < p };
+                lost
+            }
+        }
+    }
+
+    fn delay(&mut self) -> f64 {
+        let c = &self.config;
+        let j = if c.jitter_ms > 0.0 {
+            match c.jitter {
+                Jitter::Uniform => self.rng.gen_range(-c.jitter_ms..=c.jitter_ms),
+                Jitter::Normal => c.jitter_ms * self.rng.sample::<f64, _>(StandardNormal),
+            }
+        } else {
+            0.0
+        };
+        ((c.delay_ms + j) / 1000.0).max(0.0)
+    }
+
+    fn record_loss(&mut self) {
+        self.counters.current_run += 1;
+    }
+
+    fn end_run(&mut self) {
+        let c = &mut self.counters;
+        if c.current_run > 0 {
+            c.loss_runs += 1;
+            c.loss_run_total += c.current_run;
+            c.longest_loss_run = c.longest_loss_run.max(c.current_run);
+            c.current_run = 0;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn duplicate_and_corrupt_are_counted() {
+        let cfg = LinkConfig {
+            duplicate: 1.0,
+            corrupt: 1.0,
+            ..Default::default()
+        };
+        let mut l = Link::new(0, 1, cfg, crate::rng::stream(3, "link", 0, 1));
+        let v = l.verdict(0.0, 10, &FaultSchedule::default());
+        match v {
+            Verdict::Deliver(c) => {
+                assert_eq!(c.len(), 2);
+                assert!(c.iter().all(|d| d.flip_bit.is_some_and(|b| b < 80)));
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(l.counters().duplicated, 1);
+        assert_eq!(l.counters().corrupted, 2);
+    }
+}

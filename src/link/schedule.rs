@@ -1,0 +1,103 @@
+//! Faults over simulated time: link-down windows, partitions, node crashes with optional restart.
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum ScheduledFault {
+    /// The link from → to (and back, if `both_ways`) carries nothing in [start, end).
+    LinkDown {
+        from: usize,
+        to: usize,
+        both_ways: bool,
+        start: f64,
+        end: f64,
+    },
+    /// Nodes in `nodes` cannot talk to nodes outside it in [start, end).
+    Partition { nodes: Vec<usize>, start: f64, end: f64 },
+    /// The node stops at `at`; at `restart` (if any) it comes back with its filters re-initialised.
+    Crash { node: usize, at: f64, restart: Option<f64> },
+}
+
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FaultSchedule {
+    faults: Vec<ScheduledFault>,
+}
+
+impl FaultSchedule {
+    pub fn new(faults: Vec<ScheduledFault>) -> FaultSchedule {
+        FaultSchedule { faults }
+    }
+
+    pub fn faults(&self) -> &[ScheduledFault] {
+        &self.faults
+    }
+
+    pub fn node_up(&self, node: usize, t: f64) -> bool {
+        !self.faults.iter().any(|f| match f {
+            ScheduledFault::Crash { node: n, at, restart } => *n == node && t >= *at && restart.is_none_or(|r| t < r),
+            _ => false,
+        })
+    }
+
+    /// Whether a datagram sent at `t` can cross from → to: both ends up, no window or partition in the way.
+    pub fn link_up(&self, from: usize, to: usize, t: f64) -> bool {
+        if !self.node_up(from, t) || !self.node_up(to, t) {
+            return false;
+        }
+        !self.faults.iter().any(|f| match f {
+            ScheduledFault::LinkDown {
+                from: a,
+                to: b,
+                both_ways,
+                start,
+                end,
+            } => t >= *start && t < *end && ((*a == from && *b == to) || (*both_ways && *a == to && *b == from)),
+            ScheduledFault::Partition { nodes, start, end } => {
+                t >= *start && t < *end && (nodes.contains(&from) != nodes.contains(&to))
+            }
+            ScheduledFault::Crash { .. } => false,
+        })
+    }
+
+    /// True when `node` restarts in (t0, t1]: it must re-initialise.
+    pub fn restarts_between(&self, node: usize, t0: f64, t1: f64) -> bool {
+        self.faults.iter().any(|f| match f {
+            ScheduledFault::Crash {
+                node: n,
+                restart: Some(r),
+                ..
+            } => *n == node && *r > t0 && *r <= t1,
+            _ => false,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn windows_partitions_and_crashes() {
+        let s = FaultSchedule::new(vec![
+            ScheduledFault::LinkDown {
+                from: 0,
+                to: 1,
+                both_ways: false,
+                start: 1.0,
+                end: 2.0,
+            },
+            ScheduledFault::Partition {
+                nodes: vec![2],
+                start: 3.0,
+                end: 4.0,
+            },
+            ScheduledFault::Crash {
+                node: 1,
+                at: 5.0,
+                restart: Some(6.0),
+            },
+        ]);
+        assert!(!s.link_up(0, 1, 1.5) && s.link_up(1, 0, 1.5) && s.link_up(0, 1, 2.0));
+        assert!(!s.link_up(0, 2, 3.5) && !s.link_up(2, 1, 3.5) && s.link_up(0, 1, 3.5));
+        assert!(!s.node_up(1, 5.5) && s.node_up(1, 6.0) && !s.link_up(0, 1, 5.2));
+        assert!(s.restarts_between(1, 5.99, 6.0) && !s.restarts_between(1, 6.0, 7.0));
+    }
+}

@@ -1,0 +1,758 @@
+//! One node as a sans-IO state machine: it never touches a socket or a clock. Inputs: `handle_step(k)` (sense,
+//! predict, queue datagrams), `handle_datagram(from, bytes)`, `handle_deadline(k)` (update with what arrived).
+//! Output: `poll_transmit(now)` hands out datagrams whose simulated delivery time has come.
+//!
+//! A node holds two filters fed by the same IMU: the networked one (consensus over whatever arrived, LMI-guarded)
+//! and the independent twin that uses only the node's own measurement — the baseline of the consensus seed.
+#![allow(non_snake_case)]
+
+mod truth;
+
+use std::cmp::Reverse;
+use std::collections::{BTreeMap, BinaryHeap, HashMap};
+use std::sync::Arc;
+
+use bytes::Bytes;
+use nalgebra::{DMatrix, DVector};
+
+use crate::estimate::{
+    consensus_update, kalman_update, nees, EstimateError, Gaussian, ImuInterval, MissingChannels, Observation, Process,
+    Source,
+};
+use crate::link::{Link, LinkCounters, Verdict};
+use crate::report::metrics::{FilterMetrics, RxCounters};
+use crate::sensor::{ImuSample, Sensor, SensorProfile};
+use crate::topology::{ModelConfig, Role, Topology};
+use crate::wire::{Datagram, Header, Payload, WireError};
+pub use truth::Truth;
+
+/// A datagram ready to leave, with the simulated time at which the link layer delivers it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Transmit {
+    pub to: usize,
+    pub bytes: Bytes,
+}
+
+#[derive(Debug)]
+struct Pending {
+    at: f64,
+    order: u64,
+    tx: Transmit,
+}
+impl PartialEq for Pending {
+    fn eq(&self, o: &Self) -> bool {
+        self.at == o.at && self.order == o.order
+    }
+}
+impl Eq for Pending {}
+impl PartialOrd for Pending {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Pending {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        self.at.total_cmp(&o.at).then(self.order.cmp(&o.order))
+    }
+}
+
+/// A measurement as collected for the current step: values and which rows arrived.
+#[derive(Debug, Clone)]
+struct Partial {
+    z: DVector<f64>,
+    present: Vec<bool>,
+}
+
+impl Partial {
+    fn empty(m: usize) -> Partial {
+        Partial {
+            z: DVector::zeros(m),
+            present: vec![false; m],
+        }
+    }
+    /// Merge rows; false when every row was already there (a duplicate).
+    fn merge(&mut self, rows: u64, values: &[f64]) -> bool {
+        let mut new = false;
+        let mut it = values.iter();
+        for r in 0..self.present.len().min(64) {
+            if rows & (1 << r) != 0 {
+                let v = *it.next().unwrap_or(&0.0);
+                if !self.present[r] {
+                    self.present[r] = true;
+                    self.z[r] = v;
+                    new = true;
+                }
+            }
+        }
+        new
+    }
+}
+
+/// One row of `trace.csv`.
+#[derive(Debug, Clone)]
+pub struct TraceRow {
+    pub step: u64,
+    pub t: f64,
+    pub node: u32,
+    pub networked: bool,
+    pub truth: Vec<f64>,
+    pub est: Vec<f64>,
+    pub trace_p_prior: f64,
+    pub trace_p_post: f64,
+    /// Source ids whose measurements were used.
+    pub received: Vec<u32>,
+    pub feasible: bool,
+    pub nees: f64,
+}
+
+/// What a node hands the observer after each update (for fusion and plots).
+#[derive(Debug, Clone)]
+pub struct StepEstimate {
+    pub node: usize,
+    pub step: u64,
+    pub truth: DVector<f64>,
+    pub networked: Gaussian,
+    pub diverged: bool,
+}
+
+/// Datagram counters not tied to a link.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct NodeCounters {
+    pub datagrams_in: u64,
+    /// Undecodable datagrams other than checksum failures (garbage, wrong magic, unknown source, …).
+    pub malformed: u64,
+    /// Checksum failures from known peers and from unknown senders.
+    pub corrupted: u64,
+    /// Measurements for a step this node has not reached yet, held until it does.
+    pub early: u64,
+    pub restarts: u64,
+    pub steps_down: u64,
+}
+
+/// Everything a node reports at the end of a run.
+#[derive(Debug, Clone)]
+pub struct NodeReport {
+    pub index: usize,
+    pub id: u32,
+    pub role: Role,
+    pub networked: Option<FilterMetrics>,
+    pub independent: Option<FilterMetrics>,
+    /// Outgoing links (sender-side counters).
+    pub links_out: Vec<(usize, LinkCounters)>,
+    /// Per-source receive counters, indexed by node index.
+    pub rx: Vec<RxCounters>,
+    pub counters: NodeCounters,
+    pub trace: Vec<TraceRow>,
+}
+
+/// The filters of an estimating node.
+#[derive(Debug, Clone)]
+struct Filters {
+    networked: Gaussian,
+    independent: Gaussian,
+}
+
+pub struct Node {
+    index: usize,
+    id: u32,
+    role: Role,
+    topo: Arc<Topology>,
+    id_to_index: HashMap<u32, usize>,
+    truth: Truth,
+    sensor: Option<Sensor>,
+    process: Process,
+    obs: Observation,
+    /// Lower Cholesky factor of R for simulating the linear model's measurement noise.
+    r_chol: Option<DMatrix<f64>>,
+    policy: MissingChannels,
+    filters: Option<Filters>,
+    initial: Gaussian,
+    last_imu: Option<ImuSample>,
+    links: Vec<Link>,
+    outbox: BinaryHeap<Reverse<Pending>>,
+    order: u64,
+    seq: u32,
+    up: bool,
+    /// The step whose measurements are being collected.
+    open: Option<u64>,
+    own: Option<Partial>,
+    inbox: BTreeMap<usize, Partial>,
+    /// Measurements for later steps (a peer whose clock runs ahead), bounded.
+    early: Vec<(u64, usize, u64, Vec<f64>)>,
+    rx: Vec<RxCounters>,
+    counters: NodeCounters,
+    m_net: FilterMetrics,
+    m_ind: FilterMetrics,
+    trace: Option<Vec<TraceRow>>,
+}
+
+/// Most early measurements a node holds (bounded buffers).
+const EARLY_CAP: usize = 256;
+
+impl Node {
+    /// `record_trace` keeps one row per step and filter (needed for `trace.csv` and the plots).
+    pub fn new(topo: Arc<Topology>, index: usize, record_trace: bool) -> Node {
+        let cfg = &topo.nodes[index];
+        let seed = topo.sim.seed;
+        let dt = topo.sim.dt();
+        let (process, obs, r_chol) = match &topo.model {
+            ModelConfig::Pose(m) => {
+                // An estimator has no IMU: it predicts with constant velocity and covers unknown acceleration and
+                // turn rate with process noise.
+                let (na, ng) = if cfg.role.senses() {
+                    (cfg.sensor.accel_noise, cfg.sensor.gyro_noise)
+                } else {
+                    (2.0, 0.3)
+                };
+                let process = Process::pose(dt, na, ng, m.q_pos, m.q_vel, m.q_att);
+                let mut H = DMatrix::zeros(6, 9);
+                for i in 0..3 {
+                    H[(i, i)] = 1.0;
+                    H[(3 + i, 6 + i)] = 1.0;
+                }
+                let R = DMatrix::from_diagonal(&DVector::from_vec(vec![
+                    m.r_pos, m.r_pos, m.r_pos, m.r_att, m.r_att, m.r_att,
+                ]));
+                let obs = Observation {
+                    H,
+                    R,
+                    angle_rows: (0..6).map(|i| i >= 3).collect(),
+                    channel_of_row: (0..6).map(|i| i / 3).collect(),
+                };
+                (process, obs, None)
+            }
+            ModelConfig::Linear(m) => {
+                let obs = Observation {
+                    H: m.C.clone(),
+                    R: m.R.clone(),
+                    angle_rows: vec![false; m.C.nrows()],
+                    channel_of_row: vec![0; m.C.nrows()],
+                };
+                let chol = nalgebra::Cholesky::new(m.R.clone()).map(|c| c.l());
+                (
+                    Process::Linear {
+                        A: m.A.clone(),
+                        Q: m.Q.clone(),
+                    },
+                    obs,
+                    chol,
+                )
+            }
+        };
+        let policy = MissingChannels::for_noise(&obs.R, topo.consensus.inflation);
+        let sensor = cfg.role.senses().then(|| {
+            Sensor::new(
+                cfg.sensor.clone(),
+                crate::rng::stream(seed, "sensor", index as u64, 0),
+                dt,
+            )
+        });
+        let links = topo
+            .out_links(index)
+            .map(|l| {
+                Link::new(
+                    l.from,
+                    l.to,
+                    l.config,
+                    crate::rng::stream(seed, "link", l.from as u64, l.to as u64),
+                )
+            })
+            .collect();
+        let truth = Truth::new(&topo);
+        let id_to_index = topo.nodes.iter().enumerate().map(|(i, n)| (n.id, i)).collect();
+        let n = topo.nodes.len();
+        let mut node = Node {
+            index,
+            id: cfg.id,
+            role: cfg.role,
+            id_to_index,
+            truth,
+            sensor,
+            process,
+            obs,
+            r_chol,
+            policy,
+            filters: None,
+            initial: Gaussian {
+                x: DVector::zeros(1),
+                P: DMatrix::identity(1, 1),
+            },
+            last_imu: None,
+            links,
+            outbox: BinaryHeap::new(),
+            order: 0,
+            seq: 0,
+            up: true,
+            open: None,
+            own: None,
+            inbox: BTreeMap::new(),
+            early: Vec::new(),
+            rx: vec![RxCounters::default(); n],
+            counters: NodeCounters::default(),
+            m_net: FilterMetrics::default(),
+            m_ind: FilterMetrics::default(),
+            trace: record_trace.then(Vec::new),
+            topo,
+        };
+        node.initial = node.initial_estimate(0);
+        node.filters = node.role.estimates().then(|| Filters {
+            networked: node.initial.clone(),
+            independent: node.initial.clone(),
+        });
+        node
+    }
+
+    pub fn index(&self) -> usize {
+        self.index
+    }
+    pub fn id(&self) -> u32 {
+        self.id
+    }
+    pub fn is_up(&self) -> bool {
+        self.up
+    }
+
+    /// The prior a (re)started filter begins from. Pose: the truth perturbed by N(0, P₀) from the node's own stream
+    /// (the seed's "initial unfiltered estimate"); linear: the model's x₀, P₀, from which the truth itself is drawn.
+    fn initial_estimate(&self, restart: u64) -> Gaussian {
+        match &self.topo.model {
+            ModelConfig::Pose(m) => {
+                let mut P = DMatrix::zeros(9, 9);
+                for i in 0..3 {
+                    P[(i, i)] = m.p0_pos;
+                    P[(3 + i, 3 + i)] = m.p0_vel;
+                    P[(6 + i, 6 + i)] = m.p0_att;
+                }
+                let mut rng = crate::rng::stream(self.topo.sim.seed, "init", self.index as u64, restart);
+                let mut x = self.truth.state();
+                for i in 0..9 {
+                    let n: f64 = rand::Rng::sample(&mut rng, rand_distr::StandardNormal);
+                    x[i] += n * P[(i, i)].sqrt();
+                }
+                crate::estimate::wrap_rows(&mut x, &self.process.angle_states());
+                Gaussian { x, P }
+            }
+            ModelConfig::Linear(m) => Gaussian {
+                x: m.x0.clone(),
+                P: m.P0.clone(),
+            },
+        }
+    }
+
+    /// Step k begins at t = k·Δt: sense, predict, queue this step's datagrams, open collection for step k.
+    pub fn handle_step(&mut self, k: u64) {
+        let dt = self.topo.sim.dt();
+        let t = k as f64 * dt;
+        self.truth.advance_to(k);
+        let shift = self.truth.take_shift();
+        let was_up = self.up;
+        self.up = self.topo.faults.node_up(self.index, t);
+        if !self.up {
+            self.counters.steps_down += 1;
+            self.open = None;
+            self.inbox.clear();
+            return;
+        }
+        let restarted = k > 0 && (!was_up || self.topo.faults.restarts_between(self.index, t - dt, t));
+        if restarted {
+            // Restart: state is lost, the filters start again from a fresh prior.
+            self.counters.restarts += 1;
+            let g = self.initial_estimate(self.counters.restarts);
+            if let Some(f) = &mut self.filters {
+                f.networked = g.clone();
+                f.independent = g;
+            }
+            self.last_imu = None;
+        }
+        // Sense first: the IMU sample at t_k closes the interval the prediction integrates over.
+        let (imu, z) = match (&mut self.sensor, &self.truth) {
+            (Some(sensor), Truth::Pose { trajectory, .. }) => {
+                let tr = trajectory.at(t);
+                (
+                    Some(sensor.imu(&tr)),
+                    Some(DVector::from_row_slice(&sensor.pose_fix(&tr))),
+                )
+            }
+            (Some(sensor), Truth::Linear { x, .. }) => (
+                None,
+                Some(sensor.linear(&self.obs.H, self.r_chol.as_ref().expect("validated R is SPD"), x)),
+            ),
+            (None, _) => (None, None),
+        };
+        if k > 0 && !restarted {
+            // Trapezoid: the mean of the samples at both ends of the interval, second-order accurate where a
+            // sample held from the start leaves an O(Δt²) error per step that the IMU noise model does not cover.
+            let u = match (self.last_imu, imu) {
+                (Some(start), Some(end)) => Some(ImuInterval { start, end }),
+                (None, Some(end)) => Some(ImuInterval { start: end, end }),
+                _ => None,
+            };
+            if let Some(f) = &mut self.filters {
+                f.networked = self.process.predict(&f.networked, u.as_ref());
+                f.independent = self.process.predict(&f.independent, u.as_ref());
+                if let Some(s) = &shift {
+                    f.networked.x += s;
+                    f.independent.x += s;
+                }
+            }
+        }
+        self.last_imu = imu;
+        self.open = Some(k);
+        self.inbox.clear();
+        self.own = None;
+        let m = self.obs.dim();
+        if let Some(z) = z {
+            self.own = Some(Partial {
+                z: z.clone(),
+                present: vec![true; m],
+            });
+            self.send(k, t, &z);
+        }
+        // Measurements that arrived early for this step.
+        let early = std::mem::take(&mut self.early);
+        for (step, src, rows, values) in early {
+            if step == k {
+                self.accept(src, rows, &values);
+            } else if step > k {
+                self.early.push((step, src, rows, values));
+            } else {
+                self.rx[src].late += 1;
+            }
+        }
+    }
+
+    fn send(&mut self, k: u64, t: f64, z: &DVector<f64>) {
+        let m = z.len();
+        let groups: Vec<u64> = if self.topo.sim.split_channels {
+            // Position and orientation travel separately so that loss can be partial.
+            let mut g = vec![0u64; self.obs.channels()];
+            for (row, ch) in self.obs.channel_of_row.iter().enumerate() {
+                g[*ch] |= 1 << row;
+            }
+            g
+        } else {
+            vec![if m == 64 { u64::MAX } else { (1u64 << m) - 1 }]
+        };
+        for li in 0..self.links.len() {
+            for rows in &groups {
+                let values: Vec<f64> = (0..m).filter(|r| rows & (1 << r) != 0).map(|r| z[r]).collect();
+                let dg = Datagram {
+                    header: Header::new(self.id, self.seq, k),
+                    payload: Payload::measurement(*rows, values),
+                };
+                self.seq = self.seq.wrapping_add(1);
+                let bytes = match dg.encode() {
+                    Ok(b) => b,
+                    Err(e) => {
+                        tracing::error!(node = self.id, "cannot encode a measurement: {e}");
+                        continue;
+                    }
+                };
+                let link = &mut self.links[li];
+                let to = link.to;
+                if let Verdict::Deliver(copies) = link.verdict(t, bytes.len(), &self.topo.faults) {
+                    for c in copies {
+                        let bytes = match c.flip_bit {
+                            Some(bit) => {
+                                let mut v = bytes.to_vec();
+                                v[bit / 8] ^= 1 << (bit % 8);
+                                Bytes::from(v)
+                            }
+                            None => bytes.clone(),
+                        };
+                        self.order += 1;
+                        self.outbox.push(Reverse(Pending {
+                            at: t + c.delay,
+                            order: self.order,
+                            tx: Transmit { to, bytes },
+                        }));
+                    }
+                }
+            }
+        }
+    }
+
+    /// The next datagram due at or before `now` (simulated seconds), in delivery order.
+    pub fn poll_transmit(&mut self, now: f64) -> Option<Transmit> {
+        if self.outbox.peek().is_some_and(|Reverse(p)| p.at <= now + 1e-12) {
+            self.outbox.pop().map(|Reverse(p)| p.tx)
+        } else {
+            None
+        }
+    }
+
+    /// When the next queued datagram is due.
+    pub fn poll_timeout(&self) -> Option<f64> {
+        self.outbox.peek().map(|Reverse(p)| p.at)
+    }
+
+    /// Bytes arrived; `from` is the sender's node index when the shell knows it by address.
+    pub fn handle_datagram(&mut self, from: Option<usize>, bytes: &[u8]) {
+        self.counters.datagrams_in += 1;
+        let dg = match Datagram::decode(bytes) {
+            Ok(d) => d,
+            Err(WireError::Checksum) => {
+                self.counters.corrupted += 1;
+                if let Some(f) = from {
+                    self.rx[f].corrupted += 1;
+                }
+                return;
+            }
+            Err(e) => {
+                tracing::debug!(node = self.id, "malformed datagram: {e}");
+                self.counters.malformed += 1;
+                return;
+            }
+        };
+        let Some(&src) = self.id_to_index.get(&dg.header.src) else {
+            self.counters.malformed += 1;
+            return;
+        };
+        if from.is_some_and(|f| f != src) || src == self.index {
+            // The header names a different node than the socket it came from.
+            self.counters.malformed += 1;
+            return;
+        }
+        if !self.up {
+            self.rx[src].while_down += 1;
+            return;
+        }
+        let Payload::Measurement { rows, values } = dg.payload;
+        let m = self.obs.dim();
+        if m < 64 && rows >> m != 0 {
+            self.counters.malformed += 1;
+            return;
+        }
+        match self.open {
+            Some(k) if dg.header.step == k => self.accept(src, rows, &values),
+            Some(k) if dg.header.step > k => {
+                if self.early.len() < EARLY_CAP {
+                    self.counters.early += 1;
+                    self.early.push((dg.header.step, src, rows, values));
+                } else {
+                    self.rx[src].late += 1;
+                }
+            }
+            _ => self.rx[src].late += 1,
+        }
+    }
+
+    fn accept(&mut self, src: usize, rows: u64, values: &[f64]) {
+        let m = self.obs.dim();
+        let entry = self.inbox.entry(src).or_insert_with(|| Partial::empty(m));
+        if entry.merge(rows, values) {
+            self.rx[src].delivered += 1;
+        } else {
+            self.rx[src].duplicates += 1;
+        }
+    }
+
+    /// The deadline of step k: update both filters with what arrived, record metrics.
+    pub fn handle_deadline(&mut self, k: u64) -> Option<StepEstimate> {
+        if self.open != Some(k) {
+            return None;
+        }
+        self.open = None;
+        let inbox = std::mem::take(&mut self.inbox);
+        let filters = self.filters.as_mut()?;
+        let topo = &self.topo;
+        let c = &topo.consensus;
+        let beta = &c.beta[self.index];
+        let priors = filters.clone();
+
+        // Networked: consensus over own + received, in source order (deterministic sums).
+        let mut used: Vec<(usize, &Partial)> = Vec::new();
+        if let Some(own) = &self.own {
+            used.push((self.index, own));
+        }
+        used.extend(inbox.iter().map(|(s, p)| (*s, p)));
+        used.sort_by_key(|(s, _)| *s);
+        let sources: Vec<Source<'_>> = used
+            .iter()
+            .filter(|(s, _)| beta[*s] > 0.0)
+            .map(|(s, p)| Source {
+                beta: beta[*s],
+                z: &p.z,
+                present: &p.present,
+            })
+            .collect();
+        let outcome = consensus_update(
+            &priors.networked,
+            &self.obs,
+            c.beta0,
+            &sources,
+            self.policy,
+            k,
+            c.lmi.alpha,
+            c.lmi.gamma,
+        );
+        let (networked, feasible) = match outcome {
+            Ok(o) if !c.lmi.enabled || o.lmi.feasible() => (Ok(o.posterior), o.lmi.feasible() || !c.lmi.enabled),
+            other => {
+                if let Err(e) = &other {
+                    tracing::debug!(node = self.id, step = k, "consensus update failed: {e}");
+                }
+                // Infeasible: the seed's practical rule, use the independent update this step (§5).
+                let fallback = self.own.as_ref().map(|o| (o, 1.0)).or_else(|| {
+                    used.iter()
+                        .filter(|(s, _)| beta[*s] > 0.0)
+                        .max_by(|a, b| beta[a.0].total_cmp(&beta[b.0]))
+                        .map(|(_, p)| (*p, 1.0))
+                });
+                let g = match fallback {
+                    Some((p, _)) => kalman_update(&priors.networked, &self.obs, &p.z, &p.present, self.policy),
+                    None => Ok(priors.networked.clone()),
+                };
+                (g, false)
+            }
+        };
+        let independent = match &self.own {
+            Some(o) => kalman_update(&priors.independent, &self.obs, &o.z, &o.present, self.policy),
+            None => Ok(priors.independent.clone()),
+        };
+
+        let truth = self.truth.state();
+        let counted = k >= topo.sim.burn_in_steps();
+        let angle = self.process.angle_states();
+        let received: Vec<u32> = used.iter().map(|(s, _)| topo.nodes[*s].id).collect();
+        let t = k as f64 * topo.sim.dt();
+        let limit = topo.sim.divergence_trace;
+        let initial = &self.initial;
+        let record = |post: Result<Gaussian, EstimateError>,
+                      prior: &Gaussian,
+                      m: &mut FilterMetrics,
+                      slot: &mut Gaussian,
+                      networked: bool,
+                      trace: &mut Option<Vec<TraceRow>>| {
+            let post = match post {
+                Ok(g) => g,
+                Err(_) => {
+                    m.mark_diverged();
+                    // Keep stepping from the prior so that the run finishes and the rest of the figures stand.
+                    prior.clone()
+                }
+            };
+            let tp = prior.P.trace();
+            let tq = post.P.trace();
+            if tq > limit || tp > limit || !tq.is_finite() {
+                m.mark_diverged();
+            }
+            let err = error_norm(&self.truth, &truth, &post.x);
+            let v = nees(&post, &truth, &angle);
+            m.record(counted, err, tp, tq, v, if networked { feasible } else { true });
+            if let Some(rows) = trace {
+                rows.push(TraceRow {
+                    step: k,
+                    t,
+                    node: self.id,
+                    networked,
+                    truth: self.truth.reported(&truth),
+                    est: self.truth.reported(&post.x),
+                    trace_p_prior: tp,
+                    trace_p_post: tq,
+                    received: if networked {
+                        received.clone()
+                    } else {
+                        received.iter().copied().filter(|r| *r == self.id).collect()
+                    },
+                    feasible: if networked { feasible } else { true },
+                    nees: v.unwrap_or(f64::NAN),
+                });
+            }
+            *slot = if post.x.iter().chain(post.P.iter()).all(|v| v.is_finite()) {
+                post
+            } else {
+                initial.clone()
+            };
+        };
+        record(
+            networked,
+            &priors.networked,
+            &mut self.m_net,
+            &mut filters.networked,
+            true,
+            &mut self.trace,
+        );
+        record(
+            independent,
+            &priors.independent,
+            &mut self.m_ind,
+            &mut filters.independent,
+            false,
+            &mut self.trace,
+        );
+        Some(StepEstimate {
+            node: self.index,
+            step: k,
+            truth,
+            networked: filters.networked.clone(),
+            diverged: self.m_net.diverged,
+        })
+    }
+
+    pub fn report(&mut self) -> NodeReport {
+        let est = self.role.estimates();
+        NodeReport {
+            index: self.index,
+            id: self.id,
+            role: self.role,
+            networked: est.then(|| self.m_net.clone()),
+            independent: est.then(|| self.m_ind.clone()),
+            links_out: self.links.iter().map(|l| (l.to, *l.counters())).collect(),
+            rx: self.rx.clone(),
+            counters: self.counters,
+            trace: self.trace.take().unwrap_or_default(),
+        }
+    }
+
+    /// The sensor profile (for reports).
+    pub fn sensor_profile(&self) -> Option<&SensorProfile> {
+        self.sensor.as_ref().map(|s| s.profile())
+    }
+}
+
+/// Position error norm (pose) or state error norm (linear).
+fn error_norm(truth_kind: &Truth, truth: &DVector<f64>, est: &DVector<f64>) -> f64 {
+    match truth_kind {
+        Truth::Pose { .. } => (truth.rows(0, 3) - est.rows(0, 3)).norm(),
+        Truth::Linear { .. } => (truth - est).norm(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two nodes driven in memory, no sockets: datagrams flow and both filters track the truth.
+    #[test]
+    fn pair_in_memory() {
+        let topo = Arc::new(Topology::resolve("pair2-paper").unwrap());
+        let mut nodes: Vec<Node> = (0..2).map(|i| Node::new(topo.clone(), i, false)).collect();
+        let dt = topo.sim.dt();
+        for k in 0..500 {
+            for n in &mut nodes {
+                n.handle_step(k);
+            }
+            let now = k as f64 * dt + topo.sim.deadline_s;
+            let mut moved = Vec::new();
+            for n in &mut nodes {
+                while let Some(tx) = n.poll_transmit(now) {
+                    moved.push((n.index(), tx));
+                }
+            }
+            for (from, tx) in moved {
+                nodes[tx.to].handle_datagram(Some(from), &tx.bytes);
+            }
+            for n in &mut nodes {
+                n.handle_deadline(k);
+            }
+        }
+        for n in &mut nodes {
+            let r = n.report();
+            assert_eq!(r.rx[1 - r.index].delivered, 500);
+            let s = r.networked.unwrap().summary(true);
+            assert!(s.mean_error.unwrap() < 0.2, "{s:?}");
+            assert!(!s.diverged);
+        }
+    }
+}

@@ -1,0 +1,107 @@
+//! Running statistics of one filter, and the per-link figures, as written to `summary.json` (DESIGN §7).
+
+use serde::Serialize;
+
+/// Accumulates a filter's figures step by step; means exclude the burn-in.
+#[derive(Debug, Clone, Default)]
+pub struct FilterMetrics {
+    n: u64,
+    sum_error: f64,
+    sum_sq_error: f64,
+    sum_trace_prior: f64,
+    sum_trace_post: f64,
+    max_trace_post: f64,
+    sum_nees: f64,
+    n_nees: u64,
+    feasible: u64,
+    pub final_error: f64,
+    pub diverged: bool,
+}
+
+impl FilterMetrics {
+    /// Record one step. `counted` is false during the burn-in (only divergence and the final error are tracked).
+    pub fn record(
+        &mut self,
+        counted: bool,
+        error: f64,
+        trace_prior: f64,
+        trace_post: f64,
+        nees: Option<f64>,
+        feasible: bool,
+    ) {
+        self.final_error = error;
+        if !(error.is_finite() && trace_prior.is_finite() && trace_post.is_finite()) {
+            self.diverged = true;
+        }
+        if !counted {
+            return;
+        }
+        self.n += 1;
+        self.sum_error += error;
+        self.sum_sq_error += error * error;
+        self.sum_trace_prior += trace_prior;
+        self.sum_trace_post += trace_post;
+        self.max_trace_post = self.max_trace_post.max(trace_post);
+        if let Some(v) = nees {
+            self.sum_nees += v;
+            self.n_nees += 1;
+        }
+        self.feasible += feasible as u64;
+    }
+
+    pub fn mark_diverged(&mut self) {
+        self.diverged = true;
+    }
+
+    pub fn summary(&self, with_lmi: bool) -> FilterSummary {
+        let n = self.n as f64;
+        let mean = |s: f64| if self.n > 0 { finite(s / n) } else { None };
+        FilterSummary {
+            mean_error: mean(self.sum_error),
+            rms_error: mean(self.sum_sq_error).map(f64::sqrt),
+            final_error: finite(self.final_error),
+            mean_trace_p_prior: mean(self.sum_trace_prior),
+            mean_trace_p_post: mean(self.sum_trace_post),
+            max_trace_p_post: if self.n > 0 { finite(self.max_trace_post) } else { None },
+            nees_mean: if self.n_nees > 0 {
+                finite(self.sum_nees / self.n_nees as f64)
+            } else {
+                None
+            },
+            diverged: self.diverged,
+            lmi_feasible_fraction: with_lmi.then(|| mean(self.feasible as f64)).flatten(),
+        }
+    }
+}
+
+fn finite(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
+
+/// Non-finite numbers become `null`.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct FilterSummary {
+    pub mean_error: Option<f64>,
+    pub rms_error: Option<f64>,
+    pub final_error: Option<f64>,
+    pub mean_trace_p_prior: Option<f64>,
+    pub mean_trace_p_post: Option<f64>,
+    pub max_trace_p_post: Option<f64>,
+    pub nees_mean: Option<f64>,
+    pub diverged: bool,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lmi_feasible_fraction: Option<f64>,
+}
+
+/// What the receiving end of a link saw, per source.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct RxCounters {
+    /// Datagrams accepted in time (duplicates excluded).
+    pub delivered: u64,
+    pub late: u64,
+    pub duplicates: u64,
+    /// Datagrams that failed the checksum.
+    pub corrupted: u64,
+    /// Datagrams that arrived while this node was down.
+    pub while_down: u64,
+}

@@ -1,0 +1,6 @@
+//! Results: metrics, `summary.json`, the stdout table, `trace.csv`, `links.csv` and plots. Writers take `impl Write`.
+
+pub mod metrics;
+pub mod observer;
+pub mod plot;
+pub mod summary;

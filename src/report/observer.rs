@@ -1,0 +1,155 @@
+//! The observer side of a run: covariance-intersection fusion of the nodes' networked estimates each step
+//! (cascaded, ω = 0.5 as §7 of the consensus seed, and the trace-optimal ω), a 20-sample median filter on the
+//! fused trajectory, and their figures. The median is centred (samples k−10 … k+9), as the seed smooths an offline
+//! reconstruction: a causal median would trail a moving package by half its window.
+
+use nalgebra::DVector;
+use serde::Serialize;
+
+use crate::estimate::fusion::{cascade, centred_median, Omega};
+use crate::estimate::Gaussian;
+use crate::node::StepEstimate;
+use crate::report::metrics::FilterMetrics;
+
+/// The trace-optimal cascade runs a line search per stage; above this many nodes it is skipped.
+pub const OPTIMAL_FUSION_MAX_NODES: usize = 16;
+pub const MEDIAN_WINDOW: usize = 20;
+
+/// One fused sample, for plots.
+#[derive(Debug, Clone)]
+pub struct FusedRow {
+    pub step: u64,
+    pub truth: Vec<f64>,
+    pub fused: Vec<f64>,
+    pub median: Vec<f64>,
+    pub error: f64,
+    pub median_error: f64,
+}
+
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct FusedSummary {
+    /// Nodes fused per step (estimating, not diverged).
+    pub nodes: usize,
+    pub omega: f64,
+    pub mean_error: Option<f64>,
+    pub mean_trace_p: Option<f64>,
+    /// The fused trajectory after the 20-sample median filter.
+    pub median_mean_error: Option<f64>,
+    /// Cascade with the trace-minimising ω at every stage.
+    pub optimal_mean_error: Option<f64>,
+    pub optimal_mean_trace_p: Option<f64>,
+}
+
+pub struct Observer {
+    burn_in: u64,
+    angle_states: Vec<bool>,
+    /// Indices of the state entries whose error counts (position for pose, all for linear).
+    error_rows: Vec<usize>,
+    fixed: FilterMetrics,
+    optimal: FilterMetrics,
+    /// (step, truth, fused) of the error rows, kept for the centred median.
+    fused: Vec<(u64, Vec<f64>, Vec<f64>)>,
+    nodes: usize,
+    record: bool,
+}
+
+impl Observer {
+    pub fn new(burn_in: u64, angle_states: Vec<bool>, error_rows: Vec<usize>, record: bool) -> Observer {
+        Observer {
+            burn_in,
+            angle_states,
+            error_rows,
+            fixed: FilterMetrics::default(),
+            optimal: FilterMetrics::default(),
+            fused: Vec::new(),
+            nodes: 0,
+            record,
+        }
+    }
+
+    fn error(&self, truth: &DVector<f64>, x: &DVector<f64>) -> f64 {
+        self.error_rows
+            .iter()
+            .map(|&i| (truth[i] - x[i]).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    }
+
+    /// Fuse one step's estimates (any order; they are sorted by node).
+    pub fn push(&mut self, mut estimates: Vec<StepEstimate>) {
+        estimates.retain(|e| !e.diverged);
+        estimates.sort_by_key(|e| e.node);
+        let Some(first) = estimates.first() else { return };
+        let (step, truth) = (first.step, first.truth.clone());
+        let counted = step >= self.burn_in;
+        self.nodes = self.nodes.max(estimates.len());
+        let gs: Vec<Gaussian> = estimates.into_iter().map(|e| e.networked).collect();
+        let Ok(fused) = cascade(&gs, Omega::Fixed(0.5), &self.angle_states) else {
+            return;
+        };
+        let err = self.error(&truth, &fused.x);
+        let tr = fused.P.trace();
+        self.fixed.record(counted, err, tr, tr, None, true);
+        if gs.len() <= OPTIMAL_FUSION_MAX_NODES {
+            if let Ok(opt) = cascade(&gs, Omega::TraceOptimal, &self.angle_states) {
+                let t2 = opt.P.trace();
+                self.optimal
+                    .record(counted, self.error(&truth, &opt.x), t2, t2, None, true);
+            }
+        }
+        let pick = |v: &DVector<f64>| self.error_rows.iter().map(|&i| v[i]).collect::<Vec<f64>>();
+        self.fused.push((step, pick(&truth), pick(&fused.x)));
+    }
+
+    /// The fused trajectory after the centred median, with errors.
+    pub fn rows(&self) -> Vec<FusedRow> {
+        let series: Vec<Vec<f64>> = self.fused.iter().map(|(_, _, f)| f.clone()).collect();
+        let median = centred_median(&series, MEDIAN_WINDOW);
+        let dist = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt();
+        self.fused
+            .iter()
+            .zip(median)
+            .map(|((step, truth, fused), median)| FusedRow {
+                step: *step,
+                error: dist(truth, fused),
+                median_error: dist(truth, &median),
+                truth: truth.clone(),
+                fused: fused.clone(),
+                median,
+            })
+            .collect()
+    }
+
+    pub fn summary(&self) -> Option<FusedSummary> {
+        if self.nodes == 0 {
+            return None;
+        }
+        let f = self.fixed.summary(false);
+        let o = self.optimal.summary(false);
+        let counted: Vec<f64> = self
+            .rows()
+            .iter()
+            .filter(|r| r.step >= self.burn_in)
+            .map(|r| r.median_error)
+            .collect();
+        let median_mean_error = (!counted.is_empty()).then(|| counted.iter().sum::<f64>() / counted.len() as f64);
+        Some(FusedSummary {
+            nodes: self.nodes,
+            omega: 0.5,
+            mean_error: f.mean_error,
+            mean_trace_p: f.mean_trace_p_post,
+            median_mean_error: median_mean_error.filter(|v| v.is_finite()),
+            optimal_mean_error: o.mean_error,
+            optimal_mean_trace_p: o.mean_trace_p_post,
+        })
+    }
+
+    /// Rows for plots, if the run records traces.
+    pub fn plot_rows(&self) -> Vec<FusedRow> {
+        if self.record {
+            self.rows()
+        } else {
+            Vec::new()
+        }
+    }
+}

@@ -1,0 +1,268 @@
+//! SVG plots drawn with plotters and an embedded DejaVu font (no system fonts needed): trajectories, error over time
+//! and trace P over time, networked against independent.
+
+use std::collections::BTreeMap;
+use std::sync::Once;
+
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+use super::observer::FusedRow;
+use crate::node::TraceRow;
+
+#[derive(Debug, thiserror::Error)]
+#[error("plot `{name}`: {message}")]
+pub struct PlotError {
+    pub name: &'static str,
+    pub message: String,
+}
+
+fn font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // The bundled font is a valid TrueType file; failing here would be a build defect.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
+    });
+}
+
+const SIZE: (u32, u32) = (1000, 640);
+
+fn palette(i: usize) -> RGBColor {
+    const C: [RGBColor; 8] = [
+        RGBColor(214, 39, 40),
+        RGBColor(31, 119, 180),
+        RGBColor(44, 160, 44),
+        RGBColor(148, 103, 189),
+        RGBColor(255, 127, 14),
+        RGBColor(140, 86, 75),
+        RGBColor(227, 119, 194),
+        RGBColor(23, 190, 207),
+    ];
+    C[i % C.len()]
+}
+
+fn err<E: std::fmt::Display>(name: &'static str) -> impl Fn(E) -> PlotError {
+    move |e| PlotError {
+        name,
+        message: e.to_string(),
+    }
+}
+
+fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values.filter(|v| v.is_finite()) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !lo.is_finite() {
+        return (0.0, 1.0);
+    }
+    let pad = ((hi - lo) * 0.05).max(1e-9);
+    (lo - pad, hi + pad)
+}
+
+/// Series per (node, filter) in step order.
+fn series(rows: &[TraceRow]) -> BTreeMap<(u32, bool), Vec<&TraceRow>> {
+    let mut m: BTreeMap<(u32, bool), Vec<&TraceRow>> = BTreeMap::new();
+    for r in rows {
+        m.entry((r.node, r.networked)).or_default().push(r);
+    }
+    m
+}
+
+/// True trajectory and estimates: the x–y plane for pose, x₀ against time for linear.
+pub fn trajectory(rows: &[TraceRow], fused: &[FusedRow], pose: bool, title: &str) -> Result<String, PlotError> {
+    font();
+    let name = "trajectory";
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(err(name))?;
+        let s = series(rows);
+        let xy = |r: &TraceRow, est: bool| -> (f64, f64) {
+            let v = if est { &r.est } else { &r.truth };
+            if pose {
+                (v[0], v[1])
+            } else {
+                (r.t, v[0])
+            }
+        };
+        let (x0, x1) = bounds(rows.iter().flat_map(|r| [xy(r, false).0, xy(r, true).0]));
+        let (y0, y1) = bounds(rows.iter().flat_map(|r| [xy(r, false).1, xy(r, true).1]));
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 22))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(err(name))?;
+        chart
+            .configure_mesh()
+            .x_desc(if pose { "x (m)" } else { "t (s)" })
+            .y_desc(if pose { "y (m)" } else { "x₀" })
+            .draw()
+            .map_err(err(name))?;
+        if let Some(first) = s.values().next() {
+            chart
+                .draw_series(LineSeries::new(
+                    first.iter().map(|r| xy(r, false)),
+                    BLACK.stroke_width(2),
+                ))
+                .map_err(err(name))?
+                .label("truth")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.stroke_width(2)));
+        }
+        for (i, ((node, networked), pts)) in s.iter().enumerate() {
+            let c = palette(i / 2);
+            let style = if *networked {
+                c.stroke_width(1)
+            } else {
+                c.mix(0.35).stroke_width(1)
+            };
+            chart
+                .draw_series(LineSeries::new(pts.iter().map(|r| xy(r, true)), style))
+                .map_err(err(name))?
+                .label(format!(
+                    "node {node} {}",
+                    if *networked { "networked" } else { "independent" }
+                ))
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+        }
+        if pose && !fused.is_empty() {
+            let style = RGBColor(0, 0, 0).mix(0.6).stroke_width(2);
+            chart
+                .draw_series(LineSeries::new(fused.iter().map(|f| (f.median[0], f.median[1])), style))
+                .map_err(err(name))?
+                .label("fused (CI, median 20)")
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(err(name))?;
+        root.present().map_err(err(name))?;
+    }
+    Ok(out)
+}
+
+/// A per-step quantity against time, one line per node and filter (networked solid, independent faded).
+#[allow(clippy::too_many_arguments)]
+fn over_time(
+    name: &'static str,
+    rows: &[TraceRow],
+    fused: &[FusedRow],
+    dt: f64,
+    title: &str,
+    y_desc: &str,
+    value: impl Fn(&TraceRow) -> f64,
+    log: bool,
+) -> Result<String, PlotError> {
+    font();
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(err(name))?;
+        let s = series(rows);
+        let t_max = rows.iter().map(|r| r.t).fold(0.0, f64::max).max(dt);
+        let vals = rows.iter().map(&value).chain(fused.iter().map(|f| f.error));
+        let (lo, hi) = bounds(vals.filter(|v| !log || *v > 0.0));
+        let mut cb = ChartBuilder::on(&root);
+        cb.caption(title, ("sans-serif", 22))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70);
+        macro_rules! draw {
+            ($chart:expr) => {{
+                let mut chart = $chart;
+                chart
+                    .configure_mesh()
+                    .x_desc("t (s)")
+                    .y_desc(y_desc)
+                    .draw()
+                    .map_err(err(name))?;
+                for (i, ((node, networked), pts)) in s.iter().enumerate() {
+                    let c = palette(i / 2);
+                    let style = if *networked {
+                        c.stroke_width(1)
+                    } else {
+                        c.mix(0.3).stroke_width(1)
+                    };
+                    chart
+                        .draw_series(LineSeries::new(
+                            pts.iter()
+                                .map(|r| (r.t, value(r)))
+                                .filter(|(_, v)| v.is_finite() && (!log || *v > 0.0)),
+                            style,
+                        ))
+                        .map_err(err(name))?
+                        .label(format!(
+                            "node {node} {}",
+                            if *networked { "networked" } else { "independent" }
+                        ))
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+                }
+                if name == "error" && !fused.is_empty() {
+                    let style = BLACK.stroke_width(2);
+                    chart
+                        .draw_series(LineSeries::new(
+                            fused.iter().map(|f| (f.step as f64 * dt, f.median_error)),
+                            style,
+                        ))
+                        .map_err(err(name))?
+                        .label("fused (CI, median 20)")
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+                }
+                chart
+                    .configure_series_labels()
+                    .background_style(WHITE.mix(0.85))
+                    .border_style(BLACK)
+                    .position(SeriesLabelPosition::UpperRight)
+                    .draw()
+                    .map_err(err(name))?;
+            }};
+        }
+        if log {
+            let lo = if lo > 0.0 { lo } else { hi * 1e-6 };
+            draw!(cb
+                .build_cartesian_2d(0.0..t_max, (lo..hi.max(lo * 10.0)).log_scale())
+                .map_err(err(name))?);
+        } else {
+            draw!(cb.build_cartesian_2d(0.0..t_max, lo.min(0.0)..hi).map_err(err(name))?);
+        }
+        root.present().map_err(err(name))?;
+    }
+    Ok(out)
+}
+
+pub fn error(rows: &[TraceRow], fused: &[FusedRow], dt: f64, pose: bool, title: &str) -> Result<String, PlotError> {
+    let y = if pose { "position error (m)" } else { "state error" };
+    over_time(
+        "error",
+        rows,
+        fused,
+        dt,
+        title,
+        y,
+        |r| {
+            let n = if pose { 3 } else { r.truth.len() };
+            (0..n).map(|i| (r.truth[i] - r.est[i]).powi(2)).sum::<f64>().sqrt()
+        },
+        false,
+    )
+}
+
+pub fn trace_p(rows: &[TraceRow], dt: f64, title: &str) -> Result<String, PlotError> {
+    over_time(
+        "trace_p",
+        rows,
+        &[],
+        dt,
+        title,
+        "trace P (posterior)",
+        |r| r.trace_p_post,
+        true,
+    )
+}

@@ -1,0 +1,331 @@
+//! `summary.json` (DESIGN §7), the stdout table, `trace.csv` and `links.csv`.
+
+use std::io::{self, Write};
+
+use serde::Serialize;
+
+use super::metrics::{FilterSummary, RxCounters};
+use super::observer::FusedSummary;
+use crate::link::LinkCounters;
+use crate::node::{NodeReport, TraceRow};
+use crate::topology::Topology;
+
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct NodeSummary {
+    pub id: u32,
+    pub role: &'static str,
+    pub networked: Option<FilterSummary>,
+    pub independent: Option<FilterSummary>,
+    /// networked mean error / independent mean error.
+    pub error_ratio: Option<f64>,
+    pub malformed: u64,
+    pub corrupted: u64,
+    pub restarts: u64,
+    pub steps_down: u64,
+}
+
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct LinkSummary {
+    pub from: u32,
+    pub to: u32,
+    pub sent: u64,
+    pub delivered: u64,
+    /// Never usable: dropped by the loss model or a scheduled fault, or lost in the socket layer.
+    pub lost: u64,
+    pub lost_random: u64,
+    pub lost_down: u64,
+    pub late: u64,
+    pub duplicated: u64,
+    pub corrupted: u64,
+    pub loss_rate: Option<f64>,
+    pub delivered_fraction: Option<f64>,
+    pub mean_loss_run: f64,
+    pub longest_loss_run: u64,
+}
+
+impl LinkSummary {
+    /// Join the sender's link counters with what the receiver saw from that sender.
+    pub fn join(from: u32, to: u32, tx: &LinkCounters, rx: &RxCounters) -> LinkSummary {
+        let usable_or_seen = rx.delivered + rx.late + rx.corrupted + rx.while_down;
+        // Copies (duplicates) can only make the receiver's counts larger than what was sent once.
+        let lost = tx.sent.saturating_sub(usable_or_seen.min(tx.sent));
+        let frac = |x: u64| (tx.sent > 0).then(|| x as f64 / tx.sent as f64);
+        LinkSummary {
+            from,
+            to,
+            sent: tx.sent,
+            delivered: rx.delivered,
+            lost: lost + rx.while_down,
+            lost_random: tx.lost_random,
+            lost_down: tx.lost_down + rx.while_down,
+            late: rx.late,
+            duplicated: tx.duplicated,
+            corrupted: rx.corrupted,
+            loss_rate: frac(lost + rx.while_down),
+            delivered_fraction: frac(rx.delivered),
+            mean_loss_run: tx.mean_loss_run(),
+            longest_loss_run: tx.longest_loss_run.max(tx.current_run),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct Summary {
+    pub topology: String,
+    pub source: String,
+    pub model: &'static str,
+    pub seed: u64,
+    pub clock: &'static str,
+    pub rate_hz: f64,
+    pub steps: u64,
+    pub burn_in_steps: u64,
+    pub interrupted: bool,
+    pub wall_s: f64,
+    pub socket_losses: u64,
+    pub nodes: Vec<NodeSummary>,
+    pub links: Vec<LinkSummary>,
+    pub fused: Option<FusedSummary>,
+}
+
+impl Summary {
+    #[allow(clippy::too_many_arguments)]
+    pub fn build(
+        topo: &Topology,
+        clock: &'static str,
+        reports: &[NodeReport],
+        fused: Option<FusedSummary>,
+        steps: u64,
+        interrupted: bool,
+        wall_s: f64,
+        socket_losses: u64,
+    ) -> Summary {
+        let nodes = reports
+            .iter()
+            .map(|r| {
+                let networked = r.networked.as_ref().map(|m| m.summary(true));
+                let independent = r.independent.as_ref().map(|m| m.summary(false));
+                let error_ratio = match (&networked, &independent) {
+                    (Some(a), Some(b)) => match (a.mean_error, b.mean_error) {
+                        (Some(x), Some(y)) if y > 0.0 => Some(x / y),
+                        _ => None,
+                    },
+                    _ => None,
+                };
+                NodeSummary {
+                    id: r.id,
+                    role: r.role.as_str(),
+                    networked,
+                    independent,
+                    error_ratio,
+                    malformed: r.counters.malformed,
+                    corrupted: r.counters.corrupted,
+                    restarts: r.counters.restarts,
+                    steps_down: r.counters.steps_down,
+                }
+            })
+            .collect();
+        let mut links = Vec::new();
+        for r in reports {
+            for (to, tx) in &r.links_out {
+                let rx = reports
+                    .iter()
+                    .find(|x| x.index == *to)
+                    .map(|x| x.rx[r.index])
+                    .unwrap_or_default();
+                links.push(LinkSummary::join(r.id, topo.nodes[*to].id, tx, &rx));
+            }
+        }
+        Summary {
+            topology: topo.name.clone(),
+            source: topo.source.clone(),
+            model: topo.model.kind(),
+            seed: topo.sim.seed,
+            clock,
+            rate_hz: topo.sim.rate_hz,
+            steps,
+            burn_in_steps: topo.sim.burn_in_steps(),
+            interrupted,
+            wall_s,
+            socket_losses,
+            nodes,
+            links,
+            fused,
+        }
+    }
+
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a summary always serialises")
+    }
+
+    /// The human-readable table printed on stdout.
+    pub fn write_table(&self, w: &mut impl Write) -> io::Result<()> {
+        let f = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{x:.4}"));
+        let e = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{x:.3e}"));
+        let pct = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{:.1} %", 100.0 * x));
+        writeln!(
+            w,
+            "simnet · {} ({} model) · seed {} · {} clock · {} steps at {} Hz{} · {:.2} s wall",
+            self.topology,
+            self.model,
+            self.seed,
+            self.clock,
+            self.steps,
+            self.rate_hz,
+            if self.interrupted { " · INTERRUPTED" } else { "" },
+            self.wall_s
+        )?;
+        writeln!(w)?;
+        writeln!(
+            w,
+            "{:>5} {:>9} │ {:>10} {:>10} {:>7} │ {:>10} {:>10} │ {:>8} │ status",
+            "node", "role", "net err", "ind err", "ratio", "net trP", "ind trP", "LMI ok"
+        )?;
+        writeln!(w, "{}", "─".repeat(100))?;
+        for n in &self.nodes {
+            let (Some(a), Some(b)) = (&n.networked, &n.independent) else {
+                writeln!(
+                    w,
+                    "{:>5} {:>9} │ {:^48} │ {:>8} │",
+                    n.id, n.role, "senses and sends only", ""
+                )?;
+                continue;
+            };
+            let mut status = Vec::new();
+            if a.diverged {
+                status.push("networked DIVERGED");
+            }
+            if b.diverged {
+                status.push("independent DIVERGED");
+            }
+            if n.restarts > 0 {
+                status.push("restarted");
+            }
+            writeln!(
+                w,
+                "{:>5} {:>9} │ {:>10} {:>10} {:>7} │ {:>10} {:>10} │ {:>8} │ {}",
+                n.id,
+                n.role,
+                f(a.mean_error),
+                f(b.mean_error),
+                n.error_ratio.map_or("—".into(), |r| format!("{r:.3}")),
+                e(a.mean_trace_p_post),
+                e(b.mean_trace_p_post),
+                pct(a.lmi_feasible_fraction),
+                if status.is_empty() {
+                    "ok".to_string()
+                } else {
+                    status.join(", ")
+                }
+            )?;
+        }
+        writeln!(w)?;
+        writeln!(
+            w,
+            "{:>9} │ {:>7} {:>9} {:>7} {:>6} {:>6} {:>6} │ {:>8} {:>9}",
+            "link", "sent", "delivered", "lost", "late", "dup", "corr", "loss", "mean run"
+        )?;
+        writeln!(w, "{}", "─".repeat(86))?;
+        for l in &self.links {
+            writeln!(
+                w,
+                "{:>9} │ {:>7} {:>9} {:>7} {:>6} {:>6} {:>6} │ {:>8} {:>9.2}",
+                format!("{} → {}", l.from, l.to),
+                l.sent,
+                l.delivered,
+                l.lost,
+                l.late,
+                l.duplicated,
+                l.corrupted,
+                pct(l.loss_rate),
+                l.mean_loss_run
+            )?;
+        }
+        if let Some(fu) = &self.fused {
+            writeln!(w)?;
+            writeln!(
+                w,
+                "fused ({} nodes, covariance intersection): ω = 0.5 error {} (median-filtered {}), trace P {}; trace-optimal ω error {}, trace P {}",
+                fu.nodes,
+                f(fu.mean_error),
+                f(fu.median_mean_error),
+                e(fu.mean_trace_p),
+                f(fu.optimal_mean_error),
+                e(fu.optimal_mean_trace_p)
+            )?;
+        }
+        if self.socket_losses > 0 {
+            writeln!(
+                w,
+                "note: {} datagram(s) delivered by the link layer were lost in the socket layer",
+                self.socket_losses
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// `trace.csv`: one row per (step, node, filter).
+pub fn write_trace(w: &mut impl Write, columns: &[String], rate_hz: f64, rows: &[TraceRow]) -> io::Result<()> {
+    let _ = rate_hz;
+    write!(w, "step,t,node,filter")?;
+    for c in columns {
+        write!(w, ",true_{c}")?;
+    }
+    for c in columns {
+        write!(w, ",est_{c}")?;
+    }
+    writeln!(w, ",trace_p_prior,trace_p_post,received,feasible,nees")?;
+    for r in rows {
+        write!(
+            w,
+            "{},{:.4},{},{}",
+            r.step,
+            r.t,
+            r.node,
+            if r.networked { "networked" } else { "independent" }
+        )?;
+        for v in r.truth.iter().chain(r.est.iter()) {
+            write!(w, ",{v:.6}")?;
+        }
+        let received: Vec<String> = r.received.iter().map(|x| x.to_string()).collect();
+        writeln!(
+            w,
+            ",{:.6e},{:.6e},{},{},{}",
+            r.trace_p_prior,
+            r.trace_p_post,
+            received.join(";"),
+            r.feasible,
+            if r.nees.is_finite() {
+                format!("{:.4}", r.nees)
+            } else {
+                String::new()
+            }
+        )?;
+    }
+    Ok(())
+}
+
+/// `links.csv`: the per-link counters.
+pub fn write_links(w: &mut impl Write, links: &[LinkSummary]) -> io::Result<()> {
+    writeln!(w, "from,to,sent,delivered,lost,lost_random,lost_down,late,duplicated,corrupted,loss_rate,mean_loss_run,longest_loss_run")?;
+    for l in links {
+        writeln!(
+            w,
+            "{},{},{},{},{},{},{},{},{},{},{},{:.4},{}",
+            l.from,
+            l.to,
+            l.sent,
+            l.delivered,
+            l.lost,
+            l.lost_random,
+            l.lost_down,
+            l.late,
+            l.duplicated,
+            l.corrupted,
+            l.loss_rate.map_or(String::new(), |x| format!("{x:.6}")),
+            l.mean_loss_run,
+            l.longest_loss_run
+        )?;
+    }
+    Ok(())
+}

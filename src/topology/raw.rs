@@ -1,0 +1,150 @@
+//! The topology file as written: serde mirrors of the TOML with `deny_unknown_fields`, so a misspelt key is an
+//! error that names it. `super::validate` turns these into the typed [`super::Topology`].
+
+use serde::Deserialize;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawTopology {
+    pub name: Option<String>,
+    pub description: Option<String>,
+    pub sim: Option<RawSim>,
+    pub model: Option<RawModel>,
+    pub consensus: Option<RawConsensus>,
+    pub link: Option<RawLink>,
+    pub sensor: Option<RawSensor>,
+    #[serde(default)]
+    pub node: Vec<RawNode>,
+    #[serde(default)]
+    pub edge: Vec<RawEdge>,
+    #[serde(default)]
+    pub fault: Vec<RawFault>,
+}
+
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RawSim {
+    pub rate_hz: Option<f64>,
+    pub duration_s: Option<f64>,
+    pub burn_in_s: Option<f64>,
+    pub seed: Option<u64>,
+    pub trajectory: Option<String>,
+    pub deadline_ms: Option<f64>,
+    pub split_channels: Option<bool>,
+    pub divergence_trace: Option<f64>,
+}
+
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RawModel {
+    pub kind: Option<String>,
+    // pose
+    pub q_pos: Option<f64>,
+    pub q_vel: Option<f64>,
+    pub q_att: Option<f64>,
+    pub r_pos: Option<f64>,
+    pub r_att: Option<f64>,
+    pub p0_pos: Option<f64>,
+    pub p0_vel: Option<f64>,
+    pub p0_att: Option<f64>,
+    // linear
+    pub a: Option<Vec<Vec<f64>>>,
+    pub c: Option<Vec<Vec<f64>>>,
+    pub q: Option<Vec<Vec<f64>>>,
+    pub r: Option<Vec<Vec<f64>>>,
+    pub x0: Option<Vec<f64>>,
+    pub p0: Option<Vec<Vec<f64>>>,
+}
+
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RawConsensus {
+    pub beta0: Option<f64>,
+    #[serde(rename = "self")]
+    pub self_weight: Option<f64>,
+    pub neighbor: Option<f64>,
+    pub matrix: Option<Vec<Vec<f64>>>,
+    pub lmi: Option<RawLmi>,
+    pub inflation: Option<f64>,
+}
+
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RawLmi {
+    pub alpha: Option<f64>,
+    pub gamma: Option<f64>,
+    pub enabled: Option<bool>,
+}
+
+#[derive(Debug, Deserialize, Default, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct RawLink {
+    pub loss: Option<RawLoss>,
+    pub delay_ms: Option<f64>,
+    pub jitter_ms: Option<f64>,
+    pub jitter: Option<String>,
+    pub duplicate: Option<f64>,
+    pub corrupt: Option<f64>,
+}
+
+#[derive(Debug, Deserialize, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct RawLoss {
+    pub model: String,
+    pub p: Option<f64>,
+    pub r: Option<f64>,
+    pub one_minus_h: Option<f64>,
+    pub one_minus_k: Option<f64>,
+    /// Friendly Gilbert–Elliott form: target loss and mean burst.
+    pub rate: Option<f64>,
+    pub burst: Option<f64>,
+}
+
+#[derive(Debug, Deserialize, Default, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct RawSensor {
+    pub accel_noise: Option<f64>,
+    pub gyro_noise: Option<f64>,
+    pub accel_bias: Option<[f64; 3]>,
+    pub gyro_bias: Option<[f64; 3]>,
+    pub accel_drift: Option<[f64; 3]>,
+    pub gyro_drift: Option<[f64; 3]>,
+    pub pos_noise: Option<f64>,
+    pub att_noise: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawNode {
+    pub id: Option<i64>,
+    pub role: Option<String>,
+    pub addr: Option<String>,
+    pub sensor: Option<RawSensor>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawEdge {
+    pub nodes: Vec<i64>,
+    pub directed: Option<bool>,
+    pub loss: Option<RawLoss>,
+    pub delay_ms: Option<f64>,
+    pub jitter_ms: Option<f64>,
+    pub jitter: Option<String>,
+    pub duplicate: Option<f64>,
+    pub corrupt: Option<f64>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawFault {
+    pub kind: String,
+    pub link: Option<Vec<i64>>,
+    pub directed: Option<bool>,
+    pub nodes: Option<Vec<i64>>,
+    pub node: Option<i64>,
+    pub start_s: Option<f64>,
+    pub end_s: Option<f64>,
+    pub at_s: Option<f64>,
+    pub restart_s: Option<f64>,
+}

@@ -1,0 +1,230 @@
+//! Datagram format: a postcard-encoded header and payload followed by a CRC-32 of everything before it.
+//!
+//! ```text
+//! | header: magic u16 | version u8 | kind u8 | flags u8 | src u32 | seq u32 | step u64 |   (postcard varints)
+//! | payload: rows u64 (bit i = row i present) | values: [f64] (one per present row)     |
+//! | crc32 (4 bytes, little endian) of all bytes above                                   |
+//! ```
+//! At most [`MAX_DATAGRAM`] bytes. `flags` bit 0 is reserved for an authentication tag that would trail the
+//! payload; version 1 senders write 0 and receivers reject any set flag. Decoding untrusted bytes never panics:
+//! every failure is a [`WireError`].
+//!
+//! ```
+//! use simnet::wire::{Datagram, Header, Payload};
+//! let d = Datagram { header: Header::new(3, 7, 42), payload: Payload::measurement(0b11, vec![1.0, 2.0]) };
+//! let bytes = d.encode().unwrap();
+//! assert_eq!(Datagram::decode(&bytes).unwrap(), d);
+//! ```
+
+use bytes::Bytes;
+use serde::{Deserialize, Serialize};
+
+pub const MAGIC: u16 = 0x534E; // "SN"
+pub const VERSION: u8 = 1;
+/// Fits any MTU.
+pub const MAX_DATAGRAM: usize = 1200;
+/// Rows of one measurement (the `rows` bitmask is 64 bits wide).
+pub const MAX_ROWS: usize = 64;
+const CRC_LEN: usize = 4;
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum WireError {
+    #[error("datagram of {0} bytes is shorter than any valid datagram")]
+    TooShort(usize),
+    #[error("datagram of {0} bytes exceeds the {MAX_DATAGRAM}-byte limit")]
+    TooLong(usize),
+    #[error("checksum mismatch (corrupted datagram)")]
+    Checksum,
+    #[error("malformed encoding: {0}")]
+    Malformed(String),
+    #[error("{0} trailing bytes after the payload")]
+    Trailing(usize),
+    #[error("bad magic {0:#06x}")]
+    Magic(u16),
+    #[error("unsupported version {0}")]
+    Version(u8),
+    #[error("reserved flags set: {0:#04x}")]
+    Flags(u8),
+    #[error("invalid payload: {0}")]
+    Invalid(&'static str),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Header {
+    pub magic: u16,
+    pub version: u8,
+    pub kind: u8,
+    pub flags: u8,
+    /// Sending node (its id in the topology).
+    pub src: u32,
+    /// Per-sender sequence number; duplicates share it.
+    pub seq: u32,
+    /// The step whose measurement this is.
+    pub step: u64,
+}
+
+impl Header {
+    pub fn new(src: u32, seq: u32, step: u64) -> Header {
+        Header {
+            magic: MAGIC,
+            version: VERSION,
+            kind: KIND_MEASUREMENT,
+            flags: 0,
+            src,
+            seq,
+            step,
+        }
+    }
+}
+
+pub const KIND_MEASUREMENT: u8 = 1;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Payload {
+    /// Some rows of one measurement vector: bit i of `rows` set means row i is present; `values` in row order.
+    Measurement { rows: u64, values: Vec<f64> },
+}
+
+impl Payload {
+    pub fn measurement(rows: u64, values: Vec<f64>) -> Payload {
+        Payload::Measurement { rows, values }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Datagram {
+    pub header: Header,
+    pub payload: Payload,
+}
+
+impl Datagram {
+    pub fn encode(&self) -> Result<Bytes, WireError> {
+        self.validate()?;
+        let mut buf =
+            postcard::to_allocvec(&(&self.header, &self.payload)).map_err(|e| WireError::Malformed(e.to_string()))?;
+        let crc = crc32fast::hash(&buf);
+        buf.extend_from_slice(&crc.to_le_bytes());
+        if buf.len() > MAX_DATAGRAM {
+            return Err(WireError::TooLong(buf.len()));
+        }
+        Ok(Bytes::from(buf))
+    }
+
+    /// Checked decode of untrusted bytes.
+    pub fn decode(bytes: &[u8]) -> Result<Datagram, WireError> {
+        if bytes.len() > MAX_DATAGRAM {
+            return Err(WireError::TooLong(bytes.len()));
+        }
+        if bytes.len() < CRC_LEN + 8 {
+            return Err(WireError::TooShort(bytes.len()));
+        }
+        let (body, crc) = bytes.split_at(bytes.len() - CRC_LEN);
+        let want = u32::from_le_bytes([crc[0], crc[1], crc[2], crc[3]]);
+        if crc32fast::hash(body) != want {
+            return Err(WireError::Checksum);
+        }
+        let ((header, payload), rest): ((Header, Payload), &[u8]) =
+            postcard::take_from_bytes(body).map_err(|e| WireError::Malformed(e.to_string()))?;
+        if !rest.is_empty() {
+            return Err(WireError::Trailing(rest.len()));
+        }
+        let d = Datagram { header, payload };
+        d.validate()?;
+        Ok(d)
+    }
+
+    fn validate(&self) -> Result<(), WireError> {
+        let h = &self.header;
+        if h.magic != MAGIC {
+            return Err(WireError::Magic(h.magic));
+        }
+        if h.version != VERSION {
+            return Err(WireError::Version(h.version));
+        }
+        if h.flags != 0 {
+            return Err(WireError::Flags(h.flags));
+        }
+        match &self.payload {
+            Payload::Measurement { rows, values } => {
+                if h.kind != KIND_MEASUREMENT {
+                    return Err(WireError::Invalid("kind does not match the payload"));
+                }
+                if *rows == 0 {
+                    return Err(WireError::Invalid("measurement with no rows"));
+                }
+                if rows.count_ones() as usize != values.len() {
+                    return Err(WireError::Invalid("row mask and value count disagree"));
+                }
+                if values.iter().any(|v| !v.is_finite()) {
+                    return Err(WireError::Invalid("non-finite value"));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Datagram {
+        Datagram {
+            header: Header::new(2, 99, 1234),
+            payload: Payload::measurement(0b111000, vec![0.1, -0.2, 3.0]),
+        }
+    }
+
+    #[test]
+    fn every_single_bit_flip_is_caught() {
+        let bytes = sample().encode().unwrap();
+        for bit in 0..bytes.len() * 8 {
+            let mut b = bytes.to_vec();
+            b[bit / 8] ^= 1 << (bit % 8);
+            assert!(Datagram::decode(&b).is_err(), "bit {bit} went undetected");
+        }
+    }
+
+    #[test]
+    fn bad_lengths_and_impossible_values() {
+        assert_eq!(Datagram::decode(&[]), Err(WireError::TooShort(0)));
+        assert!(matches!(Datagram::decode(&[0u8; 1500]), Err(WireError::TooLong(1500))));
+        let mut d = sample();
+        d.payload = Payload::measurement(0b1, vec![f64::NAN]);
+        assert!(d.encode().is_err());
+        d.payload = Payload::measurement(0b11, vec![1.0]);
+        assert!(d.encode().is_err());
+        let mut d = sample();
+        d.header.flags = 1;
+        assert_eq!(d.encode(), Err(WireError::Flags(1)));
+        // A valid body with a valid CRC but a wrong magic.
+        let mut body = postcard::to_allocvec(&(
+            Header {
+                magic: 1,
+                ..sample().header
+            },
+            &sample().payload,
+        ))
+        .unwrap();
+        let crc = crc32fast::hash(&body);
+        body.extend_from_slice(&crc.to_le_bytes());
+        assert_eq!(Datagram::decode(&body), Err(WireError::Magic(1)));
+    }
+
+    #[test]
+    fn oversized_measurement_is_refused() {
+        let d = Datagram {
+            header: Header::new(0, 0, 0),
+            payload: Payload::measurement(u64::MAX, vec![1.0; 64]),
+        };
+        assert!(d.encode().is_ok());
+        let big = Datagram {
+            header: Header::new(0, 0, 0),
+            payload: Payload::Measurement {
+                rows: u64::MAX,
+                values: vec![1.0; 200],
+            },
+        };
+        assert!(big.encode().is_err());
+    }
+}
