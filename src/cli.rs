@@ -72,6 +72,12 @@ pub struct RunArgs {
     /// Jitter on every link, ms (uniform ± unless the topology says normal).
     #[arg(long, value_parser = non_negative)]
     pub jitter: Option<f64>,
+    /// Probability that a link delivers a datagram twice.
+    #[arg(long, value_parser = probability)]
+    pub duplicate: Option<f64>,
+    /// Probability that a link flips one bit of a datagram (the receiver's checksum must catch it).
+    #[arg(long, value_parser = probability)]
+    pub corrupt: Option<f64>,
     /// Simulated duration, s.
     #[arg(long, value_parser = positive)]
     pub duration: Option<f64>,
@@ -166,6 +172,8 @@ impl RunArgs {
             loss,
             delay_ms: self.delay,
             jitter_ms: self.jitter,
+            duplicate: self.duplicate,
+            corrupt: self.corrupt,
             duration_s: self.duration,
             rate_hz: self.rate,
             seed: self.seed,

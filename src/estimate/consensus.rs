@@ -5,8 +5,8 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::kalman::{effective_observation, Gaussian, MissingChannels, Observation};
-use super::{cholesky, symmetrize, EstimateError};
+use super::kalman::{effective_observation, kalman_update, Gaussian, MissingChannels, Observation};
+use super::{cholesky, eigenvalues, symmetrize, EstimateError};
 
 /// One measurement that reached the node in time: its weight βⱼ, its value, and which rows it carries.
 #[derive(Debug, Clone)]
@@ -26,6 +26,7 @@ pub struct LmiCheck {
 }
 
 impl LmiCheck {
+    /// NaN (an eigenvalue problem that did not converge) counts as infeasible.
     pub fn feasible(&self) -> bool {
         self.norm_z < 1.0 && self.min_eig > 0.0
     }
@@ -64,10 +65,9 @@ pub fn consensus_update(
             *a |= *p;
         }
     }
-    let n = prior.x.len();
     if !present_any.iter().any(|p| *p) {
         // Intermittent observation: prediction only; P_{k|k} = P_{k|k−1} satisfies (19) trivially.
-        let min_eig = prior.P.clone().symmetric_eigenvalues().min();
+        let min_eig = eigenvalues(&prior.P).map_or(f64::NAN, |e| e.min());
         return Ok(ConsensusOutcome {
             posterior: prior.clone(),
             lmi: LmiCheck { norm_z: 0.0, min_eig },
@@ -105,11 +105,39 @@ pub fn consensus_update(
     let mut delta = &Pn - P;
     symmetrize(&mut delta);
     let scale = (gamma * k as f64).exp() / alpha;
-    let norm_z = delta.symmetric_eigenvalues().amax() * scale;
-    let min_eig = Pn.clone().symmetric_eigenvalues().min();
-    let _ = n;
+    // NaN (no convergence) fails both comparisons: infeasible.
+    let norm_z = eigenvalues(&delta).map_or(f64::NAN, |e| e.amax() * scale);
+    let min_eig = eigenvalues(&Pn).map_or(f64::NAN, |e| e.min());
     Ok(ConsensusOutcome {
         posterior: Gaussian { x, P: Pn },
         lmi: LmiCheck { norm_z, min_eig },
     })
+}
+
+/// The LMI guard around [`consensus_update`]: when (17) or (19) fails, or the update itself fails, the node uses the
+/// independent update this step — the seed's practical rule (§5) — a Joseph-form Kalman update with `fallback` (the
+/// node's own measurement, or, for a node without one, its highest-weight source). Returns the posterior and whether
+/// the consensus update was used.
+#[allow(clippy::too_many_arguments)]
+pub fn guarded_update(
+    prior: &Gaussian,
+    obs: &Observation,
+    beta0: f64,
+    sources: &[Source<'_>],
+    fallback: Option<&Source<'_>>,
+    policy: MissingChannels,
+    k: u64,
+    lmi: Option<(f64, f64)>,
+) -> (Result<Gaussian, EstimateError>, bool) {
+    let (alpha, gamma) = lmi.unwrap_or((1.0, 0.0));
+    match consensus_update(prior, obs, beta0, sources, policy, k, alpha, gamma) {
+        Ok(o) if lmi.is_none() || o.lmi.feasible() => (Ok(o.posterior), true),
+        _ => {
+            let post = match fallback {
+                Some(f) => kalman_update(prior, obs, f.z, f.present, policy),
+                None => Ok(prior.clone()),
+            };
+            (post, false)
+        }
+    }
 }

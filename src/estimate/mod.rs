@@ -10,7 +10,7 @@ pub mod process;
 
 use nalgebra::{DMatrix, DVector};
 
-pub use consensus::{consensus_update, ConsensusOutcome, LmiCheck, Source};
+pub use consensus::{consensus_update, guarded_update, ConsensusOutcome, LmiCheck, Source};
 pub use kalman::{kalman_update, nees, Gaussian, MissingChannels, Observation};
 pub use process::{ImuInterval, Process};
 
@@ -42,6 +42,18 @@ pub fn symmetrize(m: &mut DMatrix<f64>) {
             m[(j, i)] = a;
         }
     }
+}
+
+/// Eigenvalues of a symmetric matrix, or `None` when it holds non-finite values or the QR iteration does not
+/// converge in a bounded number of sweeps (nalgebra's default is unbounded and can spin on overflowing input).
+pub fn eigenvalues(m: &DMatrix<f64>) -> Option<DVector<f64>> {
+    if m.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    m.clone()
+        .try_symmetric_eigen(f64::EPSILON, 10_000)
+        .map(|e| e.eigenvalues)
+        .filter(|v| v.iter().all(|x| x.is_finite()))
 }
 
 /// True when `m` is symmetric (relative 1e-9) and its Cholesky factorisation succeeds.

@@ -16,7 +16,7 @@ use bytes::Bytes;
 use nalgebra::{DMatrix, DVector};
 
 use crate::estimate::{
-    consensus_update, kalman_update, nees, EstimateError, Gaussian, ImuInterval, MissingChannels, Observation, Process,
+    guarded_update, kalman_update, nees, EstimateError, Gaussian, ImuInterval, MissingChannels, Observation, Process,
     Source,
 };
 use crate::link::{Link, LinkCounters, Verdict};
@@ -121,7 +121,7 @@ pub struct NodeCounters {
     pub datagrams_in: u64,
     /// Undecodable datagrams other than checksum failures (garbage, wrong magic, unknown source, …).
     pub malformed: u64,
-    /// Checksum failures from known peers and from unknown senders.
+    /// Checksum failures of datagrams from known peers.
     pub corrupted: u64,
     /// Measurements for a step this node has not reached yet, held until it does.
     pub early: u64,
@@ -491,7 +491,8 @@ impl Node {
         self.counters.datagrams_in += 1;
         let dg = match Datagram::decode(bytes) {
             Ok(d) => d,
-            Err(WireError::Checksum) => {
+            Err(WireError::Checksum) if from.is_some() => {
+                // A peer's datagram damaged on the way: the link layer's corruption, caught.
                 self.counters.corrupted += 1;
                 if let Some(f) = from {
                     self.rx[f].corrupted += 1;
@@ -576,36 +577,24 @@ impl Node {
                 present: &p.present,
             })
             .collect();
-        let outcome = consensus_update(
+        // The independent update this step if (17)/(19) fail: own measurement, else the highest-weight source.
+        let own = self.own.as_ref().map(|o| Source {
+            beta: 1.0,
+            z: &o.z,
+            present: &o.present,
+        });
+        let fallback = own.or_else(|| sources.iter().max_by(|a, b| a.beta.total_cmp(&b.beta)).cloned());
+        let lmi = c.lmi.enabled.then_some((c.lmi.alpha, c.lmi.gamma));
+        let (networked, feasible) = guarded_update(
             &priors.networked,
             &self.obs,
             c.beta0,
             &sources,
+            fallback.as_ref(),
             self.policy,
             k,
-            c.lmi.alpha,
-            c.lmi.gamma,
+            lmi,
         );
-        let (networked, feasible) = match outcome {
-            Ok(o) if !c.lmi.enabled || o.lmi.feasible() => (Ok(o.posterior), o.lmi.feasible() || !c.lmi.enabled),
-            other => {
-                if let Err(e) = &other {
-                    tracing::debug!(node = self.id, step = k, "consensus update failed: {e}");
-                }
-                // Infeasible: the seed's practical rule, use the independent update this step (§5).
-                let fallback = self.own.as_ref().map(|o| (o, 1.0)).or_else(|| {
-                    used.iter()
-                        .filter(|(s, _)| beta[*s] > 0.0)
-                        .max_by(|a, b| beta[a.0].total_cmp(&beta[b.0]))
-                        .map(|(_, p)| (*p, 1.0))
-                });
-                let g = match fallback {
-                    Some((p, _)) => kalman_update(&priors.networked, &self.obs, &p.z, &p.present, self.policy),
-                    None => Ok(priors.networked.clone()),
-                };
-                (g, false)
-            }
-        };
         let independent = match &self.own {
             Some(o) => kalman_update(&priors.independent, &self.obs, &o.z, &o.present, self.policy),
             None => Ok(priors.independent.clone()),

@@ -38,6 +38,7 @@ pub const REBASE_LIMIT: f64 = 1e6;
 
 /// A square root of a symmetric positive semidefinite matrix (eigen-decomposition; Q may be singular).
 pub fn psd_sqrt(m: &DMatrix<f64>) -> DMatrix<f64> {
+    // Validated finite and symmetric PSD before it gets here.
     let e = m.clone().symmetric_eigen();
     let d = e.eigenvalues.map(|v| v.max(0.0).sqrt());
     &e.eigenvectors * DMatrix::from_diagonal(&d)

@@ -257,6 +257,8 @@ pub struct Overrides {
     pub loss: Option<LossModel>,
     pub delay_ms: Option<f64>,
     pub jitter_ms: Option<f64>,
+    pub duplicate: Option<f64>,
+    pub corrupt: Option<f64>,
     pub duration_s: Option<f64>,
     pub rate_hz: Option<f64>,
     pub seed: Option<u64>,
@@ -274,6 +276,12 @@ impl Topology {
             }
             if let Some(j) = o.jitter_ms {
                 l.config.jitter_ms = j;
+            }
+            if let Some(d) = o.duplicate {
+                l.config.duplicate = d;
+            }
+            if let Some(c) = o.corrupt {
+                l.config.corrupt = c;
             }
         }
         if let Some(d) = o.duration_s {

@@ -1,1 +1,8 @@
+//! simnet's integration tests, one binary (DESIGN/STYLE: keep builds lean). Fixed seeds throughout.
 
+mod cli;
+mod common;
+mod estimation;
+mod loss;
+mod network;
+mod riccati;

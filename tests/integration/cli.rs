@@ -1,0 +1,152 @@
+//! (k) The binary: bad input exits with code 2 and names what is wrong; every built-in validates; a run prints its
+//! table and writes its files.
+
+use std::process::Command;
+
+fn simnet() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_simnet"))
+}
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("simnet-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn broken_topology_exits_2_naming_the_key() {
+    let d = tmp("broken");
+    let cases = [
+        ("[sim]\nrate_hz = -5\n[[node]]\nid = 0\n", "sim.rate_hz"),
+        ("[sim]\nrat_hz = 5\n[[node]]\nid = 0\n", "rat_hz"),
+        (
+            "[[node]]\nid = 0\n[[node]]\nid = 1\n[[edge]]\nnodes = [0, 7]\n",
+            "edge[0].nodes",
+        ),
+        (
+            "[link]\nloss = { model = \"bernoulli\", p = 1.5 }\n[[node]]\nid = 0\n",
+            "link.loss.p",
+        ),
+        (
+            "[model]\nkind = \"linear\"\na = [[1.0, 0.0]]\nc = [[1.0]]\nq = [[1.0]]\nr = [[1.0]]\n[[node]]\nid = 0\n",
+            "model.a",
+        ),
+        (
+            "[[node]]\nid = 0\n[[fault]]\nkind = \"crash\"\nnode = 3\nat_s = 1.0\n",
+            "fault[0].node",
+        ),
+        ("this is not toml", "test.toml"),
+    ];
+    for (i, (text, key)) in cases.iter().enumerate() {
+        let f = d.join(format!("t{i}.toml"));
+        std::fs::write(&f, text).unwrap();
+        for args in [
+            vec!["validate", f.to_str().unwrap()],
+            vec!["--topology", f.to_str().unwrap()],
+        ] {
+            let out = simnet().args(&args).output().unwrap();
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+            let key = if *key == "test.toml" {
+                format!("t{i}.toml")
+            } else {
+                key.to_string()
+            };
+            assert!(err.contains(&key), "{args:?}: message does not name `{key}`:\n{err}");
+        }
+    }
+}
+
+#[test]
+fn bad_options_exit_2() {
+    for args in [
+        vec!["--topology", "ring3", "--loss", "1.5"],
+        vec!["--topology", "ring3", "--rate", "0"],
+        vec!["--topology", "ring3", "--loss", "0.2", "--burst", "3"],
+        vec!["--topology", "no-such-topology"],
+        vec![
+            "--topology",
+            "ring3",
+            "--loss",
+            "0.9",
+            "--loss-model",
+            "gilbert-elliott",
+            "--burst",
+            "1",
+        ],
+    ] {
+        let out = simnet().args(&args).output().unwrap();
+        assert_eq!(
+            out.status.code(),
+            Some(2),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(!out.stderr.is_empty());
+    }
+}
+
+#[test]
+fn every_builtin_validates_and_is_listed() {
+    let out = simnet().arg("topologies").output().unwrap();
+    assert!(out.status.success());
+    let listing = String::from_utf8_lossy(&out.stdout);
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("topologies");
+    let mut files: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
+    files.sort();
+    assert!(files.len() >= 8);
+    for f in &files {
+        let name = f.file_stem().unwrap().to_str().unwrap();
+        assert!(listing.contains(name), "`simnet topologies` does not list {name}");
+        let out = simnet().arg("validate").arg(f).output().unwrap();
+        assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
+    }
+}
+
+#[test]
+fn run_prints_the_table_and_writes_files() {
+    let d = tmp("out");
+    let out = simnet()
+        .args(["--topology", "ring3", "--loss", "0.2", "--duration", "5", "-q", "--out"])
+        .arg(&d)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        stdout.contains("net err") && stdout.contains("0 → 1") && stdout.contains("fused"),
+        "{stdout}"
+    );
+    for f in [
+        "summary.json",
+        "trace.csv",
+        "links.csv",
+        "trajectory.svg",
+        "error.svg",
+        "trace_p.svg",
+    ] {
+        let p = d.join(f);
+        assert!(
+            p.metadata().map(|m| m.len() > 100).unwrap_or(false),
+            "{f} missing or empty"
+        );
+    }
+    let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["topology"], "ring3");
+    assert_eq!(summary["steps"], 500);
+    assert_eq!(summary["nodes"].as_array().unwrap().len(), 3);
+    let trace = std::fs::read_to_string(d.join("trace.csv")).unwrap();
+    // Header plus 500 steps × 3 nodes × 2 filters.
+    assert_eq!(trace.lines().count(), 1 + 500 * 3 * 2);
+    assert!(trace.lines().next().unwrap().starts_with("step,t,node,filter,true_x"));
+    let svg = std::fs::read_to_string(d.join("error.svg")).unwrap();
+    assert!(svg.contains("<svg") && svg.contains("networked"));
+
+    let json = simnet()
+        .args(["--topology", "pair2-paper", "--duration", "2", "--json"])
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&json.stdout).expect("--json prints summary.json");
+    assert_eq!(v["topology"], "pair2-paper");
+}

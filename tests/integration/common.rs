@@ -1,0 +1,62 @@
+//! Helpers: run a topology over real sockets (virtual clock) and build its summary.
+
+use std::sync::Arc;
+
+use simnet::net::{self, RunOptions, RunOutput};
+use simnet::report::summary::Summary;
+use simnet::topology::{Overrides, Topology};
+
+pub fn topology(name_or_toml: &str, o: Overrides) -> Topology {
+    let mut t = if name_or_toml.contains('[') {
+        Topology::from_toml(name_or_toml, "test.toml").unwrap_or_else(|e| panic!("{e}"))
+    } else {
+        Topology::resolve(name_or_toml).unwrap_or_else(|e| panic!("{e}"))
+    };
+    t.apply(&o);
+    t
+}
+
+pub fn runtime() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .unwrap()
+}
+
+pub fn run_with(topo: Topology, opts: RunOptions) -> (Summary, RunOutput) {
+    let topo = Arc::new(topo);
+    let out = runtime()
+        .block_on(net::run(topo.clone(), opts, std::future::pending()))
+        .expect("run");
+    let s = Summary::build(
+        &topo,
+        "virtual",
+        &out.reports,
+        out.observer.summary(),
+        out.steps_done,
+        out.interrupted,
+        out.wall_s,
+        out.socket_losses,
+    );
+    (s, out)
+}
+
+pub fn run(topo: Topology) -> Summary {
+    run_with(topo, RunOptions::default()).0
+}
+
+pub fn seed(s: u64) -> Overrides {
+    Overrides {
+        seed: Some(s),
+        ..Default::default()
+    }
+}
+
+pub fn bernoulli(p: f64, s: u64) -> Overrides {
+    Overrides {
+        loss: Some(simnet::link::LossModel::Bernoulli { p }),
+        seed: Some(s),
+        ..Default::default()
+    }
+}
