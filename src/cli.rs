@@ -230,6 +230,13 @@ pub fn main() -> ExitCode {
     };
     match result {
         Ok(code) => code,
+        Err(e)
+            if e.downcast_ref::<std::io::Error>()
+                .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe) =>
+        {
+            // stdout closed by the reader (`| head`): nothing left to say.
+            ExitCode::SUCCESS
+        }
         Err(e) => {
             let usage = e.downcast_ref::<UsageError>().is_some();
             eprintln!("error: {e:#}");

@@ -87,7 +87,8 @@ fn observer_for(topo: &Topology, record: bool) -> Observer {
         ModelConfig::Pose(_) => ((0..9).map(|i| i >= 6).collect(), vec![0, 1, 2]),
         ModelConfig::Linear(m) => (vec![false; m.A.nrows()], (0..m.A.nrows()).collect()),
     };
-    Observer::new(topo.sim.burn_in_steps(), angles, rows, record)
+    let pose = matches!(topo.model, ModelConfig::Pose(_));
+    Observer::new(topo.sim.burn_in_steps(), angles, rows, record, pose)
 }
 
 /// Run a whole topology in this process. `shutdown` ends the run early (the results so far are kept).

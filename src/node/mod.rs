@@ -111,6 +111,8 @@ pub struct StepEstimate {
     pub node: usize,
     pub step: u64,
     pub truth: DVector<f64>,
+    /// The coordinate frame of `truth` and `networked` (see `Truth::frame`).
+    pub frame: u64,
     pub networked: Gaussian,
     pub diverged: bool,
 }
@@ -674,6 +676,7 @@ impl Node {
             node: self.index,
             step: k,
             truth,
+            frame: self.truth.frame(),
             networked: filters.networked.clone(),
             diverged: self.m_net.diverged,
         })

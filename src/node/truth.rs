@@ -27,6 +27,8 @@ pub enum Truth {
         k: u64,
         /// Shift of coordinates not yet applied to the estimates (see `REBASE_LIMIT`).
         shift: Option<DVector<f64>>,
+        /// Number of shifts so far: states of different frames must not be mixed (e.g. in a median).
+        frame: u64,
     },
 }
 
@@ -67,6 +69,7 @@ impl Truth {
                     rng,
                     k: 0,
                     shift: None,
+                    frame: 0,
                 }
             }
         }
@@ -82,6 +85,7 @@ impl Truth {
                 rng,
                 k,
                 shift,
+                frame,
             } => {
                 while *k < target {
                     let w = &*Q_sqrt * randn(rng, x.len());
@@ -90,10 +94,19 @@ impl Truth {
                     if x.amax() > REBASE_LIMIT {
                         *shift = Some(shift.take().unwrap_or_else(|| DVector::zeros(x.len())) - &*x);
                         x.fill(0.0);
+                        *frame += 1;
                     }
                     *k += 1;
                 }
             }
+        }
+    }
+
+    /// Which coordinate frame the current states are in (changes at each re-basing).
+    pub fn frame(&self) -> u64 {
+        match self {
+            Truth::Linear { frame, .. } => *frame,
+            Truth::Pose { .. } => 0,
         }
     }
 

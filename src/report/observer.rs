@@ -33,7 +33,7 @@ pub struct FusedSummary {
     pub omega: f64,
     pub mean_error: Option<f64>,
     pub mean_trace_p: Option<f64>,
-    /// The fused trajectory after the 20-sample median filter.
+    /// The fused trajectory after the 20-sample median filter (pose model only).
     pub median_mean_error: Option<f64>,
     /// Cascade with the trace-minimising ω at every stage.
     pub optimal_mean_error: Option<f64>,
@@ -47,14 +47,16 @@ pub struct Observer {
     error_rows: Vec<usize>,
     fixed: FilterMetrics,
     optimal: FilterMetrics,
-    /// (step, truth, fused) of the error rows, kept for the centred median.
-    fused: Vec<(u64, Vec<f64>, Vec<f64>)>,
+    /// (step, frame, truth, fused) of the error rows, kept for the centred median.
+    fused: Vec<(u64, u64, Vec<f64>, Vec<f64>)>,
     nodes: usize,
     record: bool,
+    /// The median smooths a trajectory (pose); on a linear model's state it is not a smoother.
+    median: bool,
 }
 
 impl Observer {
-    pub fn new(burn_in: u64, angle_states: Vec<bool>, error_rows: Vec<usize>, record: bool) -> Observer {
+    pub fn new(burn_in: u64, angle_states: Vec<bool>, error_rows: Vec<usize>, record: bool, median: bool) -> Observer {
         Observer {
             burn_in,
             angle_states,
@@ -64,6 +66,7 @@ impl Observer {
             fused: Vec::new(),
             nodes: 0,
             record,
+            median,
         }
     }
 
@@ -80,7 +83,7 @@ impl Observer {
         estimates.retain(|e| !e.diverged);
         estimates.sort_by_key(|e| e.node);
         let Some(first) = estimates.first() else { return };
-        let (step, truth) = (first.step, first.truth.clone());
+        let (step, frame, truth) = (first.step, first.frame, first.truth.clone());
         let counted = step >= self.burn_in;
         self.nodes = self.nodes.max(estimates.len());
         let gs: Vec<Gaussian> = estimates.into_iter().map(|e| e.networked).collect();
@@ -98,26 +101,28 @@ impl Observer {
             }
         }
         let pick = |v: &DVector<f64>| self.error_rows.iter().map(|&i| v[i]).collect::<Vec<f64>>();
-        self.fused.push((step, pick(&truth), pick(&fused.x)));
+        self.fused.push((step, frame, pick(&truth), pick(&fused.x)));
     }
 
     /// The fused trajectory after the centred median, with errors.
     pub fn rows(&self) -> Vec<FusedRow> {
-        let series: Vec<Vec<f64>> = self.fused.iter().map(|(_, _, f)| f.clone()).collect();
-        let median = centred_median(&series, MEDIAN_WINDOW);
         let dist = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt();
-        self.fused
-            .iter()
-            .zip(median)
-            .map(|((step, truth, fused), median)| FusedRow {
-                step: *step,
-                error: dist(truth, fused),
-                median_error: dist(truth, &median),
-                truth: truth.clone(),
-                fused: fused.clone(),
-                median,
-            })
-            .collect()
+        let mut out = Vec::with_capacity(self.fused.len());
+        // The median window never straddles a change of coordinate frame.
+        for segment in self.fused.chunk_by(|a, b| a.1 == b.1) {
+            let series: Vec<Vec<f64>> = segment.iter().map(|(_, _, _, f)| f.clone()).collect();
+            for ((step, _, truth, fused), median) in segment.iter().zip(centred_median(&series, MEDIAN_WINDOW)) {
+                out.push(FusedRow {
+                    step: *step,
+                    error: dist(truth, fused),
+                    median_error: dist(truth, &median),
+                    truth: truth.clone(),
+                    fused: fused.clone(),
+                    median,
+                });
+            }
+        }
+        out
     }
 
     pub fn summary(&self) -> Option<FusedSummary> {
@@ -132,7 +137,8 @@ impl Observer {
             .filter(|r| r.step >= self.burn_in)
             .map(|r| r.median_error)
             .collect();
-        let median_mean_error = (!counted.is_empty()).then(|| counted.iter().sum::<f64>() / counted.len() as f64);
+        let median_mean_error =
+            (self.median && !counted.is_empty()).then(|| counted.iter().sum::<f64>() / counted.len() as f64);
         Some(FusedSummary {
             nodes: self.nodes,
             omega: 0.5,

@@ -167,8 +167,20 @@ fn over_time(
         root.fill(&WHITE).map_err(err(name))?;
         let s = series(rows);
         let t_max = rows.iter().map(|r| r.t).fold(0.0, f64::max).max(dt);
-        let vals = rows.iter().map(&value).chain(fused.iter().map(|f| f.error));
-        let (lo, hi) = bounds(vals.filter(|v| !log || *v > 0.0));
+        let vals = rows.iter().map(&value).chain(fused.iter().map(|f| f.median_error));
+        let (lo, hi) = if log {
+            // Multiplicative padding: an additive one can push the lower end below zero.
+            let pos: Vec<f64> = vals.filter(|v| *v > 0.0 && v.is_finite()).collect();
+            let lo = pos.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = pos.iter().copied().fold(0.0, f64::max);
+            if lo.is_finite() {
+                (lo / 1.5, hi * 1.5)
+            } else {
+                (1e-6, 1.0)
+            }
+        } else {
+            bounds(vals)
+        };
         let mut cb = ChartBuilder::on(&root);
         cb.caption(title, ("sans-serif", 22))
             .margin(12)

@@ -104,7 +104,9 @@ impl Summary {
             .map(|r| {
                 let networked = r.networked.as_ref().map(|m| m.summary(true));
                 let independent = r.independent.as_ref().map(|m| m.summary(false));
+                // An estimator has no measurement of its own: its twin only predicts, and a ratio means nothing.
                 let error_ratio = match (&networked, &independent) {
+                    _ if r.role == crate::topology::Role::Estimator => None,
                     (Some(a), Some(b)) => match (a.mean_error, b.mean_error) {
                         (Some(x), Some(y)) if y > 0.0 => Some(x / y),
                         _ => None,
@@ -159,7 +161,15 @@ impl Summary {
 
     /// The human-readable table printed on stdout.
     pub fn write_table(&self, w: &mut impl Write) -> io::Result<()> {
-        let f = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{x:.4}"));
+        let f = |v: Option<f64>| {
+            v.map_or("—".to_string(), |x| {
+                if x.abs() < 1e4 {
+                    format!("{x:.4}")
+                } else {
+                    format!("{x:.3e}")
+                }
+            })
+        };
         let e = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{x:.3e}"));
         let pct = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{:.1} %", 100.0 * x));
         writeln!(
@@ -194,7 +204,9 @@ impl Summary {
             if a.diverged {
                 status.push("networked DIVERGED");
             }
-            if b.diverged {
+            if n.role == "estimator" {
+                status.push("no own sensor: independent = prediction only");
+            } else if b.diverged {
                 status.push("independent DIVERGED");
             }
             if n.restarts > 0 {

@@ -10,6 +10,7 @@ pub const ALL: &[(&str, &str)] = &[
     ("star5", include_str!("../../topologies/star5.toml")),
     ("grid16", include_str!("../../topologies/grid16.toml")),
     ("sinopoli-scalar", include_str!("../../topologies/sinopoli-scalar.toml")),
+    ("ring100", include_str!("../../topologies/ring100.toml")),
 ];
 
 pub fn get(name: &str) -> Option<&'static str> {
