@@ -216,3 +216,59 @@ end_s = 21.5
     // 2 → 1: crash (node 2 sends nothing while down, so its link counts no sends) and partition.
     assert_eq!(link(2, 1).lost_down, (1.5 * rate) as u64);
 }
+
+/// Delay and jitter in simulated time: with 8 ms ± 4 ms (uniform) and a 10 ms deadline, a quarter of the datagrams
+/// arrive after their step closed and are counted late, not used.
+#[test]
+fn jitter_past_the_deadline_makes_datagrams_late() {
+    let o = Overrides {
+        delay_ms: Some(8.0),
+        jitter_ms: Some(4.0),
+        duration_s: Some(20.0),
+        ..common::bernoulli(0.0, 8)
+    };
+    let s = common::run(common::topology("ring3", o));
+    let sent: u64 = s.links.iter().map(|l| l.sent).sum();
+    let late: u64 = s.links.iter().map(|l| l.late).sum();
+    let delivered: u64 = s.links.iter().map(|l| l.delivered).sum();
+    assert_eq!(
+        late + delivered,
+        sent,
+        "no loss configured: every datagram is delivered or late"
+    );
+    let frac = late as f64 / sent as f64;
+    let sigma = (0.25 * 0.75 / sent as f64).sqrt();
+    println!("late fraction {frac:.4} (expected 0.25 ± {:.4})", 3.0 * sigma);
+    assert!((frac - 0.25).abs() < 3.0 * sigma);
+    for n in &s.nodes {
+        assert!(n.error_ratio.unwrap() < 1.0, "node {}", n.id);
+    }
+}
+
+/// The realtime clock: steps paced by the wall clock, delay and jitter as real waits. Timing is not asserted (shared
+/// machines); accounting and estimation are.
+#[test]
+fn realtime_run_accounts_for_every_datagram() {
+    let o = Overrides {
+        delay_ms: Some(2.0),
+        jitter_ms: Some(1.0),
+        duration_s: Some(2.0),
+        ..common::bernoulli(0.2, 4)
+    };
+    let opts = RunOptions {
+        clock: simnet::net::Clock::Realtime,
+        ..Default::default()
+    };
+    let (s, _) = common::run_with(common::topology("ring3", o), opts);
+    assert!(!s.interrupted);
+    assert_eq!(s.steps, 200);
+    for l in &s.links {
+        assert_eq!(l.sent, 200);
+        assert_eq!(l.delivered + l.late + l.lost, l.sent, "{} → {}", l.from, l.to);
+        assert!(l.delivered > 100, "{} → {}: {} delivered", l.from, l.to, l.delivered);
+    }
+    for n in &s.nodes {
+        let net = n.networked.as_ref().unwrap();
+        assert!(!net.diverged && net.mean_error.unwrap() < 0.1, "node {}: {net:?}", n.id);
+    }
+}
