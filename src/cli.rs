@@ -44,6 +44,63 @@ pub enum Command {
         #[arg(required = true)]
         files: Vec<PathBuf>,
     },
+    /// Run one node of a topology as its own process (realtime; one host of a multi-host network).
+    Node(NodeArgs),
+    /// Merge the parts written by `simnet node --out` into one summary, table and plots.
+    Collect(CollectArgs),
+    /// Print a docker compose file that runs a topology with one container per node.
+    Compose(ComposeArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct NodeArgs {
+    /// This node's id in the topology.
+    #[arg(long)]
+    pub id: u32,
+    /// Address to bind (default 0.0.0.0 and the port of the node's `addr`, or 7000).
+    #[arg(long)]
+    pub bind: Option<std::net::SocketAddr>,
+    /// A neighbour's address, overriding the topology (`addr`, default `node<ID>:7000`). Repeatable.
+    #[arg(long = "peer", value_name = "ID=HOST:PORT", value_parser = peer)]
+    pub peers: Vec<(u32, String)>,
+    /// Seconds to wait for every neighbour before starting alone.
+    #[arg(long, default_value_t = 30.0, value_parser = positive)]
+    pub handshake_timeout: f64,
+    #[command(flatten)]
+    pub run: RunArgs,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct CollectArgs {
+    /// Directories holding node-*.json parts.
+    #[arg(required = true)]
+    pub dirs: Vec<PathBuf>,
+    /// Where to write the merged summary.json, trace.csv, links.csv and plots (default: the first directory).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print the merged summary.json instead of the table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct ComposeArgs {
+    #[arg(long, short = 't')]
+    pub topology: String,
+    /// Image name of the simnet image.
+    #[arg(long, default_value = "simnet:latest")]
+    pub image: String,
+}
+
+fn peer(s: &str) -> Result<(u32, String), String> {
+    let (id, addr) = s
+        .split_once('=')
+        .ok_or_else(|| format!("expected ID=HOST:PORT, got `{s}`"))?;
+    let id = id.parse::<u32>().map_err(|_| format!("`{id}` is not a node id"))?;
+    if !addr.contains(':') {
+        return Err(format!("`{addr}` needs a port (HOST:PORT)"));
+    }
+    Ok((id, addr.to_string()))
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -221,6 +278,9 @@ pub fn main() -> ExitCode {
         }
         Some(Command::Validate { files }) => Ok(validate(&files)),
         Some(Command::Run(args)) => run(&args, cli.quiet),
+        Some(Command::Node(args)) => run_node(&args, cli.quiet),
+        Some(Command::Collect(args)) => collect(&args),
+        Some(Command::Compose(args)) => compose(&args),
         None if cli.run.topology.is_some() => run(&cli.run, cli.quiet),
         None => {
             use clap::CommandFactory;
@@ -366,6 +426,20 @@ fn write_outputs(
     rows: &[crate::node::TraceRow],
     fused: &[crate::report::observer::FusedRow],
 ) -> anyhow::Result<()> {
+    let pose = matches!(topo.model, ModelConfig::Pose(_));
+    write_files(dir, s, &Truth::new(topo).columns(), topo.sim.dt(), pose, rows, fused)
+}
+
+/// summary.json, trace.csv, links.csv and the three plots, each written atomically.
+fn write_files(
+    dir: &Path,
+    s: &summary::Summary,
+    columns: &[String],
+    dt: f64,
+    pose: bool,
+    rows: &[crate::node::TraceRow],
+    fused: &[crate::report::observer::FusedRow],
+) -> anyhow::Result<()> {
     use anyhow::Context;
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let put = |name: &str, bytes: &[u8]| {
@@ -373,31 +447,333 @@ fn write_outputs(
     };
     put("summary.json", s.to_json().as_bytes())?;
     let mut buf = Vec::new();
-    summary::write_trace(&mut buf, &Truth::new(topo).columns(), topo.sim.rate_hz, rows)?;
+    summary::write_trace(&mut buf, columns, s.rate_hz, rows)?;
     put("trace.csv", &buf)?;
     let mut buf = Vec::new();
     summary::write_links(&mut buf, &s.links)?;
     put("links.csv", &buf)?;
-    let pose = matches!(topo.model, ModelConfig::Pose(_));
-    let title = |what: &str| format!("{} — {what} (seed {})", topo.name, topo.sim.seed);
+    let title = |what: &str| format!("{} — {what} (seed {})", s.topology, s.seed);
     put(
         "trajectory.svg",
         plot::trajectory(rows, fused, pose, &title("trajectories"))?.as_bytes(),
     )?;
     put(
         "error.svg",
-        plot::error(
-            rows,
-            fused,
-            topo.sim.dt(),
-            pose,
-            &title("error, networked vs independent"),
-        )?
-        .as_bytes(),
+        plot::error(rows, fused, dt, pose, &title("error, networked vs independent"))?.as_bytes(),
     )?;
     put(
         "trace_p.svg",
-        plot::trace_p(rows, topo.sim.dt(), &title("trace P, networked vs independent"))?.as_bytes(),
+        plot::trace_p(rows, dt, &title("trace P, networked vs independent"))?.as_bytes(),
     )?;
     Ok(())
+}
+
+/// The address a node is reached at: its `addr` in the topology, or `node<ID>:7000` (the compose service name).
+pub fn node_addr(topo: &Topology, index: usize) -> String {
+    topo.nodes[index]
+        .addr
+        .clone()
+        .unwrap_or_else(|| format!("node{}:7000", topo.nodes[index].id))
+}
+
+fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode> {
+    use crate::net::host::{run_node, HostConfig};
+    use std::collections::HashMap;
+    let topo = Arc::new(args.run.topology()?);
+    let index = topo
+        .index_of(args.id)
+        .ok_or_else(|| UsageError::Option(format!("--id {}: no [[node]] has this id in `{}`", args.id, topo.name)))?;
+    let mut peers: HashMap<usize, String> = HashMap::new();
+    for l in &topo.links {
+        for j in [l.from, l.to] {
+            if (l.from == index || l.to == index) && j != index {
+                peers.insert(j, node_addr(&topo, j));
+            }
+        }
+    }
+    for (id, addr) in &args.peers {
+        let j = topo
+            .index_of(*id)
+            .ok_or_else(|| UsageError::Option(format!("--peer {id}=…: no [[node]] has id {id}")))?;
+        if !peers.contains_key(&j) {
+            return Err(UsageError::Option(format!(
+                "--peer {id}=…: node {id} is not a neighbour of node {}",
+                args.id
+            ))
+            .into());
+        }
+        peers.insert(j, addr.clone());
+    }
+    let own = node_addr(&topo, index);
+    let port = own
+        .rsplit_once(':')
+        .and_then(|(_, p)| p.parse::<u16>().ok())
+        .ok_or_else(|| UsageError::Option(format!("node {}: address `{own}` has no port", args.id)))?;
+    let bind = args
+        .bind
+        .unwrap_or_else(|| std::net::SocketAddr::from(([0, 0, 0, 0], port)));
+    let steps = topo.sim.steps();
+    let progress = (!quiet && !args.run.json).then(|| progress_bar(steps));
+    let cfg = HostConfig {
+        bind,
+        peers,
+        handshake_timeout: std::time::Duration::from_secs_f64(args.handshake_timeout),
+        record_trace: args.run.out.is_some(),
+        progress: progress
+            .clone()
+            .map(|pb| -> net::Progress { Arc::new(move |d, _| pb.set_position(d)) }),
+    };
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
+    let out = rt.block_on(run_node(topo.clone(), index, cfg, shutdown_signal()))?;
+    if let Some(pb) = progress {
+        pb.finish_and_clear();
+    }
+    let mut s = summary::Summary::build(
+        &topo,
+        "realtime",
+        std::slice::from_ref(&out.report),
+        None,
+        out.steps_done,
+        out.interrupted,
+        out.wall_s,
+        0,
+    );
+    let (angle_states, error_rows, median) = crate::report::observer::fusion_layout(&topo);
+    let id_of = |j: usize| topo.nodes[j].id;
+    s.part = Some(crate::report::parts::PartInfo {
+        node: args.id,
+        first_step: out.report.counters.first_step,
+        steps_done: out.steps_done,
+        links_out: out.report.links_out.iter().map(|(to, c)| (id_of(*to), *c)).collect(),
+        rx: topo
+            .in_links(index)
+            .map(|l| (id_of(l.from), out.report.rx[l.from]))
+            .collect(),
+        angle_states,
+        error_rows,
+        median,
+    });
+    // One end of a link cannot tell its loss: the per-link figures come from `simnet collect`.
+    s.links.clear();
+    let mut stdout = std::io::stdout().lock();
+    if args.run.json {
+        writeln!(stdout, "{}", s.to_json())?;
+    } else {
+        s.write_table(&mut stdout)?;
+        writeln!(
+            stdout,
+            "(per-link figures: `simnet collect` on the parts of every node)"
+        )?;
+    }
+    drop(stdout);
+    if let Some(dir) = &args.run.out {
+        use anyhow::Context;
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let put = |name: String, bytes: &[u8]| {
+            write_atomic(&dir.join(&name), bytes).with_context(|| format!("cannot write {}", dir.join(&name).display()))
+        };
+        let mut buf = Vec::new();
+        summary::write_trace(
+            &mut buf,
+            &Truth::new(&topo).columns(),
+            topo.sim.rate_hz,
+            &out.report.trace,
+        )?;
+        put(format!("trace-{}.csv", args.id), &buf)?;
+        let mut buf = Vec::new();
+        crate::report::parts::write_estimates(&mut buf, &out.estimates)?;
+        put(format!("estimates-{}.csv", args.id), &buf)?;
+        // The part last: its presence means the node finished writing.
+        put(format!("node-{}.json", args.id), s.to_json().as_bytes())?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Ctrl-C or SIGTERM (what `docker stop` sends).
+async fn shutdown_signal() {
+    #[cfg(unix)]
+    {
+        use tokio::signal::unix::{signal, SignalKind};
+        match signal(SignalKind::terminate()) {
+            Ok(mut term) => {
+                tokio::select! {
+                    _ = tokio::signal::ctrl_c() => {}
+                    _ = term.recv() => {}
+                }
+            }
+            Err(_) => {
+                let _ = tokio::signal::ctrl_c().await;
+            }
+        }
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = tokio::signal::ctrl_c().await;
+    }
+}
+
+fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
+    use crate::report::parts::{merge, read_estimates, read_trace, PartError};
+    use anyhow::Context;
+    use std::collections::BTreeMap;
+    let mut parts = Vec::new();
+    let mut estimates = BTreeMap::new();
+    let mut rows = Vec::new();
+    for dir in &args.dirs {
+        let entries = std::fs::read_dir(dir).map_err(|e| UsageError::Option(format!("{}: {e}", dir.display())))?;
+        let mut names: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).collect();
+        names.sort();
+        for p in names {
+            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_string();
+            let Some(id) = name.strip_prefix("node-").and_then(|n| n.strip_suffix(".json")) else {
+                continue;
+            };
+            let text = std::fs::read_to_string(&p).with_context(|| format!("cannot read {}", p.display()))?;
+            let s: summary::Summary = serde_json::from_str(&text)
+                .map_err(|e| UsageError::Option(format!("{}: not a node part: {e}", p.display())))?;
+            let node_index = parts.len();
+            parts.push(s);
+            let est = dir.join(format!("estimates-{id}.csv"));
+            if let Ok(f) = std::fs::File::open(&est) {
+                let es = read_estimates(std::io::BufReader::new(f), node_index, &est.display().to_string())
+                    .map_err(|e| UsageError::Option(e.to_string()))?;
+                estimates.insert(id.parse::<u32>().unwrap_or(u32::MAX), es);
+            }
+            let tr = dir.join(format!("trace-{id}.csv"));
+            if let Ok(f) = std::fs::File::open(&tr) {
+                rows.extend(
+                    read_trace(std::io::BufReader::new(f), &tr.display().to_string())
+                        .map_err(|e| UsageError::Option(e.to_string()))?,
+                );
+            }
+        }
+    }
+    if parts.is_empty() {
+        let dirs: Vec<String> = args.dirs.iter().map(|d| d.display().to_string()).collect();
+        return Err(UsageError::Option(PartError::Empty(dirs.join(", ")).to_string()).into());
+    }
+    let (s, observer) = merge(&parts, &estimates).map_err(|e| UsageError::Option(e.to_string()))?;
+    let mut stdout = std::io::stdout().lock();
+    if args.json {
+        writeln!(stdout, "{}", s.to_json())?;
+    } else {
+        s.write_table(&mut stdout)?;
+    }
+    drop(stdout);
+    let dir = args.out.clone().unwrap_or_else(|| args.dirs[0].clone());
+    rows.sort_by_key(|r| (r.step, r.node, !r.networked));
+    let fused = observer.plot_rows();
+    let pose = s.model == "pose";
+    let columns: Vec<String> = if pose {
+        ["x", "y", "z", "roll", "pitch", "yaw"]
+            .iter()
+            .map(|c| c.to_string())
+            .collect()
+    } else {
+        (0..rows.first().map_or(0, |r| r.truth.len()))
+            .map(|i| format!("x{i}"))
+            .collect()
+    };
+    write_files(&dir, &s, &columns, 1.0 / s.rate_hz, pose, &rows, &fused)?;
+    if !args.json {
+        println!(
+            "\nwrote {}/{{summary.json, trace.csv, links.csv, trajectory.svg, error.svg, trace_p.svg}}",
+            dir.display()
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn compose(args: &ComposeArgs) -> anyhow::Result<ExitCode> {
+    let topo = Topology::resolve(&args.topology)?;
+    print!("{}", compose_file(&topo, &args.topology, &args.image));
+    Ok(ExitCode::SUCCESS)
+}
+
+/// A compose file with one service per node (`node<ID>`), a private network, a results volume, and a `collect`
+/// service that prints the merged table once every node has finished. Duration, seed and loss come from the
+/// environment (SIMNET_DURATION, SIMNET_SEED, SIMNET_LOSS) with the topology's values as defaults.
+pub fn compose_file(topo: &Topology, topology_arg: &str, image: &str) -> String {
+    let builtin = builtin::get(topology_arg).is_some();
+    let (topo_in_container, mount) = if builtin {
+        (topology_arg.to_string(), None)
+    } else {
+        ("/topology.toml".to_string(), Some(topology_arg.to_string()))
+    };
+    let mut y = String::new();
+    y += &format!(
+        "# Generated by `simnet compose --topology {topology_arg}`: {} nodes, one container each.
+",
+        topo.nodes.len()
+    );
+    y += "# Build the static binary first (see README), then: docker compose up --build
+";
+    y += "\nx-node: &node\n";
+    y += &format!(
+        "  image: {image}
+  build: .
+  networks: [simnet]
+  volumes:
+    - results:/results
+"
+    );
+    if let Some(m) = &mount {
+        y += &format!(
+            "    - ./{m}:/topology.toml:ro
+"
+        );
+    }
+    y += "  stop_grace_period: 5s
+
+services:
+";
+    let common = |id: u32| -> String {
+        format!(
+            r#"["node", "--topology", "{}", "--id", "{}", "--duration", "${{SIMNET_DURATION:-{}}}", "--seed", "${{SIMNET_SEED:-{}}}", "--loss", "${{SIMNET_LOSS:-0}}", "--out", "/results", "-q"]"#,
+            topo_in_container, id, topo.sim.duration_s, topo.sim.seed
+        )
+    };
+    for (i, n) in topo.nodes.iter().enumerate() {
+        let addr = node_addr(topo, i);
+        let host = addr.rsplit_once(':').map_or(addr.as_str(), |(h, _)| h);
+        y += &format!(
+            "  {host}:
+    <<: *node
+    command: {}
+",
+            common(n.id)
+        );
+    }
+    y += &format!(
+        r#"  collect:
+    image: {image}
+    networks: [simnet]
+    volumes:
+      - results:/results
+    command: ["collect", "/results"]
+    depends_on:
+"#
+    );
+    for i in 0..topo.nodes.len() {
+        let addr = node_addr(topo, i);
+        let host = addr.rsplit_once(':').map_or(addr.as_str(), |(h, _)| h);
+        y += &format!(
+            "      {host}:
+        condition: service_completed_successfully
+"
+        );
+    }
+    y += "
+networks:
+  simnet:
+    driver: bridge
+    internal: true
+
+volumes:
+  results: {}
+";
+    y
 }

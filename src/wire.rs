@@ -75,19 +75,36 @@ impl Header {
             step,
         }
     }
+
+    pub fn hello(src: u32, seq: u32) -> Header {
+        Header {
+            kind: KIND_HELLO,
+            ..Header::new(src, seq, 0)
+        }
+    }
 }
 
 pub const KIND_MEASUREMENT: u8 = 1;
+pub const KIND_HELLO: u8 = 2;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum Payload {
     /// Some rows of one measurement vector: bit i of `rows` set means row i is present; `values` in row order.
     Measurement { rows: u64, values: Vec<f64> },
+    /// Start handshake of separate processes: "I am here", and the step I am running, if any (`header.step` is 0).
+    Hello { running: Option<u64> },
 }
 
 impl Payload {
     pub fn measurement(rows: u64, values: Vec<f64>) -> Payload {
         Payload::Measurement { rows, values }
+    }
+
+    pub fn kind(&self) -> u8 {
+        match self {
+            Payload::Measurement { .. } => KIND_MEASUREMENT,
+            Payload::Hello { .. } => KIND_HELLO,
+        }
     }
 }
 
@@ -144,11 +161,12 @@ impl Datagram {
         if h.flags != 0 {
             return Err(WireError::Flags(h.flags));
         }
+        if h.kind != self.payload.kind() {
+            return Err(WireError::Invalid("kind does not match the payload"));
+        }
         match &self.payload {
+            Payload::Hello { .. } => {}
             Payload::Measurement { rows, values } => {
-                if h.kind != KIND_MEASUREMENT {
-                    return Err(WireError::Invalid("kind does not match the payload"));
-                }
                 if *rows == 0 {
                     return Err(WireError::Invalid("measurement with no rows"));
                 }
@@ -209,6 +227,20 @@ mod tests {
         let crc = crc32fast::hash(&body);
         body.extend_from_slice(&crc.to_le_bytes());
         assert_eq!(Datagram::decode(&body), Err(WireError::Magic(1)));
+    }
+
+    #[test]
+    fn hello_round_trips_and_kind_must_match() {
+        let h = Datagram {
+            header: Header::hello(4, 1),
+            payload: Payload::Hello { running: Some(77) },
+        };
+        assert_eq!(Datagram::decode(&h.encode().unwrap()).unwrap(), h);
+        let bad = Datagram {
+            header: Header::new(4, 1, 0),
+            payload: Payload::Hello { running: None },
+        };
+        assert!(bad.encode().is_err());
     }
 
     #[test]

@@ -123,7 +123,7 @@ pub enum Verdict {
 }
 
 /// What the sender side of a link saw.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LinkCounters {
     pub sent: u64,
     pub lost_random: u64,

@@ -118,7 +118,7 @@ pub struct StepEstimate {
 }
 
 /// Datagram counters not tied to a link.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct NodeCounters {
     pub datagrams_in: u64,
     /// Undecodable datagrams other than checksum failures (garbage, wrong magic, unknown source, …).
@@ -129,6 +129,9 @@ pub struct NodeCounters {
     pub early: u64,
     pub restarts: u64,
     pub steps_down: u64,
+    /// The first step this node ran (0 unless it joined a running network late).
+    pub first_step: u64,
+    pub steps_run: u64,
 }
 
 /// Everything a node reports at the end of a run.
@@ -186,6 +189,14 @@ pub struct Node {
     m_net: FilterMetrics,
     m_ind: FilterMetrics,
     trace: Option<Vec<TraceRow>>,
+    started: bool,
+    /// Neighbours (either direction), and which of them this node has heard from.
+    neighbours: Vec<usize>,
+    heard: Vec<bool>,
+    /// The highest step a neighbour reported (in a measurement or a hello).
+    max_peer_step: Option<u64>,
+    /// Sources whose measurements this node expects each step.
+    in_sources: Vec<usize>,
 }
 
 /// Most early measurements a node holds (bounded buffers).
@@ -294,6 +305,32 @@ impl Node {
             m_net: FilterMetrics::default(),
             m_ind: FilterMetrics::default(),
             trace: record_trace.then(Vec::new),
+            started: false,
+            neighbours: {
+                let mut v: Vec<usize> = topo
+                    .links
+                    .iter()
+                    .filter_map(|l| {
+                        if l.from == index {
+                            Some(l.to)
+                        } else if l.to == index {
+                            Some(l.from)
+                        } else {
+                            None
+                        }
+                    })
+                    .collect();
+                v.sort_unstable();
+                v.dedup();
+                v
+            },
+            heard: vec![false; n],
+            max_peer_step: None,
+            in_sources: topo
+                .in_links(index)
+                .map(|l| l.from)
+                .filter(|&j| topo.nodes[j].role.senses())
+                .collect(),
             topo,
         };
         node.initial = node.initial_estimate(0);
@@ -355,11 +392,19 @@ impl Node {
             self.inbox.clear();
             return;
         }
-        let restarted = k > 0 && (!was_up || self.topo.faults.restarts_between(self.index, t - dt, t));
+        let joining = !self.started && k > 0;
+        if !self.started {
+            self.started = true;
+            self.counters.first_step = k;
+        }
+        self.counters.steps_run += 1;
+        let restarted = joining || (k > 0 && (!was_up || self.topo.faults.restarts_between(self.index, t - dt, t)));
         if restarted {
-            // Restart: state is lost, the filters start again from a fresh prior.
-            self.counters.restarts += 1;
-            let g = self.initial_estimate(self.counters.restarts);
+            // Restart, or a late join: no state, the filters start from a fresh prior at the current truth.
+            if !joining {
+                self.counters.restarts += 1;
+            }
+            let g = self.initial_estimate(self.counters.restarts + k);
             if let Some(f) = &mut self.filters {
                 f.networked = g.clone();
                 f.independent = g;
@@ -520,7 +565,17 @@ impl Node {
             self.rx[src].while_down += 1;
             return;
         }
-        let Payload::Measurement { rows, values } = dg.payload;
+        self.heard[src] = true;
+        let peer_step = match &dg.payload {
+            Payload::Hello { running } => *running,
+            Payload::Measurement { .. } => Some(dg.header.step),
+        };
+        if let Some(p) = peer_step {
+            self.max_peer_step = Some(self.max_peer_step.map_or(p, |m| m.max(p)));
+        }
+        let Payload::Measurement { rows, values } = dg.payload else {
+            return;
+        };
         let m = self.obs.dim();
         if m < 64 && rows >> m != 0 {
             self.counters.malformed += 1;
@@ -557,6 +612,11 @@ impl Node {
         }
         self.open = None;
         let inbox = std::mem::take(&mut self.inbox);
+        for &j in &self.in_sources {
+            if !inbox.contains_key(&j) {
+                self.rx[j].missing_steps += 1;
+            }
+        }
         let filters = self.filters.as_mut()?;
         let topo = &self.topo;
         let c = &topo.consensus;
@@ -680,6 +740,41 @@ impl Node {
             networked: filters.networked.clone(),
             diverged: self.m_net.diverged,
         })
+    }
+
+    /// Neighbours in either direction (node indices).
+    pub fn neighbours(&self) -> &[usize] {
+        &self.neighbours
+    }
+
+    /// Whether every neighbour has been heard from (a hello or a measurement).
+    pub fn heard_all(&self) -> bool {
+        self.neighbours.iter().all(|&j| self.heard[j])
+    }
+
+    /// The highest step any neighbour has reported.
+    pub fn max_peer_step(&self) -> Option<u64> {
+        self.max_peer_step
+    }
+
+    /// Hello datagrams for every neighbour (control traffic of the start handshake: not subject to the link layer).
+    pub fn hello(&mut self, running: Option<u64>) -> Vec<Transmit> {
+        let dg = Datagram {
+            header: Header::hello(self.id, self.seq),
+            payload: Payload::Hello { running },
+        };
+        self.seq = self.seq.wrapping_add(1);
+        match dg.encode() {
+            Ok(bytes) => self
+                .neighbours
+                .iter()
+                .map(|&to| Transmit {
+                    to,
+                    bytes: bytes.clone(),
+                })
+                .collect(),
+            Err(_) => Vec::new(),
+        }
     }
 
     pub fn report(&mut self) -> NodeReport {

@@ -1,6 +1,6 @@
 //! Running statistics of one filter, and the per-link figures, as written to `summary.json` (DESIGN §7).
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Accumulates a filter's figures step by step; means exclude the burn-in.
 #[derive(Debug, Clone, Default)]
@@ -79,7 +79,7 @@ fn finite(v: f64) -> Option<f64> {
 }
 
 /// Non-finite numbers become `null`.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct FilterSummary {
     pub mean_error: Option<f64>,
     pub rms_error: Option<f64>,
@@ -89,12 +89,12 @@ pub struct FilterSummary {
     pub max_trace_p_post: Option<f64>,
     pub nees_mean: Option<f64>,
     pub diverged: bool,
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(skip_serializing_if = "Option::is_none", default)]
     pub lmi_feasible_fraction: Option<f64>,
 }
 
 /// What the receiving end of a link saw, per source.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct RxCounters {
     /// Datagrams accepted in time (duplicates excluded).
     pub delivered: u64,
@@ -104,4 +104,6 @@ pub struct RxCounters {
     pub corrupted: u64,
     /// Datagrams that arrived while this node was down.
     pub while_down: u64,
+    /// Steps this node closed without any measurement from this source (loss as the receiver sees it).
+    pub missing_steps: u64,
 }

@@ -2,5 +2,6 @@
 
 pub mod metrics;
 pub mod observer;
+pub mod parts;
 pub mod plot;
 pub mod summary;

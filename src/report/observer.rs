@@ -4,7 +4,7 @@
 //! reconstruction: a causal median would trail a moving package by half its window.
 
 use nalgebra::DVector;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::estimate::fusion::{cascade, centred_median, Omega};
 use crate::estimate::Gaussian;
@@ -26,7 +26,7 @@ pub struct FusedRow {
     pub median_error: f64,
 }
 
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct FusedSummary {
     /// Nodes fused per step (estimating, not diverged).
     pub nodes: usize,
@@ -38,6 +38,15 @@ pub struct FusedSummary {
     /// Cascade with the trace-minimising ω at every stage.
     pub optimal_mean_error: Option<f64>,
     pub optimal_mean_trace_p: Option<f64>,
+}
+
+/// Which state rows are angles, which rows the fused error is taken over (position for pose, all for linear), and
+/// whether the median smoother applies (pose only).
+pub fn fusion_layout(topo: &crate::topology::Topology) -> (Vec<bool>, Vec<usize>, bool) {
+    match &topo.model {
+        crate::topology::ModelConfig::Pose(_) => ((0..9).map(|i| i >= 6).collect(), vec![0, 1, 2], true),
+        crate::topology::ModelConfig::Linear(m) => (vec![false; m.A.nrows()], (0..m.A.nrows()).collect(), false),
+    }
 }
 
 pub struct Observer {

@@ -2,7 +2,7 @@
 
 use std::io::{self, Write};
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::metrics::{FilterSummary, RxCounters};
 use super::observer::FusedSummary;
@@ -10,10 +10,10 @@ use crate::link::LinkCounters;
 use crate::node::{NodeReport, TraceRow};
 use crate::topology::Topology;
 
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct NodeSummary {
     pub id: u32,
-    pub role: &'static str,
+    pub role: String,
     pub networked: Option<FilterSummary>,
     pub independent: Option<FilterSummary>,
     /// networked mean error / independent mean error.
@@ -24,7 +24,7 @@ pub struct NodeSummary {
     pub steps_down: u64,
 }
 
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct LinkSummary {
     pub from: u32,
     pub to: u32,
@@ -69,13 +69,13 @@ impl LinkSummary {
     }
 }
 
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Summary {
     pub topology: String,
     pub source: String,
-    pub model: &'static str,
+    pub model: String,
     pub seed: u64,
-    pub clock: &'static str,
+    pub clock: String,
     pub rate_hz: f64,
     pub steps: u64,
     pub burn_in_steps: u64,
@@ -85,6 +85,9 @@ pub struct Summary {
     pub nodes: Vec<NodeSummary>,
     pub links: Vec<LinkSummary>,
     pub fused: Option<FusedSummary>,
+    /// Set in the part a `simnet node` writes; absent from whole-run summaries.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub part: Option<super::parts::PartInfo>,
 }
 
 impl Summary {
@@ -115,7 +118,7 @@ impl Summary {
                 };
                 NodeSummary {
                     id: r.id,
-                    role: r.role.as_str(),
+                    role: r.role.as_str().to_string(),
                     networked,
                     independent,
                     error_ratio,
@@ -140,9 +143,9 @@ impl Summary {
         Summary {
             topology: topo.name.clone(),
             source: topo.source.clone(),
-            model: topo.model.kind(),
+            model: topo.model.kind().to_string(),
             seed: topo.sim.seed,
-            clock,
+            clock: clock.to_string(),
             rate_hz: topo.sim.rate_hz,
             steps,
             burn_in_steps: topo.sim.burn_in_steps(),
@@ -152,6 +155,7 @@ impl Summary {
             nodes,
             links,
             fused,
+            part: None,
         }
     }
 

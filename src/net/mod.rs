@@ -19,8 +19,10 @@ use tokio::time::Instant;
 
 use crate::node::{Node, NodeReport, StepEstimate};
 use crate::report::observer::Observer;
-use crate::topology::{ModelConfig, Topology};
+use crate::topology::Topology;
 use crate::wire::MAX_DATAGRAM;
+
+pub mod host;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Clock {
@@ -83,12 +85,8 @@ pub struct RunOutput {
 }
 
 fn observer_for(topo: &Topology, record: bool) -> Observer {
-    let (angles, rows) = match &topo.model {
-        ModelConfig::Pose(_) => ((0..9).map(|i| i >= 6).collect(), vec![0, 1, 2]),
-        ModelConfig::Linear(m) => (vec![false; m.A.nrows()], (0..m.A.nrows()).collect()),
-    };
-    let pose = matches!(topo.model, ModelConfig::Pose(_));
-    Observer::new(topo.sim.burn_in_steps(), angles, rows, record, pose)
+    let (angles, rows, median) = crate::report::observer::fusion_layout(topo);
+    Observer::new(topo.sim.burn_in_steps(), angles, rows, record, median)
 }
 
 /// Run a whole topology in this process. `shutdown` ends the run early (the results so far are kept).
@@ -141,7 +139,7 @@ enum Reply {
 }
 
 /// Receive one datagram; the sender's node index if its address is one of ours.
-async fn recv(
+pub(crate) async fn recv(
     socket: &UdpSocket,
     buf: &mut [u8],
     index_of: &HashMap<SocketAddr, usize>,

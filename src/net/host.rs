@@ -1,0 +1,292 @@
+//! One node per process (`simnet node`): the node binds its own address, finds its neighbours by name, and paces
+//! itself by its own monotonic clock. No clock is shared between hosts: steps follow the step numbers carried by the
+//! datagrams.
+//!
+//! - **Handshake.** The node sends a hello to every neighbour every 100 ms. If a neighbour reports a running step,
+//!   the network is already up and the node joins at the step after the highest it has seen, with fresh filters.
+//!   Otherwise it starts step 0 once it has heard from every neighbour, after a short grace so that they hear it
+//!   too; after `handshake_timeout` it starts alone.
+//! - **Catch-up.** Whenever a neighbour is ahead, the node runs the missing steps at once (prediction only; their
+//!   datagrams would all be late) and continues from the neighbour's step.
+//! - **Phase lock.** Each arrival of a step-j measurement is compared with the local start of step j; the local
+//!   schedule moves by a fifth of the mean offset, so that neighbours' step boundaries converge.
+
+use std::collections::HashMap;
+use std::future::Future;
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::time::Duration;
+
+use tokio::net::UdpSocket;
+use tokio::sync::watch;
+use tokio::time::Instant;
+
+use super::{NetError, Progress};
+use crate::node::{Node, NodeReport, StepEstimate};
+use crate::topology::Topology;
+use crate::wire::{Datagram, Payload, MAX_DATAGRAM};
+
+pub struct HostConfig {
+    pub bind: SocketAddr,
+    /// "host:port" of each neighbour, by node index.
+    pub peers: HashMap<usize, String>,
+    pub handshake_timeout: Duration,
+    pub record_trace: bool,
+    pub progress: Option<Progress>,
+}
+
+pub struct HostOutput {
+    pub report: NodeReport,
+    /// The networked estimate of every step run (kept when recording, for fusion by `simnet collect`).
+    pub estimates: Vec<StepEstimate>,
+    pub steps_done: u64,
+    pub interrupted: bool,
+    pub wall_s: f64,
+}
+
+const HELLO_PERIOD: Duration = Duration::from_millis(100);
+const GRACE: Duration = Duration::from_millis(300);
+/// Fraction of the measured phase offset corrected per step.
+const PHASE_GAIN: f64 = 0.2;
+
+/// Neighbour addresses: resolved by name (retried, since containers come up in any order) and updated from the
+/// source address of valid datagrams (a restarted container may come back with another address).
+struct Peers {
+    names: HashMap<usize, String>,
+    addrs: HashMap<usize, SocketAddr>,
+    last_lookup: Option<Instant>,
+}
+
+impl Peers {
+    async fn resolve(&mut self) {
+        if self
+            .last_lookup
+            .is_some_and(|t| t.elapsed() < Duration::from_millis(500))
+        {
+            return;
+        }
+        self.last_lookup = Some(Instant::now());
+        for (j, name) in &self.names {
+            if self.addrs.contains_key(j) {
+                continue;
+            }
+            match tokio::net::lookup_host(name.as_str()).await {
+                Ok(mut it) => {
+                    if let Some(a) = it.find(|a| a.is_ipv4()) {
+                        tracing::info!(peer = j, %a, "resolved {name}");
+                        self.addrs.insert(*j, a);
+                    }
+                }
+                Err(e) => tracing::debug!(peer = j, "cannot resolve {name} yet: {e}"),
+            }
+        }
+    }
+
+    fn index_of(&self, a: &SocketAddr) -> Option<usize> {
+        self.addrs.iter().find(|(_, x)| *x == a).map(|(j, _)| *j)
+    }
+
+    async fn send(&self, socket: &UdpSocket, to: usize, bytes: &[u8]) {
+        if let Some(a) = self.addrs.get(&to) {
+            if let Err(e) = socket.send_to(bytes, a).await {
+                tracing::debug!(peer = to, "send_to {a} failed: {e}");
+            }
+        }
+    }
+}
+
+/// Receive one datagram, learn the sender's address from a valid header, and hand it to the node.
+fn deliver(node: &mut Node, peers: &mut Peers, topo: &Topology, from: SocketAddr, bytes: &[u8]) -> Option<(u64, bool)> {
+    let mut index = peers.index_of(&from);
+    let mut measurement = None;
+    if let Ok(d) = Datagram::decode(bytes) {
+        if let Some(j) = topo.index_of(d.header.src) {
+            if index != Some(j) && peers.names.contains_key(&j) {
+                tracing::info!(peer = j, %from, "peer address learnt from its datagram");
+                peers.addrs.insert(j, from);
+                index = Some(j);
+            }
+            measurement = Some((d.header.step, matches!(d.payload, Payload::Measurement { .. })));
+        }
+    }
+    node.handle_datagram(index, bytes);
+    measurement
+}
+
+/// Run node `index` of `topo` as its own process until the configured duration or `shutdown`.
+pub async fn run_node(
+    topo: Arc<Topology>,
+    index: usize,
+    cfg: HostConfig,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> Result<HostOutput, NetError> {
+    let socket = UdpSocket::bind(cfg.bind).await.map_err(NetError::Bind)?;
+    tracing::info!(node = topo.nodes[index].id, bind = %cfg.bind, "listening");
+    let (stop_tx, mut stop) = watch::channel(false);
+    tokio::spawn(async move {
+        shutdown.await;
+        let _ = stop_tx.send(true);
+    });
+    let started = std::time::Instant::now();
+    let mut node = Node::new(topo.clone(), index, cfg.record_trace);
+    let mut peers = Peers {
+        names: cfg.peers.clone(),
+        addrs: HashMap::new(),
+        last_lookup: None,
+    };
+    let mut buf = vec![0u8; MAX_DATAGRAM + 1];
+    let steps = topo.sim.steps();
+    let dt = Duration::from_secs_f64(topo.sim.dt());
+    let deadline = Duration::from_secs_f64(topo.sim.deadline_s);
+
+    // Handshake.
+    let t_start = Instant::now();
+    let mut heard_all_at: Option<Instant> = None;
+    let mut next_hello = Instant::now();
+    let first_step = loop {
+        if *stop.borrow() {
+            return Ok(finish(node, Vec::new(), 0, true, started));
+        }
+        if let Some(k) = node.max_peer_step() {
+            tracing::info!(step = k + 1, "network already running: joining");
+            break k + 1;
+        }
+        if node.heard_all() && heard_all_at.is_none() {
+            heard_all_at = Some(Instant::now());
+        }
+        if heard_all_at.is_some_and(|t| t.elapsed() >= GRACE) {
+            break 0;
+        }
+        if t_start.elapsed() >= cfg.handshake_timeout {
+            tracing::warn!(
+                "handshake timed out after {:?}: starting without every neighbour",
+                cfg.handshake_timeout
+            );
+            break 0;
+        }
+        if Instant::now() >= next_hello {
+            peers.resolve().await;
+            for tx in node.hello(None) {
+                peers.send(&socket, tx.to, &tx.bytes).await;
+            }
+            next_hello = Instant::now() + HELLO_PERIOD;
+        }
+        tokio::select! {
+            r = socket.recv_from(&mut buf) => if let Ok((len, from)) = r {
+                deliver(&mut node, &mut peers, &topo, from, &buf[..len]);
+            },
+            _ = tokio::time::sleep_until(next_hello.min(t_start + cfg.handshake_timeout)) => {}
+            _ = stop.changed() => {}
+        }
+    };
+
+    // Running: step k starts at base + k·Δt on this host's clock.
+    let mut k = first_step.min(steps);
+    let mut base = Instant::now().checked_sub(dt * k as u32).unwrap_or_else(Instant::now);
+    let mut estimates = Vec::new();
+    let mut done = 0;
+    let mut next_hello = Instant::now();
+    let mut interrupted = false;
+    while k < steps {
+        // A neighbour is ahead: run the steps in between at once and continue from its step.
+        if let Some(ahead) = node.max_peer_step().filter(|&m| m > k) {
+            let target = ahead.min(steps);
+            tracing::info!(from = k, to = target, "catching up with a neighbour");
+            while k < target {
+                node.handle_step(k);
+                while node.poll_transmit(f64::INFINITY).is_some() {}
+                node.handle_deadline(k);
+                k += 1;
+            }
+            base = Instant::now().checked_sub(dt * k as u32).unwrap_or(base);
+            if k >= steps {
+                break;
+            }
+        }
+        let start = base + dt * k as u32;
+        tokio::select! {
+            _ = tokio::time::sleep_until(start) => {}
+            _ = stop.changed() => { interrupted = true; break; }
+        }
+        node.handle_step(k);
+        let close = start + deadline;
+        let mut offsets: Vec<f64> = Vec::new();
+        loop {
+            let now = Instant::now();
+            let sim_now = (now - base).as_secs_f64();
+            while let Some(tx) = node.poll_transmit(sim_now) {
+                peers.send(&socket, tx.to, &tx.bytes).await;
+            }
+            if now >= next_hello {
+                peers.resolve().await;
+                for tx in node.hello(Some(k)) {
+                    peers.send(&socket, tx.to, &tx.bytes).await;
+                }
+                next_hello = now + Duration::from_millis(500);
+            }
+            if now >= close {
+                break;
+            }
+            let wake = node
+                .poll_timeout()
+                .map(|t| base + Duration::from_secs_f64(t.max(0.0)))
+                .unwrap_or(close)
+                .min(close);
+            tokio::select! {
+                r = socket.recv_from(&mut buf) => if let Ok((len, from)) = r {
+                    let arrived = Instant::now();
+                    if let Some((step, true)) = deliver(&mut node, &mut peers, &topo, from, &buf[..len]) {
+                        // Where the sender's step `step` began, seen from here (transit included).
+                        let local = base + dt * step as u32;
+                        let off = if arrived >= local { (arrived - local).as_secs_f64() } else { -(local - arrived).as_secs_f64() };
+                        if off.abs() < dt.as_secs_f64() {
+                            offsets.push(off);
+                        }
+                    }
+                },
+                _ = tokio::time::sleep_until(wake) => {}
+                _ = stop.changed() => { interrupted = true; break; }
+            }
+        }
+        if let Some(e) = node.handle_deadline(k) {
+            if cfg.record_trace {
+                estimates.push(e);
+            }
+        }
+        if !offsets.is_empty() {
+            let mean = offsets.iter().sum::<f64>() / offsets.len() as f64;
+            // Negative: the neighbours' step began before ours; move our schedule earlier (and vice versa).
+            let shift = Duration::from_secs_f64((PHASE_GAIN * mean.abs()).min(dt.as_secs_f64() / 4.0));
+            base = if mean < 0.0 {
+                base.checked_sub(shift).unwrap_or(base)
+            } else {
+                base + shift
+            };
+        }
+        k += 1;
+        done = k;
+        if let Some(p) = &cfg.progress {
+            p(k, steps);
+        }
+        if interrupted {
+            break;
+        }
+    }
+    Ok(finish(node, estimates, done, interrupted, started))
+}
+
+fn finish(
+    mut node: Node,
+    estimates: Vec<StepEstimate>,
+    done: u64,
+    interrupted: bool,
+    started: std::time::Instant,
+) -> HostOutput {
+    HostOutput {
+        report: node.report(),
+        estimates,
+        steps_done: done,
+        interrupted,
+        wall_s: started.elapsed().as_secs_f64(),
+    }
+}

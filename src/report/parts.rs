@@ -1,0 +1,227 @@
+//! Multi-host results: each `simnet node` writes its part (a `summary.json` of one node plus the raw counters of its
+//! links), its trace and its estimates; `simnet collect` merges the parts into one summary, joins each link's sender
+//! and receiver counters, and fuses the estimates step by step.
+
+use std::collections::BTreeMap;
+use std::io::{self, BufRead, Write};
+
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+use super::metrics::RxCounters;
+use super::observer::Observer;
+use super::summary::{LinkSummary, Summary};
+use crate::estimate::Gaussian;
+use crate::link::LinkCounters;
+use crate::node::{StepEstimate, TraceRow};
+
+/// What a part adds to the summary schema.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct PartInfo {
+    pub node: u32,
+    pub first_step: u64,
+    pub steps_done: u64,
+    /// Sender-side counters of each outgoing link, by destination id.
+    pub links_out: Vec<(u32, LinkCounters)>,
+    /// Receiver-side counters, by source id.
+    pub rx: Vec<(u32, RxCounters)>,
+    /// For fusion: which state rows are angles, which rows the error is taken over, whether to median-filter.
+    pub angle_states: Vec<bool>,
+    pub error_rows: Vec<usize>,
+    pub median: bool,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum PartError {
+    #[error("{file}: {message}")]
+    Bad { file: String, message: String },
+    #[error("no node-*.json part found in {0}")]
+    Empty(String),
+    #[error("parts disagree: {0}")]
+    Mismatch(String),
+}
+
+/// `estimates-<id>.csv`: step, frame, truth, x and P (row-major) of the networked filter.
+pub fn write_estimates(w: &mut impl Write, estimates: &[StepEstimate]) -> io::Result<()> {
+    writeln!(w, "# step,frame,n,truth[n],x[n],P[n*n]")?;
+    for e in estimates {
+        let n = e.networked.x.len();
+        write!(w, "{},{},{}", e.step, e.frame, n)?;
+        for v in e.truth.iter().chain(e.networked.x.iter()).chain(e.networked.P.iter()) {
+            write!(w, ",{v:e}")?;
+        }
+        writeln!(w)?;
+    }
+    Ok(())
+}
+
+pub fn read_estimates(r: impl BufRead, node: usize, file: &str) -> Result<Vec<StepEstimate>, PartError> {
+    let bad = |line: usize, m: &str| PartError::Bad {
+        file: file.to_string(),
+        message: format!("line {line}: {m}"),
+    };
+    let mut out = Vec::new();
+    for (i, line) in r.lines().enumerate() {
+        let line = line.map_err(|e| bad(i + 1, &e.to_string()))?;
+        if line.starts_with('#') || line.is_empty() {
+            continue;
+        }
+        let f: Vec<&str> = line.split(',').collect();
+        let num = |s: &str| {
+            s.parse::<f64>()
+                .map_err(|_| bad(i + 1, &format!("`{s}` is not a number")))
+        };
+        let int = |s: &str| {
+            s.parse::<u64>()
+                .map_err(|_| bad(i + 1, &format!("`{s}` is not an integer")))
+        };
+        if f.len() < 3 {
+            return Err(bad(i + 1, "too few fields"));
+        }
+        let n = int(f[2])? as usize;
+        if f.len() != 3 + 2 * n + n * n {
+            return Err(bad(
+                i + 1,
+                &format!("expected {} fields for n = {n}", 3 + 2 * n + n * n),
+            ));
+        }
+        let v: Vec<f64> = f[3..].iter().map(|s| num(s)).collect::<Result<_, _>>()?;
+        out.push(StepEstimate {
+            node,
+            step: int(f[0])?,
+            frame: int(f[1])?,
+            truth: DVector::from_column_slice(&v[..n]),
+            networked: Gaussian {
+                x: DVector::from_column_slice(&v[n..2 * n]),
+                P: DMatrix::from_column_slice(n, n, &v[2 * n..]),
+            },
+            diverged: false,
+        });
+    }
+    Ok(out)
+}
+
+/// Parse a `trace.csv` back (for the plots of `simnet collect`).
+pub fn read_trace(r: impl BufRead, file: &str) -> Result<Vec<TraceRow>, PartError> {
+    let bad = |line: usize, m: String| PartError::Bad {
+        file: file.to_string(),
+        message: format!("line {line}: {m}"),
+    };
+    let mut lines = r.lines();
+    let header = match lines.next() {
+        Some(h) => h.map_err(|e| bad(1, e.to_string()))?,
+        None => return Ok(Vec::new()),
+    };
+    let cols = header.split(',').filter(|c| c.starts_with("true_")).count();
+    let mut out = Vec::new();
+    for (i, line) in lines.enumerate() {
+        let line = line.map_err(|e| bad(i + 2, e.to_string()))?;
+        let f: Vec<&str> = line.split(',').collect();
+        if f.len() != 4 + 2 * cols + 5 {
+            return Err(bad(
+                i + 2,
+                format!("expected {} fields, got {}", 4 + 2 * cols + 5, f.len()),
+            ));
+        }
+        let num = |s: &str| -> Result<f64, PartError> {
+            if s.is_empty() {
+                Ok(f64::NAN)
+            } else {
+                s.parse().map_err(|_| bad(i + 2, format!("`{s}` is not a number")))
+            }
+        };
+        let vals = |a: usize, b: usize| -> Result<Vec<f64>, PartError> { f[a..b].iter().map(|s| num(s)).collect() };
+        let tail = 4 + 2 * cols;
+        out.push(TraceRow {
+            step: f[0].parse().map_err(|_| bad(i + 2, "bad step".into()))?,
+            t: num(f[1])?,
+            node: f[2].parse().map_err(|_| bad(i + 2, "bad node".into()))?,
+            networked: f[3] == "networked",
+            truth: vals(4, 4 + cols)?,
+            est: vals(4 + cols, tail)?,
+            trace_p_prior: num(f[tail])?,
+            trace_p_post: num(f[tail + 1])?,
+            received: f[tail + 2]
+                .split(';')
+                .filter(|s| !s.is_empty())
+                .filter_map(|s| s.parse().ok())
+                .collect(),
+            feasible: f[tail + 3] == "true",
+            nees: num(f[tail + 4])?,
+        });
+    }
+    Ok(out)
+}
+
+/// Merge node parts into one summary; `estimates` (by node id) are fused step by step when given.
+pub fn merge(
+    parts: &[Summary],
+    estimates: &BTreeMap<u32, Vec<StepEstimate>>,
+) -> Result<(Summary, Observer), PartError> {
+    let first = parts
+        .first()
+        .ok_or_else(|| PartError::Empty("the given directories".into()))?;
+    let info = |s: &Summary| -> Result<PartInfo, PartError> {
+        s.part
+            .clone()
+            .ok_or_else(|| PartError::Mismatch(format!("{} is a whole-run summary, not a node part", s.topology)))
+    };
+    for p in parts {
+        if p.topology != first.topology || p.seed != first.seed || p.rate_hz != first.rate_hz {
+            return Err(PartError::Mismatch(format!(
+                "`{}` seed {} at {} Hz vs `{}` seed {} at {} Hz",
+                p.topology, p.seed, p.rate_hz, first.topology, first.seed, first.rate_hz
+            )));
+        }
+    }
+    let infos: Vec<PartInfo> = parts.iter().map(info).collect::<Result<_, _>>()?;
+    let mut nodes: Vec<_> = parts.iter().flat_map(|p| p.nodes.clone()).collect();
+    nodes.sort_by_key(|n| n.id);
+    let mut links = Vec::new();
+    for i in &infos {
+        for (to, tx) in &i.links_out {
+            let rx = infos
+                .iter()
+                .find(|q| q.node == *to)
+                .and_then(|q| q.rx.iter().find(|(from, _)| *from == i.node).map(|(_, c)| *c))
+                .unwrap_or_default();
+            links.push(LinkSummary::join(i.node, *to, tx, &rx));
+        }
+    }
+    links.sort_by_key(|l| (l.from, l.to));
+    let fi = &infos[0];
+    let mut observer = Observer::new(
+        first.burn_in_steps,
+        fi.angle_states.clone(),
+        fi.error_rows.clone(),
+        true,
+        fi.median,
+    );
+    let mut by_step: BTreeMap<u64, Vec<StepEstimate>> = BTreeMap::new();
+    for es in estimates.values() {
+        for e in es {
+            by_step.entry(e.step).or_default().push(e.clone());
+        }
+    }
+    for (_, es) in by_step {
+        observer.push(es);
+    }
+    let merged = Summary {
+        topology: first.topology.clone(),
+        source: first.source.clone(),
+        model: first.model.clone(),
+        seed: first.seed,
+        clock: "multi-host".into(),
+        rate_hz: first.rate_hz,
+        steps: infos.iter().map(|i| i.steps_done).max().unwrap_or(0),
+        burn_in_steps: first.burn_in_steps,
+        interrupted: parts.iter().any(|p| p.interrupted),
+        wall_s: parts.iter().map(|p| p.wall_s).fold(0.0, f64::max),
+        socket_losses: 0,
+        nodes,
+        links,
+        fused: observer.summary(),
+        part: None,
+    };
+    Ok((merged, observer))
+}
