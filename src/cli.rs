@@ -50,6 +50,41 @@ pub enum Command {
     Collect(CollectArgs),
     /// Print a docker compose file that runs a topology with one container per node.
     Compose(ComposeArgs),
+    /// Covariance bounds of a linear model under intermittent observations (Sinopoli et al.): λ_min, λ̄, S̄, V̄.
+    Bounds(BoundsArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct BoundsArgs {
+    /// A topology with a linear model (its A, C, Q, R; --measure runs it).
+    #[arg(long, short = 't')]
+    pub topology: Option<String>,
+    /// A as a TOML array, e.g. '[[-1.25]]' (instead of a topology).
+    #[arg(long, allow_hyphen_values = true)]
+    pub a: Option<String>,
+    #[arg(long)]
+    pub c: Option<String>,
+    #[arg(long)]
+    pub q: Option<String>,
+    #[arg(long)]
+    pub r: Option<String>,
+    /// Arrival rate λ at which to give S̄ and V̄ (default: 1 − the topology's link loss, or 0.5).
+    #[arg(long, value_parser = probability)]
+    pub lambda: Option<f64>,
+    /// Also run the topology at that arrival rate and print the measured mean trace P_{k|k−1}.
+    #[arg(long)]
+    pub measure: bool,
+    /// Bounds (and measurements, with --measure) over a grid of arrival rates, with a plot.
+    #[arg(long)]
+    pub sweep: bool,
+    /// Where --sweep writes bounds.csv and bounds.svg.
+    #[arg(long, default_value = "out/bounds")]
+    pub out: PathBuf,
+    /// Simulated duration of each --measure run, s.
+    #[arg(long, value_parser = positive)]
+    pub duration: Option<f64>,
+    #[arg(long)]
+    pub seed: Option<u64>,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -281,6 +316,7 @@ pub fn main() -> ExitCode {
         Some(Command::Node(args)) => run_node(&args, cli.quiet),
         Some(Command::Collect(args)) => collect(&args),
         Some(Command::Compose(args)) => compose(&args),
+        Some(Command::Bounds(args)) => bounds(&args),
         None if cli.run.topology.is_some() => run(&cli.run, cli.quiet),
         None => {
             use clap::CommandFactory;
@@ -361,25 +397,9 @@ fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     if let Some(pb) = progress {
         pb.finish_and_clear();
     }
-    let clock = if args.realtime { Clock::Realtime } else { Clock::Virtual };
-    let s = summary::Summary::build(
-        &topo,
-        clock.as_str(),
-        &out.reports,
-        out.observer.summary(),
-        out.steps_done,
-        out.interrupted,
-        out.wall_s,
-        out.socket_losses,
-    );
+    let s = out.summary(&topo, if args.realtime { Clock::Realtime } else { Clock::Virtual });
     // Print first: whatever happens to the files, the result is not lost.
-    let mut stdout = std::io::stdout().lock();
-    if args.json {
-        writeln!(stdout, "{}", s.to_json())?;
-    } else {
-        s.write_table(&mut stdout)?;
-    }
-    drop(stdout);
+    print_summary(&s, args.json, None)?;
     if let Some(dir) = &args.out {
         let mut rows = Vec::new();
         for r in &mut out.reports {
@@ -396,6 +416,17 @@ fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// summary.json or the table (with an optional note under it) on stdout.
+fn print_summary(s: &summary::Summary, json: bool, note: Option<&str>) -> std::io::Result<()> {
+    let mut stdout = std::io::stdout().lock();
+    if json {
+        writeln!(stdout, "{}", s.to_json())
+    } else {
+        s.write_table(&mut stdout)?;
+        note.map_or(Ok(()), |n| writeln!(stdout, "{n}"))
+    }
 }
 
 fn progress_bar(steps: u64) -> indicatif::ProgressBar {
@@ -558,17 +589,11 @@ fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     });
     // One end of a link cannot tell its loss: the per-link figures come from `simnet collect`.
     s.links.clear();
-    let mut stdout = std::io::stdout().lock();
-    if args.run.json {
-        writeln!(stdout, "{}", s.to_json())?;
-    } else {
-        s.write_table(&mut stdout)?;
-        writeln!(
-            stdout,
-            "(per-link figures: `simnet collect` on the parts of every node)"
-        )?;
-    }
-    drop(stdout);
+    print_summary(
+        &s,
+        args.run.json,
+        Some("(per-link figures: `simnet collect` on the parts of every node)"),
+    )?;
     if let Some(dir) = &args.run.out {
         use anyhow::Context;
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
@@ -656,13 +681,7 @@ fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
         return Err(UsageError::Option(PartError::Empty(dirs.join(", ")).to_string()).into());
     }
     let (s, observer) = merge(&parts, &estimates).map_err(|e| UsageError::Option(e.to_string()))?;
-    let mut stdout = std::io::stdout().lock();
-    if args.json {
-        writeln!(stdout, "{}", s.to_json())?;
-    } else {
-        s.write_table(&mut stdout)?;
-    }
-    drop(stdout);
+    print_summary(&s, args.json, None)?;
     let dir = args.out.clone().unwrap_or_else(|| args.dirs[0].clone());
     rows.sort_by_key(|r| (r.step, r.node, !r.networked));
     let fused = observer.plot_rows();
@@ -688,7 +707,7 @@ fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn compose(args: &ComposeArgs) -> anyhow::Result<ExitCode> {
-    let topo = Topology::resolve(&args.topology)?;
+    let topo = Topology::resolve(&args.topology).map_err(UsageError::from)?;
     print!("{}", compose_file(&topo, &args.topology, &args.image));
     Ok(ExitCode::SUCCESS)
 }
@@ -776,4 +795,216 @@ volumes:
   results: {}
 ";
     y
+}
+
+fn matrix_arg(name: &str, text: &str) -> Result<nalgebra::DMatrix<f64>, UsageError> {
+    #[derive(serde::Deserialize)]
+    struct M {
+        m: Vec<Vec<f64>>,
+    }
+    let rows = toml::from_str::<M>(&format!("m = {text}"))
+        .map_err(|e| {
+            UsageError::Option(format!(
+                "--{name}: expected a TOML array of rows such as [[1.0, 0.1], [0.0, 1.0]]: {e}"
+            ))
+        })?
+        .m;
+    let c = rows.first().map_or(0, |r| r.len());
+    if rows.is_empty() || c == 0 || rows.iter().any(|r| r.len() != c) {
+        return Err(UsageError::Option(format!(
+            "--{name}: rows must be non-empty and of equal length"
+        )));
+    }
+    Ok(nalgebra::DMatrix::from_fn(rows.len(), c, |i, j| rows[i][j]))
+}
+
+#[allow(non_snake_case)] // the textbook names A, C, Q, R
+fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
+    use crate::estimate::bounds::{
+        critical_upper, lambda_min, lower_bound, markov_condition, spectral_radius, upper_bound,
+    };
+    use crate::link::LossModel;
+    let topo = match &args.topology {
+        Some(t) => {
+            let mut topo = Topology::resolve(t).map_err(UsageError::from)?;
+            topo.apply(&Overrides {
+                duration_s: args.duration,
+                seed: args.seed,
+                ..Default::default()
+            });
+            Some(topo)
+        }
+        None => None,
+    };
+    let (A, C, Q, R) = match (&topo, &args.a, &args.c, &args.q, &args.r) {
+        (Some(t), None, None, None, None) => match &t.model {
+            ModelConfig::Linear(m) => (m.A.clone(), m.C.clone(), m.Q.clone(), m.R.clone()),
+            ModelConfig::Pose(_) => {
+                return Err(
+                    UsageError::Option(format!("`{}` has a pose model: bounds need kind = \"linear\"", t.name)).into(),
+                )
+            }
+        },
+        (None, Some(a), Some(c), Some(q), Some(r)) => (
+            matrix_arg("a", a)?,
+            matrix_arg("c", c)?,
+            matrix_arg("q", q)?,
+            matrix_arg("r", r)?,
+        ),
+        _ => return Err(UsageError::Option("give --topology (linear model), or all of --a --c --q --r".into()).into()),
+    };
+    // The same checks as a topology's [model].
+    let text = format!(
+        "[model]\nkind = \"linear\"\na = {}\nc = {}\nq = {}\nr = {}\n[[node]]\nid = 0\n",
+        toml_matrix(&A),
+        toml_matrix(&C),
+        toml_matrix(&Q),
+        toml_matrix(&R)
+    );
+    Topology::from_toml(&text, "--a/--c/--q/--r").map_err(UsageError::from)?;
+    if args.measure && topo.is_none() {
+        return Err(UsageError::Option("--measure runs a topology: give --topology".into()).into());
+    }
+    let link_loss = topo.as_ref().and_then(|t| t.links.first().map(|l| l.config.loss));
+    let lambda = args
+        .lambda
+        .unwrap_or_else(|| link_loss.map_or(0.5, |l| 1.0 - l.stationary_loss()));
+    let rho = spectral_radius(&A).ok_or_else(|| anyhow::anyhow!("the eigenvalues of A did not converge"))?;
+    let lmin = lambda_min(&A).unwrap_or(f64::NAN);
+    let lbar = critical_upper(&A, &C, &Q, &R, 1e-6)?;
+    println!("system: {} states, {} outputs; ρ(A) = {rho:.6}", A.nrows(), C.nrows());
+    println!("λ_min = {lmin:.6}   (1 − 1/ρ(A)²: below it the expected covariance diverges)");
+    if lbar.is_finite() {
+        println!(
+            "λ̄     = {lbar:.6}   (the MARE has a fixed point above it: bisection on the iteration from 0, to 1e-6)"
+        );
+    } else {
+        println!("λ̄     = ∞   (even without loss the filter is unstable: an undetectable unstable mode)");
+    }
+    let measure = |l: f64| -> anyhow::Result<Option<f64>> {
+        let Some(t) = &topo else { return Ok(None) };
+        let mut t = t.clone();
+        t.apply(&Overrides {
+            loss: Some(LossModel::Bernoulli { p: 1.0 - l }),
+            ..Default::default()
+        });
+        let t = Arc::new(t);
+        let estimators: Vec<u32> = t
+            .nodes
+            .iter()
+            .filter(|n| n.role == crate::topology::Role::Estimator)
+            .map(|n| n.id)
+            .collect();
+        if estimators.is_empty() {
+            return Err(UsageError::Option(format!(
+                "--measure: `{}` has no estimator node fed over the network",
+                t.name
+            ))
+            .into());
+        }
+        let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+        let out = rt.block_on(net::run(t.clone(), RunOptions::default(), std::future::pending()))?;
+        let s = out.summary(&t, Clock::Virtual);
+        let v: Vec<f64> = s
+            .nodes
+            .iter()
+            .filter(|n| estimators.contains(&n.id))
+            .filter_map(|n| n.networked.as_ref().and_then(|f| f.mean_trace_p_prior))
+            .collect();
+        Ok((!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64))
+    };
+    let at = |l: f64| -> anyhow::Result<(Option<f64>, Option<f64>)> {
+        let s = lower_bound(&A, &Q, l)?.matrix().map(|m| m.trace());
+        let v = upper_bound(&A, &C, &Q, &R, l)?.matrix().map(|m| m.trace());
+        Ok((s, v))
+    };
+    let fmt = |v: Option<f64>| v.map_or("∞ (no fixed point)".to_string(), |x| format!("{x:.4}"));
+    let (s, v) = at(lambda)?;
+    print!("λ = {lambda}: trace S̄ = {}, trace V̄ = {}", fmt(s), fmt(v));
+    if args.measure && !args.sweep {
+        let m = measure(lambda)?;
+        print!(", measured mean trace P_(k|k−1) = {}", fmt(m));
+        if let (Some(s), Some(v), Some(m)) = (s, v, m) {
+            print!(
+                " ({})",
+                if s <= m && m <= v {
+                    "within the bounds"
+                } else {
+                    "OUTSIDE the bounds"
+                }
+            );
+        }
+    }
+    println!();
+    if let Some(LossModel::GilbertElliott {
+        r,
+        one_minus_h,
+        one_minus_k,
+        ..
+    }) = link_loss
+    {
+        if let Some((lhs, ok)) = markov_condition(&A, r, one_minus_h) {
+            println!(
+                "Gilbert–Elliott link (r = {r}, 1−h = {one_minus_h}, 1−k = {one_minus_k}): burst condition (1−r)(1−h)ρ(A)² = {lhs:.4} {} 1 → {}",
+                if ok { "<" } else { "≥" },
+                if ok { "satisfied: the peak covariance stays bounded (Huang & Dey 2007)" } else { "NOT satisfied: bursts outgrow the recoveries" }
+            );
+        }
+    }
+    if args.sweep {
+        use anyhow::Context;
+        let start = if lbar.is_finite() { lbar } else { lmin };
+        let grid: Vec<f64> = (1..=12)
+            .map(|i| start + (1.0 - start) * i as f64 / 12.0)
+            .filter(|l| *l < 1.0 + 1e-12)
+            .collect();
+        let mut rows = Vec::new();
+        println!("\n{:>8} {:>12} {:>12} {:>12}", "λ", "trace S̄", "trace V̄", "measured");
+        for l in grid {
+            let (s, v) = at(l)?;
+            let m = if args.measure { measure(l)? } else { None };
+            println!(
+                "{:>8.4} {:>12} {:>12} {:>12}",
+                l,
+                fmt(s),
+                fmt(v),
+                m.map_or("—".into(), |x| format!("{x:.4}"))
+            );
+            rows.push((l, s, v, m));
+        }
+        std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+        let mut csv = String::from("lambda,trace_s_bar,trace_v_bar,measured_trace_p_prior\n");
+        let o = |v: Option<f64>| v.map_or(String::new(), |x| format!("{x}"));
+        for (l, s, v, m) in &rows {
+            csv += &format!("{l},{},{},{}\n", o(*s), o(*v), o(*m));
+        }
+        write_atomic(&args.out.join("bounds.csv"), csv.as_bytes())?;
+        let svg = plot::covariance_bounds(
+            &rows,
+            lmin,
+            lbar,
+            &format!(
+                "covariance bounds against the arrival rate{}",
+                topo.as_ref().map_or(String::new(), |t| format!(" — {}", t.name))
+            ),
+        )?;
+        write_atomic(&args.out.join("bounds.svg"), svg.as_bytes())?;
+        println!("\nwrote {}/{{bounds.csv, bounds.svg}}", args.out.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn toml_matrix(m: &nalgebra::DMatrix<f64>) -> String {
+    let rows: Vec<String> = (0..m.nrows())
+        .map(|i| {
+            format!(
+                "[{}]",
+                (0..m.ncols())
+                    .map(|j| format!("{:?}", m[(i, j)]))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })
+        .collect();
+    format!("[{}]", rows.join(", "))
 }

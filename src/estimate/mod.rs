@@ -3,6 +3,7 @@
 //! covariance intersection, NEES.
 #![allow(non_snake_case)]
 
+pub mod bounds;
 pub mod consensus;
 pub mod fusion;
 pub mod kalman;

@@ -84,6 +84,22 @@ pub struct RunOutput {
     pub addrs: Vec<SocketAddr>,
 }
 
+impl RunOutput {
+    /// The run's summary (DESIGN §7).
+    pub fn summary(&self, topo: &Topology, clock: Clock) -> crate::report::summary::Summary {
+        crate::report::summary::Summary::build(
+            topo,
+            clock.as_str(),
+            &self.reports,
+            self.observer.summary(),
+            self.steps_done,
+            self.interrupted,
+            self.wall_s,
+            self.socket_losses,
+        )
+    }
+}
+
 fn observer_for(topo: &Topology, record: bool) -> Observer {
     let (angles, rows, median) = crate::report::observer::fusion_layout(topo);
     Observer::new(topo.sim.burn_in_steps(), angles, rows, record, median)

@@ -798,6 +798,27 @@ impl Node {
     }
 }
 
+/// One lockstep step of nodes wired together in memory, no sockets (as quinn-proto's tests drive endpoints): every
+/// node steps, datagrams due by the deadline move to their receivers, every node closes the step. Returns the
+/// estimates of the nodes that estimate.
+pub fn step_in_memory(nodes: &mut [Node], k: u64) -> Vec<StepEstimate> {
+    let Some(first) = nodes.first() else { return Vec::new() };
+    let now = k as f64 * first.topo.sim.dt() + first.topo.sim.deadline_s;
+    for n in nodes.iter_mut() {
+        n.handle_step(k);
+    }
+    let mut moved = Vec::new();
+    for n in nodes.iter_mut() {
+        while let Some(tx) = n.poll_transmit(now) {
+            moved.push((n.index(), tx));
+        }
+    }
+    for (from, tx) in moved {
+        nodes[tx.to].handle_datagram(Some(from), &tx.bytes);
+    }
+    nodes.iter_mut().filter_map(|n| n.handle_deadline(k)).collect()
+}
+
 /// Position error norm (pose) or state error norm (linear).
 fn error_norm(truth_kind: &Truth, truth: &DVector<f64>, est: &DVector<f64>) -> f64 {
     match truth_kind {
@@ -815,24 +836,8 @@ mod tests {
     fn pair_in_memory() {
         let topo = Arc::new(Topology::resolve("pair2-paper").unwrap());
         let mut nodes: Vec<Node> = (0..2).map(|i| Node::new(topo.clone(), i, false)).collect();
-        let dt = topo.sim.dt();
         for k in 0..500 {
-            for n in &mut nodes {
-                n.handle_step(k);
-            }
-            let now = k as f64 * dt + topo.sim.deadline_s;
-            let mut moved = Vec::new();
-            for n in &mut nodes {
-                while let Some(tx) = n.poll_transmit(now) {
-                    moved.push((n.index(), tx));
-                }
-            }
-            for (from, tx) in moved {
-                nodes[tx.to].handle_datagram(Some(from), &tx.bytes);
-            }
-            for n in &mut nodes {
-                n.handle_deadline(k);
-            }
+            step_in_memory(&mut nodes, k);
         }
         for n in &mut nodes {
             let r = n.report();

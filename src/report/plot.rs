@@ -48,7 +48,7 @@ fn err<E: std::fmt::Display>(name: &'static str) -> impl Fn(E) -> PlotError {
     }
 }
 
-fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
+fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for v in values.filter(|v| v.is_finite()) {
         lo = lo.min(v);
@@ -87,8 +87,8 @@ pub fn trajectory(rows: &[TraceRow], fused: &[FusedRow], pose: bool, title: &str
                 (r.t, v[0])
             }
         };
-        let (x0, x1) = bounds(rows.iter().flat_map(|r| [xy(r, false).0, xy(r, true).0]));
-        let (y0, y1) = bounds(rows.iter().flat_map(|r| [xy(r, false).1, xy(r, true).1]));
+        let (x0, x1) = range(rows.iter().flat_map(|r| [xy(r, false).0, xy(r, true).0]));
+        let (y0, y1) = range(rows.iter().flat_map(|r| [xy(r, false).1, xy(r, true).1]));
         let mut chart = ChartBuilder::on(&root)
             .caption(title, ("sans-serif", 22))
             .margin(12)
@@ -179,7 +179,7 @@ fn over_time(
                 (1e-6, 1.0)
             }
         } else {
-            bounds(vals)
+            range(vals)
         };
         let mut cb = ChartBuilder::on(&root);
         cb.caption(title, ("sans-serif", 22))
@@ -277,4 +277,96 @@ pub fn trace_p(rows: &[TraceRow], dt: f64, title: &str) -> Result<String, PlotEr
         |r| r.trace_p_post,
         true,
     )
+}
+
+/// (λ, trace S̄, trace V̄, measured mean trace P_{k|k−1}); `None` where there is no fixed point or no measurement.
+pub type BoundsRow = (f64, Option<f64>, Option<f64>, Option<f64>);
+
+/// trace S̄ and trace V̄ against λ (log scale), measured means as points, λ_min and λ̄ marked.
+pub fn covariance_bounds(
+    rows: &[BoundsRow],
+    lambda_min: f64,
+    lambda_bar: f64,
+    title: &str,
+) -> Result<String, PlotError> {
+    font();
+    let name = "bounds";
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(err(name))?;
+        let vals: Vec<f64> = rows
+            .iter()
+            .flat_map(|r| [r.1, r.2, r.3])
+            .flatten()
+            .filter(|v| *v > 0.0 && v.is_finite())
+            .collect();
+        let lo = vals.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = vals.iter().copied().fold(0.0, f64::max);
+        let (lo, hi) = if lo.is_finite() {
+            (lo / 1.5, hi * 1.5)
+        } else {
+            (0.1, 10.0)
+        };
+        let x0 = if lambda_min.is_finite() {
+            lambda_min.min(lambda_bar)
+        } else {
+            0.0
+        };
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 22))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d((x0 - 0.02).max(0.0)..1.0, (lo..hi).log_scale())
+            .map_err(err(name))?;
+        chart
+            .configure_mesh()
+            .x_desc("arrival rate λ")
+            .y_desc("trace")
+            .draw()
+            .map_err(err(name))?;
+        let line = |sel: fn(&BoundsRow) -> Option<f64>| -> Vec<(f64, f64)> {
+            rows.iter().filter_map(|r| sel(r).map(|v| (r.0, v))).collect()
+        };
+        let blue = RGBColor(31, 119, 180);
+        let red = RGBColor(214, 39, 40);
+        chart
+            .draw_series(LineSeries::new(line(|r| r.1), blue.stroke_width(2)))
+            .map_err(err(name))?
+            .label("trace S̄ (lower bound)")
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], blue.stroke_width(2)));
+        chart
+            .draw_series(LineSeries::new(line(|r| r.2), red.stroke_width(2)))
+            .map_err(err(name))?
+            .label("trace V̄ (upper bound)")
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], red.stroke_width(2)));
+        let measured = line(|r| r.3);
+        if !measured.is_empty() {
+            chart
+                .draw_series(measured.iter().map(|p| Circle::new(*p, 5, BLACK.filled())))
+                .map_err(err(name))?
+                .label("measured mean trace P(k|k−1)")
+                .legend(|(x, y)| Circle::new((x + 9, y), 5, BLACK.filled()));
+        }
+        if lambda_bar.is_finite() {
+            chart
+                .draw_series(LineSeries::new(
+                    [(lambda_bar, lo), (lambda_bar, hi)],
+                    BLACK.mix(0.5).stroke_width(1),
+                ))
+                .map_err(err(name))?
+                .label(format!("λ̄ = {lambda_bar:.4}"))
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.mix(0.5)));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(err(name))?;
+        root.present().map_err(err(name))?;
+    }
+    Ok(out)
 }

@@ -242,3 +242,65 @@ fn node_processes_run_a_network_and_collect_merges_it() {
         assert!(d.join(f).exists(), "{f}");
     }
 }
+
+/// `simnet bounds`: Sinopoli's scalar example from the command line, the measured mean inside the bounds, bad
+/// matrices refused with exit 2.
+#[test]
+fn bounds_of_the_scalar_example() {
+    let out = simnet()
+        .args([
+            "bounds",
+            "--a",
+            "[[-1.25]]",
+            "--c",
+            "[[1.0]]",
+            "--q",
+            "[[1.0]]",
+            "--r",
+            "[[2.5]]",
+            "--lambda",
+            "0.5",
+        ])
+        .output()
+        .unwrap();
+    let s = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(s.contains("λ_min = 0.360000") && s.contains("λ̄     = 0.3600"), "{s}");
+    assert!(s.contains("trace S̄ = 4.5714") && s.contains("trace V̄ = 11.9559"), "{s}");
+
+    let out = simnet()
+        .args(["bounds", "-t", "sinopoli-scalar", "--lambda", "0.8", "--measure"])
+        .output()
+        .unwrap();
+    let s = String::from_utf8_lossy(&out.stdout);
+    assert!(s.contains("(within the bounds)"), "{s}");
+
+    for args in [
+        vec![
+            "bounds",
+            "--a",
+            "[[1.0, 2.0]]",
+            "--c",
+            "[[1.0]]",
+            "--q",
+            "[[1.0]]",
+            "--r",
+            "[[1.0]]",
+        ],
+        vec![
+            "bounds", "--a", "[[1.0]]", "--c", "[[1.0]]", "--q", "[[1.0]]", "--r", "[[-1.0]]",
+        ],
+        vec!["bounds", "-t", "ring3"],
+        vec![
+            "bounds", "--a", "oops", "--c", "[[1.0]]", "--q", "[[1.0]]", "--r", "[[1.0]]",
+        ],
+    ] {
+        let out = simnet().args(&args).output().unwrap();
+        assert_eq!(
+            out.status.code(),
+            Some(2),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}

@@ -26,19 +26,11 @@ pub fn runtime() -> tokio::runtime::Runtime {
 
 pub fn run_with(topo: Topology, opts: RunOptions) -> (Summary, RunOutput) {
     let topo = Arc::new(topo);
+    let opts_clock = opts.clock;
     let out = runtime()
         .block_on(net::run(topo.clone(), opts, std::future::pending()))
         .expect("run");
-    let s = Summary::build(
-        &topo,
-        "virtual",
-        &out.reports,
-        out.observer.summary(),
-        out.steps_done,
-        out.interrupted,
-        out.wall_s,
-        out.socket_losses,
-    );
+    let s = out.summary(&topo, opts_clock);
     (s, out)
 }
 

@@ -189,22 +189,7 @@ fn linear_nees_is_in_its_chi_square_band() {
         let t = Arc::new(common::topology(CV2, common::seed(seed)));
         let mut nodes: Vec<Node> = (0..2).map(|i| Node::new(t.clone(), i, true)).collect();
         for k in 0..=step {
-            for n in &mut nodes {
-                n.handle_step(k);
-            }
-            let now = k as f64 * t.sim.dt() + t.sim.deadline_s;
-            let mut moved = Vec::new();
-            for n in &mut nodes {
-                while let Some(tx) = n.poll_transmit(now) {
-                    moved.push((n.index(), tx));
-                }
-            }
-            for (from, tx) in moved {
-                nodes[tx.to].handle_datagram(Some(from), &tx.bytes);
-            }
-            for n in &mut nodes {
-                n.handle_deadline(k);
-            }
+            simnet::node::step_in_memory(&mut nodes, k);
         }
         let r = nodes[1].report();
         let row = r.trace.iter().find(|row| row.step == step && row.networked).unwrap();
