@@ -17,12 +17,14 @@
 //! | [`link`] | per-datagram verdicts: Bernoulli / Gilbert–Elliott loss, delay, jitter, duplication, corruption, fault schedules |
 //! | [`node`] | one node's sans-IO state machine: `handle_step`, `handle_datagram`, `handle_deadline`, `poll_transmit` |
 //! | [`report`] | metrics, `summary.json`, the table, `trace.csv`, `links.csv`, SVG plots |
-//! | [`net`] | the only I/O: one tokio task and UDP socket per node, virtual and realtime clocks, shutdown |
+//! | [`net`] | the only I/O: one tokio task and UDP socket per node, virtual and realtime clocks, shutdown; `net::host` runs one node per process (`simnet node`) |
 //! | [`cli`] | clap definitions, exit codes, tracing setup |
+//! | [`compose`] | the docker compose file of a topology (one container per node) |
 //!
 //! Support: [`geom`] (Euler ZYX attitude), [`rng`] (seeded streams), [`stats`] (quantiles for tests and reports).
 
 pub mod cli;
+pub mod compose;
 pub mod estimate;
 pub mod geom;
 pub mod link;

@@ -3,6 +3,7 @@
 mod cli;
 mod common;
 mod estimation;
+mod fusion;
 mod loss;
 mod network;
 mod riccati;
