@@ -6,8 +6,8 @@
 //!   the network is already up and the node joins at the step after the highest it has seen, with fresh filters.
 //!   Otherwise it starts step 0 once it has heard from every neighbour, after a short grace so that they hear it
 //!   too; after `handshake_timeout` it starts alone.
-//! - **Catch-up.** Whenever a neighbour is ahead, the node runs the missing steps at once (prediction only; their
-//!   datagrams would all be late) and continues from the neighbour's step.
+//! - **Catch-up.** Whenever a neighbour is ahead, the node runs the missing steps at once (its own measurements only;
+//!   their datagrams still go out and arrive late) and continues from the neighbour's step.
 //! - **Phase lock.** Each arrival of a step-j measurement is compared with the local start of step j; the local
 //!   schedule moves by a fifth of the mean offset, so that neighbours' step boundaries converge.
 
@@ -194,7 +194,10 @@ pub async fn run_node(
             tracing::info!(from = k, to = target, "catching up with a neighbour");
             while k < target {
                 node.handle_step(k);
-                while node.poll_transmit(f64::INFINITY).is_some() {}
+                // Sent all the same: the link layer counted them, and the neighbours count them late.
+                while let Some(tx) = node.poll_transmit(f64::INFINITY) {
+                    peers.send(&socket, tx.to, &tx.bytes).await;
+                }
                 node.handle_deadline(k);
                 k += 1;
             }

@@ -561,10 +561,6 @@ impl Node {
             self.counters.malformed += 1;
             return;
         }
-        if !self.up {
-            self.rx[src].while_down += 1;
-            return;
-        }
         self.heard[src] = true;
         let peer_step = match &dg.payload {
             Payload::Hello { running } => *running,
@@ -576,6 +572,10 @@ impl Node {
         let Payload::Measurement { rows, values } = dg.payload else {
             return;
         };
+        if !self.up {
+            self.rx[src].while_down += 1;
+            return;
+        }
         let m = self.obs.dim();
         if m < 64 && rows >> m != 0 {
             self.counters.malformed += 1;
