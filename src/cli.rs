@@ -226,6 +226,9 @@ fn at_least_one(s: &str) -> Result<f64, String> {
     }
 }
 
+/// The longest run accepted (as for `sim.duration_s` in a topology file).
+const MAX_STEPS: f64 = 1e8;
+
 /// An error for the user: exit code 2.
 #[derive(Debug, thiserror::Error)]
 pub enum UsageError {
@@ -280,6 +283,12 @@ impl RunArgs {
             .ok_or_else(|| UsageError::Option("--topology NAME|PATH is required (see `simnet topologies`)".into()))?;
         let mut t = Topology::resolve(name)?;
         t.apply(&self.overrides()?);
+        if t.sim.duration_s * t.sim.rate_hz > MAX_STEPS {
+            return Err(UsageError::Option(format!(
+                "--duration/--rate: {} s at {} Hz is more than {MAX_STEPS:e} steps",
+                t.sim.duration_s, t.sim.rate_hz
+            )));
+        }
         Ok(t)
     }
 }

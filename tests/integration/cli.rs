@@ -63,6 +63,7 @@ fn bad_options_exit_2() {
     for args in [
         vec!["--topology", "ring3", "--loss", "1.5"],
         vec!["--topology", "ring3", "--rate", "0"],
+        vec!["--topology", "ring3", "--duration", "1e9"],
         vec!["--topology", "ring3", "--loss", "0.2", "--burst", "3"],
         vec!["--topology", "no-such-topology"],
         vec![
@@ -303,4 +304,61 @@ fn bounds_of_the_scalar_example() {
             String::from_utf8_lossy(&out.stderr)
         );
     }
+}
+
+/// SIGTERM (what `docker stop` sends) stops a node cleanly: exit 0, and a complete part marked interrupted.
+#[test]
+fn node_stops_cleanly_on_sigterm() {
+    let d = tmp("sigterm");
+    let port = std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let mut child = simnet()
+        .args([
+            "node",
+            "--topology",
+            "ring3",
+            "--id",
+            "0",
+            "--duration",
+            "60",
+            "-q",
+            "--handshake-timeout",
+            "0.2",
+        ])
+        .args([
+            "--bind",
+            &format!("127.0.0.1:{port}"),
+            "--peer",
+            "1=127.0.0.1:9",
+            "--peer",
+            "2=127.0.0.1:9",
+            "--out",
+        ])
+        .arg(&d)
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let status = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    assert!(child.wait().unwrap().success(), "a node stopped by SIGTERM exits 0");
+    let part: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("node-0.json")).unwrap()).unwrap();
+    assert_eq!(part["interrupted"], true);
+    let done = part["part"]["steps_done"].as_u64().unwrap();
+    assert!(done > 0 && done < 6000, "{done} steps");
+    let trace = std::fs::read_to_string(d.join("trace-0.csv")).unwrap();
+    assert_eq!(
+        trace.lines().count() as u64,
+        1 + 2 * done,
+        "the trace holds every step run, no partial file"
+    );
+    assert!(!std::fs::read_dir(&d)
+        .unwrap()
+        .any(|e| e.unwrap().path().extension().is_some_and(|x| x == "tmp")));
 }
