@@ -487,7 +487,7 @@ fn write_files(
     };
     put("summary.json", s.to_json().as_bytes())?;
     let mut buf = Vec::new();
-    summary::write_trace(&mut buf, columns, s.rate_hz, rows)?;
+    summary::write_trace(&mut buf, columns, rows)?;
     put("trace.csv", &buf)?;
     let mut buf = Vec::new();
     summary::write_links(&mut buf, &s.links)?;
@@ -602,12 +602,7 @@ fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             write_atomic(&dir.join(&name), bytes).with_context(|| format!("cannot write {}", dir.join(&name).display()))
         };
         let mut buf = Vec::new();
-        summary::write_trace(
-            &mut buf,
-            &Truth::new(&topo).columns(),
-            topo.sim.rate_hz,
-            &out.report.trace,
-        )?;
+        summary::write_trace(&mut buf, &Truth::new(&topo).columns(), &out.report.trace)?;
         put(format!("trace-{}.csv", args.id), &buf)?;
         let mut buf = Vec::new();
         crate::report::parts::write_estimates(&mut buf, &out.estimates)?;

@@ -281,8 +281,7 @@ impl Summary {
 }
 
 /// `trace.csv`: one row per (step, node, filter).
-pub fn write_trace(w: &mut impl Write, columns: &[String], rate_hz: f64, rows: &[TraceRow]) -> io::Result<()> {
-    let _ = rate_hz;
+pub fn write_trace(w: &mut impl Write, columns: &[String], rows: &[TraceRow]) -> io::Result<()> {
     write!(w, "step,t,node,filter")?;
     for c in columns {
         write!(w, ",true_{c}")?;

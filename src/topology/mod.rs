@@ -459,7 +459,7 @@ impl Validator {
         }
 
         let consensus = self.consensus(raw.consensus.unwrap_or_default(), &nodes, &links);
-        let faults = self.faults(&raw.fault, &ids, n, &sim);
+        let faults = self.faults(&raw.fault, &ids, n);
 
         if let ModelConfig::Linear(_) = model {
             if sim.split_channels {
@@ -873,7 +873,7 @@ impl Validator {
         }
     }
 
-    fn faults(&mut self, raw: &[RawFault], ids: &HashMap<i64, usize>, n: usize, sim: &SimConfig) -> FaultSchedule {
+    fn faults(&mut self, raw: &[RawFault], ids: &HashMap<i64, usize>, n: usize) -> FaultSchedule {
         let mut out = Vec::new();
         for (f, r) in raw.iter().enumerate() {
             let key = format!("fault[{f}]");
@@ -970,7 +970,6 @@ impl Validator {
                 ),
             }
         }
-        let _ = sim;
         FaultSchedule::new(out)
     }
 }
