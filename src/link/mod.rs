@@ -173,10 +173,6 @@ impl Link {
         }
     }
 
-    pub fn config(&self) -> &LinkConfig {
-        &self.config
-    }
-
     pub fn counters(&self) -> &LinkCounters {
         &self.counters
     }

@@ -26,10 +26,6 @@ impl FaultSchedule {
         FaultSchedule { faults }
     }
 
-    pub fn faults(&self) -> &[ScheduledFault] {
-        &self.faults
-    }
-
     pub fn node_up(&self, node: usize, t: f64) -> bool {
         !self.faults.iter().any(|f| match f {
             ScheduledFault::Crash { node: n, at, restart } => *n == node && t >= *at && restart.is_none_or(|r| t < r),

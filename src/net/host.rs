@@ -24,7 +24,7 @@ use tokio::time::Instant;
 use super::{NetError, Progress};
 use crate::node::{Node, NodeReport, StepEstimate};
 use crate::topology::Topology;
-use crate::wire::{Datagram, Payload, MAX_DATAGRAM};
+use crate::wire::MAX_DATAGRAM;
 
 pub struct HostConfig {
     pub bind: SocketAddr,
@@ -95,22 +95,16 @@ impl Peers {
     }
 }
 
-/// Receive one datagram, learn the sender's address from a valid header, and hand it to the node.
-fn deliver(node: &mut Node, peers: &mut Peers, topo: &Topology, from: SocketAddr, bytes: &[u8]) -> Option<(u64, bool)> {
-    let mut index = peers.index_of(&from);
-    let mut measurement = None;
-    if let Ok(d) = Datagram::decode(bytes) {
-        if let Some(j) = topo.index_of(d.header.src) {
-            if index != Some(j) && peers.names.contains_key(&j) {
-                tracing::info!(peer = j, %from, "peer address learnt from its datagram");
-                peers.addrs.insert(j, from);
-                index = Some(j);
-            }
-            measurement = Some((d.header.step, matches!(d.payload, Payload::Measurement { .. })));
-        }
+/// Hand a datagram to the node; learn the sender's address from what the node accepted (a restarted container may
+/// come back with another address). Returns (step, is a measurement) of an accepted datagram.
+fn deliver(node: &mut Node, peers: &mut Peers, from: SocketAddr, bytes: &[u8]) -> Option<(u64, bool)> {
+    let index = peers.index_of(&from);
+    let a = node.handle_datagram(index, bytes)?;
+    if index != Some(a.src) && peers.names.contains_key(&a.src) {
+        tracing::info!(peer = a.src, %from, "peer address learnt from its datagram");
+        peers.addrs.insert(a.src, from);
     }
-    node.handle_datagram(index, bytes);
-    measurement
+    Some((a.step, a.measurement))
 }
 
 /// Run node `index` of `topo` as its own process until the configured duration or `shutdown`.
@@ -173,7 +167,7 @@ pub async fn run_node(
         }
         tokio::select! {
             r = socket.recv_from(&mut buf) => if let Ok((len, from)) = r {
-                deliver(&mut node, &mut peers, &topo, from, &buf[..len]);
+                deliver(&mut node, &mut peers, from, &buf[..len]);
             },
             _ = tokio::time::sleep_until(next_hello.min(t_start + cfg.handshake_timeout)) => {}
             _ = stop.changed() => {}
@@ -238,7 +232,7 @@ pub async fn run_node(
             tokio::select! {
                 r = socket.recv_from(&mut buf) => if let Ok((len, from)) = r {
                     let arrived = Instant::now();
-                    if let Some((step, true)) = deliver(&mut node, &mut peers, &topo, from, &buf[..len]) {
+                    if let Some((step, true)) = deliver(&mut node, &mut peers, from, &buf[..len]) {
                         // Where the sender's step `step` began, seen from here (transit included).
                         let local = base + dt * step as u32;
                         let off = if arrived >= local { (arrived - local).as_secs_f64() } else { -(local - arrived).as_secs_f64() };

@@ -81,7 +81,6 @@ pub struct RunOutput {
     pub wall_s: f64,
     /// Datagrams the link layer delivered that never came out of a socket in time (virtual clock).
     pub socket_losses: u64,
-    pub addrs: Vec<SocketAddr>,
 }
 
 impl RunOutput {
@@ -329,7 +328,6 @@ async fn run_virtual(
         interrupted,
         wall_s: 0.0,
         socket_losses,
-        addrs,
     })
 }
 
@@ -390,7 +388,9 @@ async fn realtime_task(
             let next_tx = node.poll_timeout().map(at).unwrap_or(close).min(close);
             tokio::select! {
                 r = recv(&socket, &mut buf, &index_of) => match r {
-                    Ok((len, from)) => node.handle_datagram(from, &buf[..len]),
+                    Ok((len, from)) => {
+                        node.handle_datagram(from, &buf[..len]);
+                    }
                     Err(e) => tracing::warn!(node = node.id(), "recv_from failed: {e}"),
                 },
                 _ = tokio::time::sleep_until(next_tx) => {
@@ -468,6 +468,5 @@ async fn run_realtime(
         interrupted: done < steps,
         wall_s: 0.0,
         socket_losses: 0,
-        addrs,
     })
 }

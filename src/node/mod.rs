@@ -21,7 +21,7 @@ use crate::estimate::{
 };
 use crate::link::{Link, LinkCounters, Verdict};
 use crate::report::metrics::{FilterMetrics, RxCounters};
-use crate::sensor::{ImuSample, Sensor, SensorProfile};
+use crate::sensor::{ImuSample, Sensor};
 use crate::topology::{ModelConfig, Role, Topology};
 use crate::wire::{Datagram, Header, Payload, WireError};
 pub use truth::Truth;
@@ -115,6 +115,14 @@ pub struct StepEstimate {
     pub frame: u64,
     pub networked: Gaussian,
     pub diverged: bool,
+}
+
+/// A datagram the node accepted as coming from a neighbour (its shell learns addresses and step timing from it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Arrival {
+    pub src: usize,
+    pub step: u64,
+    pub measurement: bool,
 }
 
 /// Datagram counters not tied to a link.
@@ -347,9 +355,6 @@ impl Node {
     pub fn id(&self) -> u32 {
         self.id
     }
-    pub fn is_up(&self) -> bool {
-        self.up
-    }
 
     /// The prior a (re)started filter begins from. Pose: the truth perturbed by N(0, P₀) from the node's own stream
     /// (the seed's "initial unfiltered estimate"); linear: the model's x₀, P₀, from which the truth itself is drawn.
@@ -534,7 +539,7 @@ impl Node {
     }
 
     /// Bytes arrived; `from` is the sender's node index when the shell knows it by address.
-    pub fn handle_datagram(&mut self, from: Option<usize>, bytes: &[u8]) {
+    pub fn handle_datagram(&mut self, from: Option<usize>, bytes: &[u8]) -> Option<Arrival> {
         self.counters.datagrams_in += 1;
         let dg = match Datagram::decode(bytes) {
             Ok(d) => d,
@@ -544,22 +549,22 @@ impl Node {
                 if let Some(f) = from {
                     self.rx[f].corrupted += 1;
                 }
-                return;
+                return None;
             }
             Err(e) => {
                 tracing::debug!(node = self.id, "malformed datagram: {e}");
                 self.counters.malformed += 1;
-                return;
+                return None;
             }
         };
         let Some(&src) = self.id_to_index.get(&dg.header.src) else {
             self.counters.malformed += 1;
-            return;
+            return None;
         };
         if from.is_some_and(|f| f != src) || src == self.index {
             // The header names a different node than the socket it came from.
             self.counters.malformed += 1;
-            return;
+            return None;
         }
         self.heard[src] = true;
         let peer_step = match &dg.payload {
@@ -569,17 +574,22 @@ impl Node {
         if let Some(p) = peer_step {
             self.max_peer_step = Some(self.max_peer_step.map_or(p, |m| m.max(p)));
         }
+        let arrival = Arrival {
+            src,
+            step: dg.header.step,
+            measurement: matches!(dg.payload, Payload::Measurement { .. }),
+        };
         let Payload::Measurement { rows, values } = dg.payload else {
-            return;
+            return Some(arrival);
         };
         if !self.up {
             self.rx[src].while_down += 1;
-            return;
+            return None;
         }
         let m = self.obs.dim();
         if m < 64 && rows >> m != 0 {
             self.counters.malformed += 1;
-            return;
+            return None;
         }
         match self.open {
             Some(k) if dg.header.step == k => self.accept(src, rows, &values),
@@ -593,6 +603,7 @@ impl Node {
             }
             _ => self.rx[src].late += 1,
         }
+        Some(arrival)
     }
 
     fn accept(&mut self, src: usize, rows: u64, values: &[f64]) {
@@ -790,11 +801,6 @@ impl Node {
             counters: self.counters,
             trace: self.trace.take().unwrap_or_default(),
         }
-    }
-
-    /// The sensor profile (for reports).
-    pub fn sensor_profile(&self) -> Option<&SensorProfile> {
-        self.sensor.as_ref().map(|s| s.profile())
     }
 }
 

@@ -198,13 +198,6 @@ impl Topology {
     pub fn out_links(&self, i: usize) -> impl Iterator<Item = &DirectedLink> {
         self.links.iter().filter(move |l| l.from == i)
     }
-    pub fn measurement_dim(&self) -> usize {
-        match &self.model {
-            ModelConfig::Pose(_) => 6,
-            ModelConfig::Linear(m) => m.C.nrows(),
-        }
-    }
-
     /// Parse and validate TOML text; `file` names the source in errors.
     pub fn from_toml(text: &str, file: &str) -> Result<Topology, TopologyError> {
         let raw: RawTopology = toml::from_str(text).map_err(|e| TopologyError::Parse {
