@@ -16,6 +16,7 @@
 //! | [`wire`] | the datagram format: postcard + CRC-32, checked decode |
 //! | [`link`] | per-datagram verdicts: Bernoulli / Gilbert–Elliott loss, delay, jitter, duplication, corruption, fault schedules |
 //! | [`node`] | one node's sans-IO state machine: `handle_step`, `handle_datagram`, `handle_deadline`, `poll_transmit` |
+//! | [`protocol`] | β protocol search over whole in-memory runs: the seed's family by bisection on (17)/(19); all β by SDP (feature `sdp`) |
 //! | [`report`] | metrics, `summary.json`, the table, `trace.csv`, `links.csv`, SVG plots |
 //! | [`net`] | the only I/O: one tokio task and UDP socket per node, virtual and realtime clocks, shutdown; `net::host` runs one node per process (`simnet node`) |
 //! | [`cli`] | clap definitions, exit codes, tracing setup |
@@ -31,6 +32,7 @@ pub mod link;
 pub mod motion;
 pub mod net;
 pub mod node;
+pub mod protocol;
 pub mod report;
 pub mod rng;
 pub mod sensor;

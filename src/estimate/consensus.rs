@@ -38,6 +38,107 @@ pub struct ConsensusOutcome {
     pub lmi: LmiCheck,
 }
 
+/// The β-independent terms of one node's step, eqs. (5)–(6) and (13)–(19): P_{k|k−1}, A = (1 − β₀) K S Kᵀ, the
+/// filtered innovations K z̃ⱼ of each source (Fⱼ = K z̃ⱼ z̃ⱼᵀ Kᵀ) and the scale e^{γ(k−k₀)}/α of (15). Given them,
+/// the posterior covariance and both conditions are functions of β alone, which is what a protocol search varies.
+#[derive(Debug, Clone)]
+pub struct LmiTerms {
+    pub P: DMatrix<f64>,
+    pub A: DMatrix<f64>,
+    /// K z̃ⱼ, one per source, in the order the sources were given.
+    pub kz: Vec<DVector<f64>>,
+    pub scale: f64,
+}
+
+impl LmiTerms {
+    /// `sources`: (zⱼ, rows present) per source. A row missing from a source contributes no innovation; a row
+    /// missing from every source is handled by `policy`. `None` when no source carries any row (prediction only).
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        prior: &Gaussian,
+        obs: &Observation,
+        beta0: f64,
+        sources: &[(&DVector<f64>, &[bool])],
+        policy: MissingChannels,
+        k: u64,
+        alpha: f64,
+        gamma: f64,
+    ) -> Result<Option<LmiTerms>, EstimateError> {
+        let m = obs.dim();
+        let mut present_any = vec![false; m];
+        for (z, present) in sources {
+            if z.len() != m || present.len() != m {
+                return Err(EstimateError::Dimension {
+                    what: format!("measurement of {} rows, expected {m}", z.len()),
+                });
+            }
+            for (a, p) in present_any.iter_mut().zip(present.iter()) {
+                *a |= *p;
+            }
+        }
+        if !present_any.iter().any(|p| *p) {
+            return Ok(None);
+        }
+        let (H, R, keep) = effective_observation(obs, &present_any, policy);
+        let P = &prior.P;
+        let S = &H * P * H.transpose() + &R; // (5)
+        let chol = cholesky(&S, "innovation covariance S")?;
+        let K = chol.solve(&(&H * P)).transpose(); // (6)
+                                                   // (10): per-source innovations on the kept rows, zero where the source lacks the row.
+        let kz = sources
+            .iter()
+            .map(|(z, present)| {
+                let full = obs.innovation(z, &prior.x);
+                let zj =
+                    DVector::from_iterator(keep.len(), keep.iter().map(|&i| if present[i] { full[i] } else { 0.0 }));
+                &K * zj
+            })
+            .collect();
+        Ok(Some(LmiTerms {
+            P: P.clone(),
+            A: &K * &S * K.transpose() * (1.0 - beta0),
+            kz,
+            scale: (gamma * k as f64).exp() / alpha,
+        }))
+    }
+
+    /// K z̃ = Σ βⱼ K z̃ⱼ, the correction of the mean (7).
+    pub fn correction(&self, beta: &[f64]) -> DVector<f64> {
+        let mut c = DVector::zeros(self.P.nrows());
+        for (b, kz) in beta.iter().zip(&self.kz) {
+            c.axpy(*b, kz, 1.0);
+        }
+        c
+    }
+
+    /// P_{k|k} of (8)–(9): P − A + Σ βⱼ Fⱼ − K z̃ z̃ᵀ Kᵀ = D + Σ βⱼ Fⱼ − C.
+    pub fn posterior(&self, beta: &[f64]) -> DMatrix<f64> {
+        let mut Pn = &self.P - &self.A;
+        for (b, kz) in beta.iter().zip(&self.kz) {
+            Pn.ger(*b, kz, kz, 1.0);
+        }
+        let c = self.correction(beta);
+        Pn.ger(-1.0, &c, &c, 1.0);
+        symmetrize(&mut Pn);
+        Pn
+    }
+
+    /// (17) and (19) at `beta`: Z = scale · (P_{k|k} − P_{k|k−1}) is symmetric, so ‖Z‖₂ is its largest |eigenvalue|;
+    /// D + Σ βⱼ Fⱼ − C = P_{k|k}. NaN (no convergence) fails both comparisons: infeasible.
+    pub fn check(&self, beta: &[f64]) -> LmiCheck {
+        check_posterior(&self.P, &self.posterior(beta), self.scale)
+    }
+}
+
+fn check_posterior(prior: &DMatrix<f64>, post: &DMatrix<f64>, scale: f64) -> LmiCheck {
+    let mut delta = post - prior;
+    symmetrize(&mut delta);
+    LmiCheck {
+        norm_z: eigenvalues(&delta).map_or(f64::NAN, |e| e.amax() * scale),
+        min_eig: eigenvalues(post).map_or(f64::NAN, |e| e.min()),
+    }
+}
+
 /// Eqs. (5)–(10): S = H P Hᵀ + R, K = P Hᵀ S⁻¹, z̃ = Σ βⱼ (zⱼ − ẑ), x = x + K z̃,
 /// P̄ = Σ βⱼ z̃ⱼ z̃ⱼᵀ − z̃ z̃ᵀ, P = P − (1 − β₀) K S Kᵀ + K P̄ Kᵀ.
 /// A row missing from a source contributes no innovation; a row missing from every source is handled by `policy`.
@@ -53,64 +154,27 @@ pub fn consensus_update(
     alpha: f64,
     gamma: f64,
 ) -> Result<ConsensusOutcome, EstimateError> {
-    let m = obs.dim();
-    let mut present_any = vec![false; m];
-    for s in sources {
-        if s.z.len() != m || s.present.len() != m {
-            return Err(EstimateError::Dimension {
-                what: format!("measurement of {} rows, expected {m}", s.z.len()),
-            });
-        }
-        for (a, p) in present_any.iter_mut().zip(s.present) {
-            *a |= *p;
-        }
-    }
-    if !present_any.iter().any(|p| *p) {
+    let data: Vec<(&DVector<f64>, &[bool])> = sources.iter().map(|s| (s.z, s.present)).collect();
+    let Some(terms) = LmiTerms::new(prior, obs, beta0, &data, policy, k, alpha, gamma)? else {
         // Intermittent observation: prediction only; P_{k|k} = P_{k|k−1} satisfies (19) trivially.
         let min_eig = eigenvalues(&prior.P).map_or(f64::NAN, |e| e.min());
         return Ok(ConsensusOutcome {
             posterior: prior.clone(),
             lmi: LmiCheck { norm_z: 0.0, min_eig },
         });
-    }
-    let (H, R, keep) = effective_observation(obs, &present_any, policy);
-    let P = &prior.P;
-    let S = &H * P * H.transpose() + &R; // (5)
-    let chol = cholesky(&S, "innovation covariance S")?;
-    let K = chol.solve(&(&H * P)).transpose(); // (6)
-
-    // (10): per-source innovations on the kept rows, zero where the source lacks the row.
-    let mk = keep.len();
-    let mut z_tilde = DVector::zeros(mk);
-    let mut spread = DMatrix::zeros(mk, mk); // Σ βⱼ z̃ⱼ z̃ⱼᵀ
-    for s in sources {
-        let full = obs.innovation(s.z, &prior.x);
-        let zj = DVector::from_iterator(mk, keep.iter().map(|&i| if s.present[i] { full[i] } else { 0.0 }));
-        z_tilde += &zj * s.beta;
-        spread += &zj * zj.transpose() * s.beta;
-    }
-    let x = &prior.x + &K * &z_tilde; // (7)
-    let P_bar = &spread - &z_tilde * z_tilde.transpose(); // (9)
-    let KSK = &K * &S * K.transpose();
-    let mut Pn = P - &KSK * (1.0 - beta0) + &K * &P_bar * K.transpose(); // (8)
-    symmetrize(&mut Pn);
+    };
+    let beta: Vec<f64> = sources.iter().map(|s| s.beta).collect();
+    let x = &prior.x + terms.correction(&beta); // (7)
+    let Pn = terms.posterior(&beta); // (8)
     if x.iter().chain(Pn.iter()).any(|v| !v.is_finite()) {
         return Err(EstimateError::NonFinite {
             what: "consensus posterior",
         });
     }
-
-    // (15)–(17): Z = (1/α) e^{γ(k−k₀)} (−A − C + Σ βⱼ Fⱼ) = (1/α) e^{γk} (P_{k|k} − P_{k|k−1}); symmetric, so its
-    // 2-norm is its largest |eigenvalue|. (19): D + Σ βⱼ Fⱼ = P_{k|k}.
-    let mut delta = &Pn - P;
-    symmetrize(&mut delta);
-    let scale = (gamma * k as f64).exp() / alpha;
-    // NaN (no convergence) fails both comparisons: infeasible.
-    let norm_z = eigenvalues(&delta).map_or(f64::NAN, |e| e.amax() * scale);
-    let min_eig = eigenvalues(&Pn).map_or(f64::NAN, |e| e.min());
+    let lmi = check_posterior(&terms.P, &Pn, terms.scale);
     Ok(ConsensusOutcome {
         posterior: Gaussian { x, P: Pn },
-        lmi: LmiCheck { norm_z, min_eig },
+        lmi,
     })
 }
 

@@ -11,7 +11,7 @@ pub mod process;
 
 use nalgebra::{DMatrix, DVector};
 
-pub use consensus::{consensus_update, guarded_update, ConsensusOutcome, LmiCheck, Source};
+pub use consensus::{consensus_update, guarded_update, ConsensusOutcome, LmiCheck, LmiTerms, Source};
 pub use kalman::{kalman_update, nees, Gaussian, MissingChannels, Observation};
 pub use process::{ImuInterval, Process};
 

@@ -16,8 +16,8 @@ use bytes::Bytes;
 use nalgebra::{DMatrix, DVector};
 
 use crate::estimate::{
-    guarded_update, kalman_update, nees, EstimateError, Gaussian, ImuInterval, MissingChannels, Observation, Process,
-    Source,
+    guarded_update, kalman_update, nees, EstimateError, Gaussian, ImuInterval, LmiTerms, MissingChannels, Observation,
+    Process, Source,
 };
 use crate::link::{Link, LinkCounters, Verdict};
 use crate::report::metrics::{FilterMetrics, RxCounters};
@@ -205,6 +205,17 @@ pub struct Node {
     max_peer_step: Option<u64>,
     /// Sources whose measurements this node expects each step.
     in_sources: Vec<usize>,
+    /// The β-independent LMI terms of every networked update, when a protocol search asked for them.
+    lmi_log: Option<Vec<LmiStep>>,
+}
+
+/// One networked update's LMI terms with the node index of each source (own measurement included), in the order of
+/// `terms.kz`.
+#[derive(Debug, Clone)]
+pub struct LmiStep {
+    pub k: u64,
+    pub sources: Vec<usize>,
+    pub terms: LmiTerms,
 }
 
 /// Most early measurements a node holds (bounded buffers).
@@ -339,6 +350,7 @@ impl Node {
                 .map(|l| l.from)
                 .filter(|&j| topo.nodes[j].role.senses())
                 .collect(),
+            lmi_log: None,
             topo,
         };
         node.initial = node.initial_estimate(0);
@@ -658,6 +670,27 @@ impl Node {
         });
         let fallback = own.or_else(|| sources.iter().max_by(|a, b| a.beta.total_cmp(&b.beta)).cloned());
         let lmi = c.lmi.enabled.then_some((c.lmi.alpha, c.lmi.gamma));
+        if let Some(log) = self.lmi_log.as_mut() {
+            // Every source that arrived, whatever its β, so that a search may weigh it.
+            let data: Vec<(&DVector<f64>, &[bool])> = used.iter().map(|(_, p)| (&p.z, &p.present[..])).collect();
+            let terms = LmiTerms::new(
+                &priors.networked,
+                &self.obs,
+                c.beta0,
+                &data,
+                self.policy,
+                k,
+                c.lmi.alpha,
+                c.lmi.gamma,
+            );
+            if let Ok(Some(terms)) = terms {
+                log.push(LmiStep {
+                    k,
+                    sources: used.iter().map(|(s, _)| *s).collect(),
+                    terms,
+                });
+            }
+        }
         let (networked, feasible) = guarded_update(
             &priors.networked,
             &self.obs,
@@ -751,6 +784,21 @@ impl Node {
             networked: filters.networked.clone(),
             diverged: self.m_net.diverged,
         })
+    }
+
+    /// Keep the LMI terms of every networked update from now on (for a protocol search; costs one extra
+    /// gain computation per step).
+    pub fn record_lmi(&mut self) {
+        self.lmi_log.get_or_insert_with(Vec::new);
+    }
+
+    pub fn take_lmi_log(&mut self) -> Vec<LmiStep> {
+        self.lmi_log.as_mut().map(std::mem::take).unwrap_or_default()
+    }
+
+    /// Sources whose measurements this node expects each step (node indices; own excluded).
+    pub fn in_sources(&self) -> &[usize] {
+        &self.in_sources
     }
 
     /// Neighbours in either direction (node indices).

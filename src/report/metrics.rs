@@ -14,6 +14,8 @@ pub struct FilterMetrics {
     sum_nees: f64,
     n_nees: u64,
     feasible: u64,
+    /// Steps, burn-in included, at which the LMI guard rejected the consensus update.
+    infeasible: u64,
     pub final_error: f64,
     pub diverged: bool,
 }
@@ -30,6 +32,7 @@ impl FilterMetrics {
         feasible: bool,
     ) {
         self.final_error = error;
+        self.infeasible += !feasible as u64;
         if !(error.is_finite() && trace_prior.is_finite() && trace_post.is_finite()) {
             self.diverged = true;
         }
@@ -70,6 +73,7 @@ impl FilterMetrics {
             },
             diverged: self.diverged,
             lmi_feasible_fraction: with_lmi.then(|| mean(self.feasible as f64)).flatten(),
+            lmi_infeasible_steps: with_lmi.then_some(self.infeasible),
         }
     }
 }
@@ -91,6 +95,9 @@ pub struct FilterSummary {
     pub diverged: bool,
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub lmi_feasible_fraction: Option<f64>,
+    /// Steps, burn-in included, at which (17) or (19) failed and the node fell back to its independent update.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub lmi_infeasible_steps: Option<u64>,
 }
 
 /// What the receiving end of a link saw, per source.

@@ -370,3 +370,113 @@ pub fn covariance_bounds(
     }
     Ok(out)
 }
+
+/// One protocol on the exchange plot: (exchanged weight, mean error, worst-seed error, feasible).
+pub type ProtocolPoint = (f64, f64, f64, bool);
+
+/// Mean error against exchanged weight (the consensus seed's Figs. 9b/11b), with the independent filters' error,
+/// the topology's own protocol, the chosen one and the LMI boundary.
+pub fn protocol_curve(
+    curve: &[ProtocolPoint],
+    independent: f64,
+    reference: (f64, f64),
+    chosen: (f64, f64),
+    boundary: Option<f64>,
+    title: &str,
+) -> Result<String, PlotError> {
+    font();
+    let name = "protocol";
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(err(name))?;
+        let ys: Vec<f64> = curve
+            .iter()
+            .flat_map(|p| [p.1, p.2])
+            .chain([independent, reference.1, chosen.1])
+            .filter(|v| v.is_finite())
+            .collect();
+        let lo = ys.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = ys.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let (lo, hi) = if lo.is_finite() {
+            (lo * 0.9, hi * 1.1)
+        } else {
+            (0.0, 1.0)
+        };
+        let xmax = curve
+            .iter()
+            .map(|p| p.0)
+            .chain([reference.0, chosen.0])
+            .fold(0.0, f64::max)
+            * 1.05
+            + 1e-9;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 22))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(80)
+            .build_cartesian_2d(0.0..xmax, lo..hi)
+            .map_err(err(name))?;
+        chart
+            .configure_mesh()
+            .x_desc("weight given to neighbours, Σ_{j≠i} β_ij (mean over nodes)")
+            .y_desc("mean position error, m")
+            .draw()
+            .map_err(err(name))?;
+        let blue = RGBColor(31, 119, 180);
+        let red = RGBColor(214, 39, 40);
+        let green = RGBColor(44, 160, 44);
+        let mean: Vec<(f64, f64)> = curve.iter().filter(|p| p.1.is_finite()).map(|p| (p.0, p.1)).collect();
+        let worst: Vec<(f64, f64)> = curve.iter().filter(|p| p.2.is_finite()).map(|p| (p.0, p.2)).collect();
+        chart
+            .draw_series(LineSeries::new(mean.clone(), blue.stroke_width(2)))
+            .map_err(err(name))?
+            .label("networked, mean over seeds (black: (17)/(19) violated)")
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], blue.stroke_width(2)));
+        chart
+            .draw_series(curve.iter().filter(|p| p.1.is_finite()).map(|p| {
+                let style = if p.3 { blue.filled() } else { BLACK.filled() };
+                Circle::new((p.0, p.1), 4, style)
+            }))
+            .map_err(err(name))?;
+        chart
+            .draw_series(LineSeries::new(worst, blue.mix(0.5).stroke_width(1)))
+            .map_err(err(name))?
+            .label("networked, worst seed")
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], blue.mix(0.5)));
+        chart
+            .draw_series(LineSeries::new(
+                [(0.0, independent), (xmax, independent)],
+                green.stroke_width(2),
+            ))
+            .map_err(err(name))?
+            .label("independent nodes")
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], green.stroke_width(2)));
+        chart
+            .draw_series([TriangleMarker::new(reference, 9, BLACK.filled())])
+            .map_err(err(name))?
+            .label("topology's own protocol")
+            .legend(|(x, y)| TriangleMarker::new((x + 9, y), 7, BLACK.filled()));
+        chart
+            .draw_series([Cross::new(chosen, 10, red.stroke_width(3))])
+            .map_err(err(name))?
+            .label("chosen protocol")
+            .legend(move |(x, y)| Cross::new((x + 9, y), 7, red.stroke_width(3)));
+        if let Some(b) = boundary {
+            chart
+                .draw_series(LineSeries::new([(b, lo), (b, hi)], BLACK.mix(0.5).stroke_width(1)))
+                .map_err(err(name))?
+                .label(format!("(17)/(19) boundary, exchange {b:.3}"))
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.mix(0.5)));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(err(name))?;
+        root.present().map_err(err(name))?;
+    }
+    Ok(out)
+}

@@ -227,16 +227,28 @@ impl Topology {
 
     /// A path, then `./topologies/NAME.toml`, then a built-in.
     pub fn resolve(name_or_path: &str) -> Result<Topology, TopologyError> {
+        let (text, file) = Topology::resolve_text(name_or_path)?;
+        Topology::from_toml(&text, &file)
+    }
+
+    /// The TOML text [`Topology::resolve`] would parse, and the name it gives the file in errors.
+    pub fn resolve_text(name_or_path: &str) -> Result<(String, String), TopologyError> {
+        let read = |p: &Path| {
+            let file = p.display().to_string();
+            std::fs::read_to_string(p)
+                .map(|t| (t, file.clone()))
+                .map_err(|source| TopologyError::Io { file, source })
+        };
         let p = Path::new(name_or_path);
         if p.is_file() {
-            return Topology::from_path(p);
+            return read(p);
         }
         let local = Path::new("topologies").join(format!("{name_or_path}.toml"));
         if local.is_file() {
-            return Topology::from_path(&local);
+            return read(&local);
         }
         match builtin::get(name_or_path) {
-            Some(text) => Topology::from_toml(text, &format!("builtin:{name_or_path}")),
+            Some(text) => Ok((text.to_string(), format!("builtin:{name_or_path}"))),
             None => Err(TopologyError::NotFound {
                 name: name_or_path.to_string(),
             }),

@@ -6,4 +6,5 @@ mod estimation;
 mod fusion;
 mod loss;
 mod network;
+mod protocol;
 mod riccati;

@@ -13,6 +13,8 @@ use crate::node::Truth;
 use crate::report::{plot, summary};
 use crate::topology::{builtin, ModelConfig, Overrides, Topology, TopologyError};
 
+mod protocol;
+
 #[derive(Parser, Debug)]
 #[command(
     name = "simnet",
@@ -52,6 +54,8 @@ pub enum Command {
     Compose(ComposeArgs),
     /// Covariance bounds of a linear model under intermittent observations (Sinopoli et al.): λ_min, λ̄, S̄, V̄.
     Bounds(BoundsArgs),
+    /// Find β weights that keep (17) and (19) feasible along a run with the most useful exchange (consensus seed §5).
+    Protocol(protocol::ProtocolArgs),
 }
 
 #[derive(Args, Debug, Clone)]
@@ -326,6 +330,7 @@ pub fn main() -> ExitCode {
         Some(Command::Collect(args)) => collect(&args),
         Some(Command::Compose(args)) => compose(&args),
         Some(Command::Bounds(args)) => bounds(&args),
+        Some(Command::Protocol(args)) => protocol::protocol(&args, cli.quiet),
         None if cli.run.topology.is_some() => run(&cli.run, cli.quiet),
         None => {
             use clap::CommandFactory;
@@ -439,12 +444,16 @@ fn print_summary(s: &summary::Summary, json: bool, note: Option<&str>) -> std::i
 }
 
 fn progress_bar(steps: u64) -> indicatif::ProgressBar {
-    let pb = indicatif::ProgressBar::new(steps);
+    progress_bar_of(
+        steps,
+        "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} steps ({per_sec}, eta {eta})",
+    )
+}
+
+fn progress_bar_of(len: u64, template: &str) -> indicatif::ProgressBar {
+    let pb = indicatif::ProgressBar::new(len);
     pb.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} steps ({per_sec}, eta {eta})",
-        )
-        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        indicatif::ProgressStyle::with_template(template).unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     pb
 }
