@@ -17,6 +17,7 @@
 //! | [`link`] | per-datagram verdicts: Bernoulli / Gilbert–Elliott loss, delay, jitter, duplication, corruption, fault schedules |
 //! | [`node`] | one node's sans-IO state machine: `handle_step`, `handle_datagram`, `handle_deadline`, `poll_transmit` |
 //! | [`protocol`] | β protocol search over whole in-memory runs: the seed's family by bisection on (17)/(19); all β by SDP (feature `sdp`) |
+//! | [`reproduce`] | the source documents' experiments rerun: claims tables with simnet's figures, and plots |
 //! | [`report`] | metrics, `summary.json`, the table, `trace.csv`, `links.csv`, SVG plots |
 //! | [`net`] | the only I/O: one tokio task and UDP socket per node, virtual and realtime clocks, shutdown; `net::host` runs one node per process (`simnet node`) |
 //! | [`cli`] | clap definitions, exit codes, tracing setup |
@@ -34,6 +35,7 @@ pub mod net;
 pub mod node;
 pub mod protocol;
 pub mod report;
+pub mod reproduce;
 pub mod rng;
 pub mod sensor;
 pub mod stats;

@@ -14,6 +14,7 @@ use crate::report::{plot, summary};
 use crate::topology::{builtin, ModelConfig, Overrides, Topology, TopologyError};
 
 mod protocol;
+mod reproduce;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -56,6 +57,9 @@ pub enum Command {
     Bounds(BoundsArgs),
     /// Find β weights that keep (17) and (19) feasible along a run with the most useful exchange (consensus seed §5).
     Protocol(protocol::ProtocolArgs),
+    /// Rerun a source document's experiments: a table of its claims with simnet's figures, and the plots.
+    #[command(subcommand)]
+    Reproduce(reproduce::Paper),
 }
 
 #[derive(Args, Debug, Clone)]
@@ -331,6 +335,7 @@ pub fn main() -> ExitCode {
         Some(Command::Compose(args)) => compose(&args),
         Some(Command::Bounds(args)) => bounds(&args),
         Some(Command::Protocol(args)) => protocol::protocol(&args, cli.quiet),
+        Some(Command::Reproduce(paper)) => reproduce::reproduce(&paper, cli.quiet),
         None if cli.run.topology.is_some() => run(&cli.run, cli.quiet),
         None => {
             use clap::CommandFactory;

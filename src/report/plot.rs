@@ -480,3 +480,80 @@ pub fn protocol_curve(
     }
     Ok(out)
 }
+
+/// Named curves over a common x axis (log y when every value is positive and `log_y`); NaN points are skipped.
+pub fn lines(
+    series: &[(String, Vec<(f64, f64)>)],
+    x_desc: &str,
+    y_desc: &str,
+    log_y: bool,
+    title: &str,
+) -> Result<String, PlotError> {
+    font();
+    let name = "lines";
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(err(name))?;
+        let pts = || {
+            series
+                .iter()
+                .flat_map(|s| s.1.iter())
+                .filter(|p| p.0.is_finite() && p.1.is_finite())
+        };
+        let (x0, x1) = pts().fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| (a.0.min(p.0), a.1.max(p.0)));
+        let (y0, y1) = pts().fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| (a.0.min(p.1), a.1.max(p.1)));
+        let (x0, x1) = if x0 < x1 { (x0, x1) } else { (0.0, 1.0) };
+        let log = log_y && y0 > 0.0 && y1.is_finite();
+        let mut builder = ChartBuilder::on(&root);
+        builder
+            .caption(title, ("sans-serif", 22))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(80);
+        macro_rules! body {
+            ($chart:expr) => {{
+                let mut chart = $chart;
+                chart
+                    .configure_mesh()
+                    .x_desc(x_desc)
+                    .y_desc(y_desc)
+                    .draw()
+                    .map_err(err(name))?;
+                for (i, (label, s)) in series.iter().enumerate() {
+                    let c = palette(i);
+                    let data: Vec<(f64, f64)> = s
+                        .iter()
+                        .copied()
+                        .filter(|p| p.0.is_finite() && p.1.is_finite() && (!log || p.1 > 0.0))
+                        .collect();
+                    chart
+                        .draw_series(LineSeries::new(data, c.stroke_width(2)))
+                        .map_err(err(name))?
+                        .label(label.as_str())
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
+                }
+                chart
+                    .configure_series_labels()
+                    .background_style(WHITE.mix(0.85))
+                    .border_style(BLACK)
+                    .position(SeriesLabelPosition::UpperRight)
+                    .draw()
+                    .map_err(err(name))?;
+            }};
+        }
+        if log {
+            body!(builder
+                .build_cartesian_2d(x0..x1, ((y0 / 1.5)..(y1 * 1.5)).log_scale())
+                .map_err(err(name))?);
+        } else {
+            let (y0, y1) = if y0 < y1 { (y0, y1) } else { (y0 - 1.0, y0 + 1.0) };
+            let pad = 0.05 * (y1 - y0);
+            body!(builder
+                .build_cartesian_2d(x0..x1, (y0 - pad)..(y1 + pad))
+                .map_err(err(name))?);
+        }
+        root.present().map_err(err(name))?;
+    }
+    Ok(out)
+}

@@ -7,4 +7,5 @@ mod fusion;
 mod loss;
 mod network;
 mod protocol;
+mod reproduce;
 mod riccati;

@@ -1,0 +1,50 @@
+//! Reproductions of the source documents' experiments: each runs simnet's own models and writes a table of the
+//! paper's claims with simnet's figures beside them, and the plots. A claim that does not hold is reported as such.
+
+use serde::Serialize;
+
+use crate::node::TraceRow;
+use crate::report::observer::FusedRow;
+use crate::report::summary::Summary;
+use crate::topology::Topology;
+
+pub mod sequeira;
+
+/// One claim of a paper and what simnet measured.
+#[derive(Debug, Clone, Serialize)]
+pub struct Claim {
+    pub id: &'static str,
+    /// Section or figure of the paper.
+    pub source: &'static str,
+    pub claim: &'static str,
+    /// simnet's figures, in words.
+    pub figures: String,
+    /// Whether it held on every seed.
+    pub holds: bool,
+}
+
+/// A run's results as a reproduction needs them.
+pub struct RunResult {
+    pub summary: Summary,
+    pub rows: Vec<TraceRow>,
+    pub fused: Vec<FusedRow>,
+}
+
+/// Runs a topology (over UDP, in the CLI); `record` keeps the per-step rows for plots.
+pub type Runner<'a> = &'a dyn Fn(&Topology, bool) -> anyhow::Result<RunResult>;
+
+/// The claims as a Markdown table.
+pub fn markdown(title: &str, claims: &[Claim]) -> String {
+    let mut s = format!("# {title}\n\n| # | where | claim | simnet | reproduced |\n|---|---|---|---|---|\n");
+    for c in claims {
+        s.push_str(&format!(
+            "| {} | {} | {} | {} | {} |\n",
+            c.id,
+            c.source,
+            c.claim,
+            c.figures,
+            if c.holds { "yes" } else { "**no**" }
+        ));
+    }
+    s
+}
