@@ -395,6 +395,9 @@ pub fn topology_text(base: &str, name: &str, description: &str, beta: &[Vec<f64>
         .iter()
         .map(|r| toml::Value::Array(r.iter().map(|b| toml::Value::Float(*b)).collect()))
         .collect();
+    // The matrix replaces the base's uniform weights, which a topology may not give alongside it.
+    consensus.remove("self");
+    consensus.remove("neighbor");
     consensus.insert("matrix".into(), toml::Value::Array(rows));
     if let Some(lmi) = consensus.get_mut("lmi").and_then(|l| l.as_table_mut()) {
         lmi.insert("enabled".into(), toml::Value::Boolean(true));
@@ -428,12 +431,16 @@ mod tests {
 
     #[test]
     fn written_topology_parses_with_its_protocol() {
-        let text = crate::topology::builtin::get("pair2-paper").unwrap();
-        let beta = vec![vec![0.5, 0.5], vec![0.5, 0.5]];
-        let out = topology_text(text, "pair2-found", "found", &beta).unwrap();
-        let t = Topology::from_toml(&out, "test").unwrap();
-        assert_eq!(t.name, "pair2-found");
-        assert_eq!(t.consensus.beta, beta);
-        assert!(t.consensus.lmi.enabled);
+        // pair2-paper gives a matrix, ring3 uniform `self`/`neighbor` weights.
+        for name in ["pair2-paper", "ring3"] {
+            let text = crate::topology::builtin::get(name).unwrap();
+            let n = Topology::from_toml(text, name).unwrap().nodes.len();
+            let beta = vec![vec![1.0 / n as f64; n]; n];
+            let out = topology_text(text, "found", "found", &beta).unwrap();
+            let t = Topology::from_toml(&out, "test").unwrap();
+            assert_eq!(t.name, "found");
+            assert_eq!(t.consensus.beta, beta);
+            assert!(t.consensus.lmi.enabled);
+        }
     }
 }

@@ -206,3 +206,29 @@ fn sdp_over_all_beta_is_feasible_tight_and_beats_the_family_on_its_data() {
     let more: Vec<f64> = w.iter().map(|b| b * 1.02).collect();
     assert!(!feasible_everywhere(&more), "the SDP left slack: {w:?}");
 }
+
+#[test]
+fn protocol_bad_input_exits_2_naming_it() {
+    let mut cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["-t", "pair2-paper", "--max-row-sum", "0.5"], "--max-row-sum"),
+        (vec!["-t", "pair2-paper", "--grid", "1"], "--grid"),
+        (vec!["-t", "pair2-paper", "--realtime"], "--realtime"),
+        (vec!["-t", "star5"], "nothing to weigh"),
+        (vec!["-t", "no-such-topology"], "no-such-topology"),
+    ];
+    if !cfg!(feature = "sdp") {
+        cases.push((vec!["-t", "pair2-paper", "--solver", "sdp"], "--features sdp"));
+    }
+    for (args, needle) in cases {
+        let out = Command::new(env!("CARGO_BIN_EXE_simnet"))
+            .arg("protocol")
+            .args(&args)
+            .args(["--duration", "2", "-q", "--out"])
+            .arg(tmp("protocol-bad"))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+    }
+}
