@@ -1,6 +1,6 @@
 //! `simnet reproduce PAPER`: rerun a source document's experiments and write its claims table and plots.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::Arc;
 
@@ -8,7 +8,7 @@ use clap::{Args, Subcommand};
 
 use super::{write_atomic, UsageError};
 use crate::net::{self, Clock, RunOptions};
-use crate::reproduce::{self, sequeira, RunResult};
+use crate::reproduce::{self, lesecq, sequeira, RunResult};
 use crate::topology::Topology;
 
 #[derive(Subcommand, Debug, Clone)]
@@ -16,6 +16,23 @@ pub enum Paper {
     /// The consensus IMU network (seeds/000): dead reckoning, independent nodes, both protocols, feasibility, drift,
     /// fusion.
     Sequeira(SequeiraArgs),
+    /// Attitude with data loss (seeds/004): the quaternion EKF, standard and square-root, in the slides' scenario.
+    Lesecq(LesecqArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct LesecqArgs {
+    /// Seeds (1, 2, …); a claim holds when it holds on every seed. Plots show seed 1.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    pub seeds: u64,
+    /// Loss probability of each accelerometer and magnetometer sample.
+    #[arg(long, default_value_t = 0.2, value_parser = super::probability)]
+    pub loss: f64,
+    /// How long each reference attitude holds, s.
+    #[arg(long, default_value_t = 3.0, value_parser = super::positive)]
+    pub segment: f64,
+    #[arg(long, default_value = "out/lesecq")]
+    pub out: PathBuf,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -53,7 +70,10 @@ fn run_over_udp(rt: &tokio::runtime::Runtime, topo: &Topology, record: bool) -> 
 }
 
 pub fn reproduce(paper: &Paper, quiet: bool) -> anyhow::Result<ExitCode> {
-    let Paper::Sequeira(args) = paper;
+    let args = match paper {
+        Paper::Sequeira(a) => a,
+        Paper::Lesecq(a) => return lesecq(a),
+    };
     if let Some(d) = args.duration {
         if d * 100.0 > super::MAX_STEPS {
             return Err(
@@ -85,22 +105,51 @@ pub fn reproduce(paper: &Paper, quiet: bool) -> anyhow::Result<ExitCode> {
         "Sequeira et al., networks of IMUs (seeds/000): claims and simnet's figures ({} seeds)",
         cfg.seeds.len()
     );
-    let md = reproduce::markdown(&title, &out.claims);
+    finish(&args.out, &title, &out.claims, &out.plots)
+}
+
+fn lesecq(args: &LesecqArgs) -> anyhow::Result<ExitCode> {
+    if args.segment > 1e5 {
+        return Err(UsageError::Option(format!("--segment {} s is too long (at most 1e5 s)", args.segment)).into());
+    }
+    let cfg = lesecq::Config {
+        loss: args.loss,
+        segment_s: args.segment,
+        ..Default::default()
+    };
+    let seeds: Vec<u64> = (1..=args.seeds).collect();
+    let out = lesecq::run(&cfg, &seeds)?;
+    let title = format!(
+        "Lesecq, sensor fusion with intermittent data (seeds/004): attitude with {:.0} % loss ({} seeds)",
+        args.loss * 100.0,
+        seeds.len()
+    );
+    finish(&args.out, &title, &out.claims, &out.plots)
+}
+
+/// Print the claims table, then write it with the plots.
+fn finish(
+    dir: &Path,
+    title: &str,
+    claims: &[reproduce::Claim],
+    plots: &[(String, String)],
+) -> anyhow::Result<ExitCode> {
+    let md = reproduce::markdown(title, claims);
     // Print first: whatever happens to the files, the result is not lost.
     println!("{md}");
-    std::fs::create_dir_all(&args.out)?;
-    write_atomic(&args.out.join("claims.md"), md.as_bytes())?;
+    std::fs::create_dir_all(dir)?;
+    write_atomic(&dir.join("claims.md"), md.as_bytes())?;
     write_atomic(
-        &args.out.join("claims.json"),
-        serde_json::to_string_pretty(&out.claims)?.as_bytes(),
+        &dir.join("claims.json"),
+        serde_json::to_string_pretty(claims)?.as_bytes(),
     )?;
-    for (name, svg) in &out.plots {
-        write_atomic(&args.out.join(name), svg.as_bytes())?;
+    for (name, svg) in plots {
+        write_atomic(&dir.join(name), svg.as_bytes())?;
     }
-    let names: Vec<&str> = out.plots.iter().map(|p| p.0.as_str()).collect();
+    let names: Vec<&str> = plots.iter().map(|p| p.0.as_str()).collect();
     println!(
         "wrote {}/{{claims.md, claims.json, {}}}",
-        args.out.display(),
+        dir.display(),
         names.join(", ")
     );
     Ok(ExitCode::SUCCESS)

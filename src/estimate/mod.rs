@@ -1,8 +1,9 @@
 //! Estimation, pure and allocation-light: Kalman prediction and update (Joseph form), intermittent and per-channel
 //! handling, the β-weighted consensus update of the consensus seed (eqs. 5–10) with its LMI conditions (17) and (19),
-//! covariance intersection, NEES.
+//! covariance intersection, NEES; the quaternion attitude EKF of Lesecq's slides in standard and square-root form.
 #![allow(non_snake_case)]
 
+pub mod attitude;
 pub mod bounds;
 pub mod consensus;
 pub mod fusion;

@@ -8,6 +8,7 @@ use crate::report::observer::FusedRow;
 use crate::report::summary::Summary;
 use crate::topology::Topology;
 
+pub mod lesecq;
 pub mod sequeira;
 
 /// One claim of a paper and what simnet measured.
