@@ -9,6 +9,7 @@ pub mod consensus;
 pub mod fusion;
 pub mod kalman;
 pub mod process;
+pub mod rigid_pair;
 
 use nalgebra::{DMatrix, DVector};
 

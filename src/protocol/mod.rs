@@ -13,7 +13,7 @@
 //! whose mean error (over nodes and seeds) is within [`ERROR_TIE`] of the lowest ([`Objective::Error`]: the seed's "optimization
 //! problem on the space of the feasible β", with its Figs. 9b/11b as the objective), or simply the one with the most
 //! exchanged weight ([`Objective::Exchange`]). With the `sdp` feature,
-//! [`sdp`] searches all β, not only the family, for the most exchanged weight.
+//! the `sdp` module searches all β, not only the family, for the most exchanged weight.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;

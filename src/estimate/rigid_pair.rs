@@ -1,0 +1,232 @@
+//! Two IMUs on one rigid body (`seeds/001`): stage one estimates the body's orientation (gyro integration, corrected
+//! toward the accelerometer's tilt when quasi-static); stage two is an EKF over both sensors' positions and
+//! velocities, driven by their accelerometers, whose observation is the known body-frame separation rotated into the
+//! global frame, z = [R d; ‖d‖] = [p₂ − p₁; ‖p₂ − p₁‖], with the Jacobian of the norm.
+
+use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, SVector, Vector3, Vector4};
+
+use super::attitude::{rotation, transition};
+use super::{cholesky, symmetrize, EstimateError};
+use crate::geom::GRAVITY;
+
+/// Gravity in the global frame (z up).
+pub fn gravity() -> Vector3<f64> {
+    Vector3::new(0.0, 0.0, -GRAVITY)
+}
+
+/// Stage one: body orientation from the mean of the two gyros; when the body is quasi-static (specific force close
+/// to g and little rotation) the attitude is pulled toward the accelerometer's tilt by `gain` per sample.
+#[derive(Debug, Clone)]
+pub struct Orientation {
+    pub q: Vector4<f64>,
+    pub gain: f64,
+    /// Quasi-static when |‖f‖ − g| < this (m/s²) and ‖ω‖ < `rate_limit` (rad/s).
+    pub accel_tolerance: f64,
+    pub rate_limit: f64,
+}
+
+impl Orientation {
+    pub fn new(q: Vector4<f64>) -> Orientation {
+        Orientation {
+            q,
+            gain: 0.02,
+            accel_tolerance: 0.05 * GRAVITY,
+            rate_limit: 0.1,
+        }
+    }
+
+    /// Body-to-global rotation.
+    pub fn rotation(&self) -> Matrix3<f64> {
+        rotation(&self.q)
+    }
+
+    pub fn step(&mut self, gyro: &Vector3<f64>, specific_force: &Vector3<f64>, dt: f64) {
+        self.q = (transition(gyro, dt) * self.q).normalize();
+        if (specific_force.norm() - GRAVITY).abs() < self.accel_tolerance && gyro.norm() < self.rate_limit {
+            // The measured "up" in the global frame against the true up: rotate by a fraction of the angle between.
+            let up_meas = (self.rotation() * specific_force).normalize();
+            let up = Vector3::z();
+            let axis = up_meas.cross(&up);
+            let s = axis.norm();
+            if s > 1e-12 {
+                let angle = s.atan2(up_meas.dot(&up)) * self.gain;
+                let half = 0.5 * angle;
+                let a = axis / s * half.sin();
+                // Left-multiply: a correction expressed in the global frame.
+                let c = Vector4::new(half.cos(), a[0], a[1], a[2]);
+                self.q = quat_mul(&c, &self.q).normalize();
+            }
+        }
+    }
+}
+
+/// Hamilton product, scalar first.
+pub fn quat_mul(a: &Vector4<f64>, b: &Vector4<f64>) -> Vector4<f64> {
+    let (a0, av) = (a[0], Vector3::new(a[1], a[2], a[3]));
+    let (b0, bv) = (b[0], Vector3::new(b[1], b[2], b[3]));
+    let v = bv * a0 + av * b0 + av.cross(&bv);
+    Vector4::new(a0 * b0 - av.dot(&bv), v[0], v[1], v[2])
+}
+
+/// One sensor's dead reckoning: global acceleration R f + g, integrated by the trapezoid rule.
+#[derive(Debug, Clone)]
+pub struct DeadReckoning {
+    pub p: Vector3<f64>,
+    pub v: Vector3<f64>,
+    last_a: Option<Vector3<f64>>,
+}
+
+impl DeadReckoning {
+    pub fn new(p: Vector3<f64>, v: Vector3<f64>) -> DeadReckoning {
+        DeadReckoning { p, v, last_a: None }
+    }
+
+    pub fn step(&mut self, a_global: &Vector3<f64>, dt: f64) {
+        let a0 = self.last_a.unwrap_or(*a_global);
+        let v_new = self.v + (a0 + a_global) * (0.5 * dt);
+        self.p += (self.v + v_new) * (0.5 * dt);
+        self.v = v_new;
+        self.last_a = Some(*a_global);
+    }
+}
+
+/// Stage two: x = [p₁, v₁, p₂, v₂] (12 states), each sensor's acceleration in the global frame as the input.
+#[derive(Debug, Clone)]
+pub struct SeparationEkf {
+    pub x: SVector<f64, 12>,
+    pub P: SMatrix<f64, 12, 12>,
+    last_a: Option<[Vector3<f64>; 2]>,
+    /// Accelerometer noise variance per sample, (m/s²)².
+    pub accel_var: f64,
+    /// Variance of the rotated separation's components (orientation error × ‖d‖), m².
+    pub vector_var: f64,
+    /// Variance of the norm row, m² (the norm is a physical constant).
+    pub norm_var: f64,
+}
+
+impl SeparationEkf {
+    pub fn new(p: [Vector3<f64>; 2], v: [Vector3<f64>; 2], accel_var: f64, vector_var: f64, norm_var: f64) -> Self {
+        let mut x = SVector::<f64, 12>::zeros();
+        for s in 0..2 {
+            x.fixed_rows_mut::<3>(6 * s).copy_from(&p[s]);
+            x.fixed_rows_mut::<3>(6 * s + 3).copy_from(&v[s]);
+        }
+        SeparationEkf {
+            x,
+            P: SMatrix::<f64, 12, 12>::identity() * 1e-8,
+            last_a: None,
+            accel_var,
+            vector_var,
+            norm_var,
+        }
+    }
+
+    pub fn position(&self, s: usize) -> Vector3<f64> {
+        self.x.fixed_rows::<3>(6 * s).into_owned()
+    }
+
+    /// Predict with both sensors' global accelerations (trapezoid in the mean, white acceleration noise in P).
+    pub fn predict(&mut self, a: [Vector3<f64>; 2], dt: f64) {
+        let a0 = self.last_a.unwrap_or(a);
+        let mut F = SMatrix::<f64, 12, 12>::identity();
+        let mut Q = SMatrix::<f64, 12, 12>::zeros();
+        // Per axis: p += v dt + a dt²/2, v += a dt; a carries the accelerometer's noise.
+        let (q11, q12, q22) = (dt.powi(4) / 4.0, dt.powi(3) / 2.0, dt * dt);
+        for s in 0..2 {
+            let (ip, iv) = (6 * s, 6 * s + 3);
+            let am = (a0[s] + a[s]) * 0.5;
+            let v = self.x.fixed_rows::<3>(iv).into_owned();
+            let p = self.x.fixed_rows::<3>(ip).into_owned() + v * dt + am * (0.5 * dt * dt);
+            self.x.fixed_rows_mut::<3>(ip).copy_from(&p);
+            self.x.fixed_rows_mut::<3>(iv).copy_from(&(v + am * dt));
+            for k in 0..3 {
+                F[(ip + k, iv + k)] = dt;
+                Q[(ip + k, ip + k)] = q11 * self.accel_var;
+                Q[(ip + k, iv + k)] = q12 * self.accel_var;
+                Q[(iv + k, ip + k)] = q12 * self.accel_var;
+                Q[(iv + k, iv + k)] = q22 * self.accel_var;
+            }
+        }
+        self.last_a = Some(a);
+        self.P = F * self.P * F.transpose() + Q;
+    }
+
+    /// Update with the separation d (body frame) rotated by the stage-one orientation.
+    pub fn update(&mut self, rotation: &Matrix3<f64>, d_body: &Vector3<f64>) -> Result<(), EstimateError> {
+        let d = rotation * d_body;
+        let delta = self.position(1) - self.position(0);
+        let n = delta.norm();
+        if n < 1e-9 {
+            return Err(EstimateError::NonFinite {
+                what: "separation of the two sensors",
+            });
+        }
+        let u = delta / n;
+        let z = DVector::from_vec(vec![d[0], d[1], d[2], d_body.norm()]);
+        let h = DVector::from_vec(vec![delta[0], delta[1], delta[2], n]);
+        // H: ∂(p₂ − p₁)/∂x and ∂‖p₂ − p₁‖/∂x = [−uᵀ, 0, uᵀ, 0].
+        let mut H = DMatrix::zeros(4, 12);
+        for k in 0..3 {
+            H[(k, k)] = -1.0;
+            H[(k, 6 + k)] = 1.0;
+            H[(3, k)] = -u[k];
+            H[(3, 6 + k)] = u[k];
+        }
+        let mut R = DMatrix::zeros(4, 4);
+        for k in 0..3 {
+            R[(k, k)] = self.vector_var;
+        }
+        R[(3, 3)] = self.norm_var;
+        let P = DMatrix::from_column_slice(12, 12, self.P.as_slice());
+        let S = &H * &P * H.transpose() + &R;
+        let K = cholesky(&S, "separation innovation covariance")?
+            .solve(&(&H * &P))
+            .transpose();
+        let dx = &K * (z - h);
+        // Joseph form keeps P symmetric positive definite with the nearly redundant norm row.
+        let IKH = DMatrix::identity(12, 12) - &K * &H;
+        let mut Pn = &IKH * &P * IKH.transpose() + &K * &R * K.transpose();
+        symmetrize(&mut Pn);
+        for i in 0..12 {
+            self.x[i] += dx[i];
+        }
+        self.P.copy_from_slice(Pn.as_slice());
+        if self.x.iter().any(|v| !v.is_finite()) {
+            return Err(EstimateError::NonFinite {
+                what: "rigid-pair state",
+            });
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exact_separation_leaves_consistent_estimates_unchanged() {
+        let p = [Vector3::new(1.0, 2.0, 0.0), Vector3::new(1.5, 2.0, 0.0)];
+        let mut f = SeparationEkf::new(p, [Vector3::zeros(); 2], 1e-4, 1e-4, 1e-6);
+        f.P = SMatrix::identity() * 0.01;
+        f.update(&Matrix3::identity(), &Vector3::new(0.5, 0.0, 0.0)).unwrap();
+        assert!((f.position(0) - p[0]).norm() < 1e-12 && (f.position(1) - p[1]).norm() < 1e-12);
+        // Opposite errors along the separation are pulled back toward it, symmetrically.
+        let q = [Vector3::new(0.9, 2.0, 0.0), Vector3::new(1.6, 2.0, 0.0)];
+        let mut g = SeparationEkf::new(q, [Vector3::zeros(); 2], 1e-4, 1e-4, 1e-6);
+        g.P = SMatrix::identity() * 0.01;
+        g.update(&Matrix3::identity(), &Vector3::new(0.5, 0.0, 0.0)).unwrap();
+        let sep = g.position(1) - g.position(0);
+        assert!((sep.norm() - 0.5).abs() < 1e-3, "{sep}");
+        assert!(((g.position(0) + g.position(1)) / 2.0 - Vector3::new(1.25, 2.0, 0.0)).norm() < 1e-9);
+    }
+
+    #[test]
+    fn dead_reckoning_integrates_constant_acceleration_exactly() {
+        let mut d = DeadReckoning::new(Vector3::zeros(), Vector3::new(1.0, 0.0, 0.0));
+        for _ in 0..100 {
+            d.step(&Vector3::new(0.0, 2.0, 0.0), 0.01);
+        }
+        assert!((d.p - Vector3::new(1.0, 1.0, 0.0)).norm() < 1e-12, "{}", d.p);
+    }
+}
