@@ -10,6 +10,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use nalgebra::{DMatrix, DVector, Vector3};
+use simnet::estimate::bvp::End;
 use simnet::estimate::{
     consensus_update, kalman_update, Gaussian, ImuInterval, MissingChannels, Observation, Process, Source,
 };
@@ -182,6 +183,20 @@ fn main() {
         "| wire encode / decode ({} B measurement datagram) | {enc:.0} ns / {dec:.0} ns |",
         bytes.len()
     );
+
+    // Boundary-value reconstruction: the tridiagonal FEM solve should cost the same per sample at every length.
+    for n in [10_000usize, 100_000, 1_000_000] {
+        let t: Vec<f64> = (0..n).map(|i| i as f64 * 0.01).collect();
+        let a: Vec<f64> = t.iter().map(|s| (0.7 * s).sin()).collect();
+        let ns = time_per_call(|| {
+            std::hint::black_box(simnet::estimate::bvp::solve(&t, &a, End::Position(0.0), End::Position(1.0)).unwrap());
+        });
+        println!(
+            "| FEM solve, Dirichlet at both ends, {n} samples | {:.2} ms, {:.1} ns/sample |",
+            ns / 1e6,
+            ns / n as f64
+        );
+    }
 
     let raw = raw_udp_pair(200_000);
     println!(

@@ -9,7 +9,7 @@ use clap::{Args, Subcommand};
 
 use super::{write_atomic, UsageError};
 use crate::net::{self, Clock, RunOptions};
-use crate::reproduce::{self, lesecq, rigid_pair, sequeira, RunResult};
+use crate::reproduce::{self, lesecq, nieminen, rigid_pair, sequeira, RunResult};
 use crate::topology::Topology;
 
 #[derive(Subcommand, Debug, Clone)]
@@ -21,6 +21,17 @@ pub enum Paper {
     Lesecq(LesecqArgs),
     /// Two IMUs on one rigid body (seeds/001): the Monte Carlo of dead reckoning, averaged pair and constrained EKF.
     RigidPair(RigidPairArgs),
+    /// Boundary-value reconstruction (seeds/002): the rate-table example, trapezoid against FEM against FEM with the
+    /// sensor-error model.
+    Nieminen(NieminenArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct NieminenArgs {
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    #[arg(long, default_value = "out/nieminen")]
+    pub out: PathBuf,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -88,6 +99,7 @@ pub fn reproduce(paper: &Paper, quiet: bool) -> anyhow::Result<ExitCode> {
         Paper::Sequeira(a) => a,
         Paper::Lesecq(a) => return lesecq(a),
         Paper::RigidPair(a) => return rigid_pair(a, quiet),
+        Paper::Nieminen(a) => return nieminen(a),
     };
     if let Some(d) = args.duration {
         if d * 100.0 > super::MAX_STEPS {
@@ -222,4 +234,28 @@ fn rigid_pair(args: &RigidPairArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     )?;
     let title = "Two IMUs on a rigid body (seeds/001): claims and simnet's figures";
     finish(&args.out, title, &rigid_pair::claims(&results), &[])
+}
+
+fn nieminen(args: &NieminenArgs) -> anyhow::Result<ExitCode> {
+    let sensor = nieminen::Sensor {
+        seed: args.seed,
+        ..Default::default()
+    };
+    let out = nieminen::run(&sensor)?;
+    let mut stdout = std::io::stdout().lock();
+    writeln!(
+        stdout,
+        "Rate table, r = {} m, {} Hz; sensor bias {} m/s², scale {}, noise {} m/s²; P1, P2, P3 at ¼, ½, ¾ of the record\n",
+        sensor.radius, sensor.rate_hz, sensor.bias, sensor.scale, sensor.noise
+    )?;
+    writeln!(stdout, "{}", out.table)?;
+    drop(stdout);
+    std::fs::create_dir_all(&args.out)?;
+    write_atomic(&args.out.join("table.md"), out.table.as_bytes())?;
+    write_atomic(
+        &args.out.join("results.json"),
+        serde_json::to_string_pretty(&out.results)?.as_bytes(),
+    )?;
+    let title = "Nieminen et al., boundary conditions for inertial navigation (seeds/002): claims and simnet's figures";
+    finish(&args.out, title, &out.claims, &out.plots)
 }

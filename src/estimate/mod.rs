@@ -5,6 +5,7 @@
 
 pub mod attitude;
 pub mod bounds;
+pub mod bvp;
 pub mod consensus;
 pub mod fusion;
 pub mod kalman;

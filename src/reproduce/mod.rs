@@ -9,6 +9,7 @@ use crate::report::summary::Summary;
 use crate::topology::Topology;
 
 pub mod lesecq;
+pub mod nieminen;
 pub mod rigid_pair;
 pub mod sequeira;
 
