@@ -17,23 +17,27 @@
 //! | [`link`] | per-datagram verdicts: Bernoulli / Gilbert–Elliott loss, delay, jitter, duplication, corruption, fault schedules |
 //! | [`node`] | one node's sans-IO state machine: `handle_step`, `handle_datagram`, `handle_deadline`, `poll_transmit` |
 //! | [`protocol`] | β protocol search over whole in-memory runs: the seed's family by bisection on (17)/(19); all β by SDP (feature `sdp`) |
+//! | [`reconstruct`] | position from a recorded IMU file as a boundary value problem (FEM), trapezoid for comparison, sensor-error model |
 //! | [`reproduce`] | the source documents' experiments rerun: claims tables with simnet's figures, and plots |
 //! | [`report`] | metrics, `summary.json`, the table, `trace.csv`, `links.csv`, SVG plots |
 //! | [`net`] | the only I/O: one tokio task and UDP socket per node, virtual and realtime clocks, shutdown; `net::host` runs one node per process (`simnet node`) |
 //! | [`cli`] | clap definitions, exit codes, tracing setup |
 //! | [`compose`] | the docker compose file of a topology (one container per node) |
 //!
-//! Support: [`geom`] (Euler ZYX attitude), [`rng`] (seeded streams), [`stats`] (quantiles for tests and reports).
+//! Support: [`geom`] (Euler ZYX attitude), [`rng`] (seeded streams), [`stats`] (quantiles for tests and reports),
+//! [`imu_csv`] (recorded IMU files: `simnet run --out` writes them, `simnet reconstruct` reads them).
 
 pub mod cli;
 pub mod compose;
 pub mod estimate;
 pub mod geom;
+pub mod imu_csv;
 pub mod link;
 pub mod motion;
 pub mod net;
 pub mod node;
 pub mod protocol;
+pub mod reconstruct;
 pub mod report;
 pub mod reproduce;
 pub mod rng;

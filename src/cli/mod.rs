@@ -14,6 +14,7 @@ use crate::report::{plot, summary};
 use crate::topology::{builtin, ModelConfig, Overrides, Topology, TopologyError};
 
 mod protocol;
+mod reconstruct;
 mod reproduce;
 
 #[derive(Parser, Debug)]
@@ -60,6 +61,8 @@ pub enum Command {
     /// Rerun a source document's experiments: a table of its claims with simnet's figures, and the plots.
     #[command(subcommand)]
     Reproduce(reproduce::Paper),
+    /// Position from a recorded IMU file as a boundary value problem (FEM), beside the trapezoid rule.
+    Reconstruct(reconstruct::ReconstructArgs),
 }
 
 #[derive(Args, Debug, Clone)]
@@ -336,6 +339,7 @@ pub fn main() -> ExitCode {
         Some(Command::Bounds(args)) => bounds(&args),
         Some(Command::Protocol(args)) => protocol::protocol(&args, cli.quiet),
         Some(Command::Reproduce(paper)) => reproduce::reproduce(&paper, cli.quiet),
+        Some(Command::Reconstruct(args)) => reconstruct::reconstruct(&args),
         None if cli.run.topology.is_some() => run(&cli.run, cli.quiet),
         None => {
             use clap::CommandFactory;
@@ -427,9 +431,18 @@ fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         rows.sort_by_key(|r| (r.step, r.node, !r.networked));
         let fused = out.observer.plot_rows();
         write_outputs(dir, &topo, &s, &rows, &fused)?;
+        // Each sensing node's IMU samples with the true pose: input for `simnet reconstruct`.
+        let mut imu_files = String::new();
+        for r in &out.reports {
+            if !r.imu.is_empty() {
+                let name = format!("imu-{}.csv", r.id);
+                write_atomic(&dir.join(&name), crate::imu_csv::write(&r.imu).as_bytes())?;
+                imu_files.push_str(&format!(", {name}"));
+            }
+        }
         if !args.json {
             println!(
-                "\nwrote {}/{{summary.json, trace.csv, links.csv, trajectory.svg, error.svg, trace_p.svg}}",
+                "\nwrote {}/{{summary.json, trace.csv, links.csv, trajectory.svg, error.svg, trace_p.svg{imu_files}}}",
                 dir.display()
             );
         }

@@ -216,40 +216,61 @@ pub fn fit_error_model(
     end: End,
     constraints: &[Constraint],
 ) -> Result<(Vec<f64>, Vec<f64>), BvpError> {
-    let x0 = solve(t, base, start, end)?;
-    // Each signal's response with homogeneous boundary values (the boundary values are exact, eq. 27).
+    let tagged: Vec<(usize, Constraint)> = constraints.iter().map(|c| (0, *c)).collect();
+    let (theta, mut x) = fit_error_model_axes(t, &[base.to_vec()], &[signals.to_vec()], &[(start, end)], &tagged)?;
+    Ok((theta, x.remove(0)))
+}
+
+/// [`fit_error_model`] over several axes sharing θ (§5.3): axis k has its base acceleration, one signal per
+/// parameter (zero where a parameter does not act on it) and its own ends; a constraint names its axis.
+pub fn fit_error_model_axes(
+    t: &[f64],
+    bases: &[Vec<f64>],
+    signals: &[Vec<Vec<f64>>],
+    ends: &[(End, End)],
+    constraints: &[(usize, Constraint)],
+) -> Result<(Vec<f64>, Vec<Vec<f64>>), BvpError> {
     let homogeneous = |e: End| match e {
         End::Position(_) => End::Position(0.0),
         End::Velocity(_) => End::Velocity(0.0),
     };
-    let responses: Vec<Vec<f64>> = signals
-        .iter()
-        .map(|g| solve(t, g, homogeneous(start), homogeneous(end)))
-        .collect::<Result<_, _>>()?;
-    let p = signals.len();
+    let p = signals.first().map_or(0, |s| s.len());
+    let mut x0 = Vec::with_capacity(bases.len());
+    let mut responses = Vec::with_capacity(bases.len());
+    for (k, base) in bases.iter().enumerate() {
+        let (start, end) = ends[k];
+        x0.push(solve(t, base, start, end)?);
+        // Each signal's response with homogeneous boundary values (the boundary values are exact, eq. 27).
+        let r: Vec<Vec<f64>> = signals[k]
+            .iter()
+            .map(|g| solve(t, g, homogeneous(start), homogeneous(end)))
+            .collect::<Result<_, _>>()?;
+        responses.push(r);
+    }
     let mut A = DMatrix::zeros(constraints.len(), p);
     let mut y = DVector::zeros(constraints.len());
-    for (r, c) in constraints.iter().enumerate() {
+    for (r, (k, c)) in constraints.iter().enumerate() {
         let (row, value) = constraint_row(t, c)?;
         let dot = |x: &[f64]| row.iter().zip(x).map(|(a, b)| a * b).sum::<f64>();
-        y[r] = value - dot(&x0);
-        for (j, resp) in responses.iter().enumerate() {
+        y[r] = value - dot(&x0[*k]);
+        for (j, resp) in responses[*k].iter().enumerate() {
             A[(r, j)] = dot(resp);
         }
     }
-    let svd = A.clone().svd(true, true);
+    let svd = A.svd(true, true);
     let rank = svd.rank(1e-12 * svd.singular_values.max().max(f64::MIN_POSITIVE));
     if rank < p {
         return Err(BvpError::Underdetermined(p, rank));
     }
     let theta = svd.solve(&y, 1e-14).map_err(|_| BvpError::Underdetermined(p, rank))?;
-    let mut x = x0;
-    for (j, resp) in responses.iter().enumerate() {
-        for (xi, ri) in x.iter_mut().zip(resp) {
-            *xi += theta[j] * ri;
+    for (k, x) in x0.iter_mut().enumerate() {
+        for (j, resp) in responses[k].iter().enumerate() {
+            for (xi, ri) in x.iter_mut().zip(resp) {
+                *xi += theta[j] * ri;
+            }
         }
     }
-    Ok((theta.iter().copied().collect(), x))
+    Ok((theta.iter().copied().collect(), x0))
 }
 
 #[cfg(test)]

@@ -156,6 +156,8 @@ pub struct NodeReport {
     pub rx: Vec<RxCounters>,
     pub counters: NodeCounters,
     pub trace: Vec<TraceRow>,
+    /// The IMU samples with the true pose, when traces are recorded (pose model, sensing nodes).
+    pub imu: Vec<ImuRow>,
 }
 
 /// The filters of an estimating node.
@@ -207,6 +209,17 @@ pub struct Node {
     in_sources: Vec<usize>,
     /// The β-independent LMI terms of every networked update, when a protocol search asked for them.
     lmi_log: Option<Vec<LmiStep>>,
+    imu_log: Option<Vec<ImuRow>>,
+}
+
+/// One IMU sample as recorded, with the true pose at its time (`imu-ID.csv`).
+#[derive(Debug, Clone, Copy)]
+pub struct ImuRow {
+    pub t: f64,
+    pub sample: ImuSample,
+    pub position: nalgebra::Vector3<f64>,
+    /// Euler ZYX [roll, pitch, yaw], rad.
+    pub euler: nalgebra::Vector3<f64>,
 }
 
 /// One networked update's LMI terms with the node index of each source (own measurement included), in the order of
@@ -324,6 +337,7 @@ impl Node {
             m_net: FilterMetrics::default(),
             m_ind: FilterMetrics::default(),
             trace: record_trace.then(Vec::new),
+            imu_log: record_trace.then(Vec::new),
             started: false,
             neighbours: {
                 let mut v: Vec<usize> = topo
@@ -432,10 +446,16 @@ impl Node {
         let (imu, z) = match (&mut self.sensor, &self.truth) {
             (Some(sensor), Truth::Pose { trajectory, .. }) => {
                 let tr = trajectory.at(t);
-                (
-                    Some(sensor.imu(&tr)),
-                    Some(DVector::from_row_slice(&sensor.pose_fix(&tr))),
-                )
+                let sample = sensor.imu(&tr);
+                if let Some(log) = self.imu_log.as_mut() {
+                    log.push(ImuRow {
+                        t,
+                        sample,
+                        position: tr.p,
+                        euler: tr.euler,
+                    });
+                }
+                (Some(sample), Some(DVector::from_row_slice(&sensor.pose_fix(&tr))))
             }
             (Some(sensor), Truth::Linear { x, .. }) => (
                 None,
@@ -848,6 +868,7 @@ impl Node {
             rx: self.rx.clone(),
             counters: self.counters,
             trace: self.trace.take().unwrap_or_default(),
+            imu: self.imu_log.take().unwrap_or_default(),
         }
     }
 }

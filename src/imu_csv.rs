@@ -1,0 +1,182 @@
+//! Recorded IMU files: `t,ax,ay,az,gx,gy,gz[,mx,my,mz]` in SI units (s, m/s² specific force in the body frame,
+//! rad/s), optionally with reference columns `x,y,z` (position, m) and `roll,pitch,yaw` (Euler ZYX, rad). A header
+//! line names the columns, in any order; `#` starts a comment line. `simnet run --out` writes one per sensing node
+//! (`imu-ID.csv`, with the true pose as reference).
+
+use nalgebra::Vector3;
+
+use crate::node::ImuRow;
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{file}:{line}: {message}")]
+pub struct CsvError {
+    pub file: String,
+    /// 1-based line number.
+    pub line: usize,
+    pub message: String,
+}
+
+#[derive(Debug, Clone, Default)]
+pub struct ImuRecording {
+    pub t: Vec<f64>,
+    pub accel: Vec<Vector3<f64>>,
+    pub gyro: Vec<Vector3<f64>>,
+    pub mag: Option<Vec<Vector3<f64>>>,
+    pub position: Option<Vec<Vector3<f64>>>,
+    pub euler: Option<Vec<Vector3<f64>>>,
+}
+
+const GROUPS: [(&str, [&str; 3]); 5] = [
+    ("accelerometer", ["ax", "ay", "az"]),
+    ("gyro", ["gx", "gy", "gz"]),
+    ("magnetometer", ["mx", "my", "mz"]),
+    ("reference position", ["x", "y", "z"]),
+    ("reference attitude", ["roll", "pitch", "yaw"]),
+];
+
+pub fn parse(text: &str, file: &str) -> Result<ImuRecording, CsvError> {
+    let err = |line: usize, message: String| CsvError {
+        file: file.to_string(),
+        line,
+        message,
+    };
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+    let (hl, header) = lines
+        .next()
+        .ok_or_else(|| err(1, "empty file: expected a header `t,ax,ay,az,gx,gy,gz`".into()))?;
+    let names: Vec<&str> = header.split(',').map(str::trim).collect();
+    let known = |n: &str| n == "t" || GROUPS.iter().any(|(_, g)| g.contains(&n));
+    if let Some(bad) = names.iter().find(|n| !known(n)) {
+        return Err(err(
+            hl,
+            format!("unknown column `{bad}` (expected t, ax…az, gx…gz, mx…mz, x, y, z, roll, pitch, yaw)"),
+        ));
+    }
+    for (i, n) in names.iter().enumerate() {
+        if names[..i].contains(n) {
+            return Err(err(hl, format!("column `{n}` appears twice")));
+        }
+    }
+    let col = |n: &str| names.iter().position(|c| *c == n);
+    let t_col = col("t").ok_or_else(|| err(hl, "no `t` column".into()))?;
+    let mut groups: Vec<Option<[usize; 3]>> = Vec::new();
+    for (what, g) in GROUPS {
+        let idx: Vec<Option<usize>> = g.iter().map(|n| col(n)).collect();
+        match (idx.iter().all(Option::is_some), idx.iter().any(Option::is_some)) {
+            (true, _) => groups.push(Some([idx[0].unwrap_or(0), idx[1].unwrap_or(0), idx[2].unwrap_or(0)])),
+            (false, true) => {
+                return Err(err(hl, format!("the {what} needs all three columns {}", g.join(", "))));
+            }
+            (false, false) => groups.push(None),
+        }
+    }
+    for (i, what) in [(0, "accelerometer"), (1, "gyro")] {
+        if groups[i].is_none() {
+            return Err(err(hl, format!("no {what} columns ({})", GROUPS[i].1.join(", "))));
+        }
+    }
+    let mut rec = ImuRecording {
+        mag: groups[2].map(|_| Vec::new()),
+        position: groups[3].map(|_| Vec::new()),
+        euler: groups[4].map(|_| Vec::new()),
+        ..Default::default()
+    };
+    for (ln, line) in lines {
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if fields.len() != names.len() {
+            return Err(err(
+                ln,
+                format!("{} fields, the header has {}", fields.len(), names.len()),
+            ));
+        }
+        let mut values = Vec::with_capacity(fields.len());
+        for (f, n) in fields.iter().zip(&names) {
+            match f.parse::<f64>() {
+                Ok(v) if v.is_finite() => values.push(v),
+                _ => return Err(err(ln, format!("`{f}` in column `{n}` is not a finite number"))),
+            }
+        }
+        let t = values[t_col];
+        if let Some(prev) = rec.t.last() {
+            if t <= *prev {
+                return Err(err(ln, format!("time {t} does not increase (previous {prev})")));
+            }
+        }
+        rec.t.push(t);
+        let v3 = |g: [usize; 3]| Vector3::new(values[g[0]], values[g[1]], values[g[2]]);
+        rec.accel.push(v3(groups[0].expect("checked")));
+        rec.gyro.push(v3(groups[1].expect("checked")));
+        for (slot, g) in [
+            (&mut rec.mag, groups[2]),
+            (&mut rec.position, groups[3]),
+            (&mut rec.euler, groups[4]),
+        ] {
+            if let (Some(v), Some(g)) = (slot.as_mut(), g) {
+                v.push(v3(g));
+            }
+        }
+    }
+    if rec.t.len() < 3 {
+        return Err(err(hl, format!("{} samples: need at least 3", rec.t.len())));
+    }
+    Ok(rec)
+}
+
+/// The `imu-ID.csv` a run writes: samples with the true pose as reference.
+pub fn write(rows: &[ImuRow]) -> String {
+    let mut s = String::from("t,ax,ay,az,gx,gy,gz,x,y,z,roll,pitch,yaw\n");
+    for r in rows {
+        let (a, g, p, e) = (r.sample.accel, r.sample.gyro, r.position, r.euler);
+        s.push_str(&format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            r.t, a[0], a[1], a[2], g[0], g[1], g[2], p[0], p[1], p[2], e[0], e[1], e[2]
+        ));
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_columns_in_any_order_with_optional_groups() {
+        let text = "# recorded\ngx,gy,gz,t,ax,ay,az,x,y,z\n0,0,0.1,0.0,0,0,9.81,1,2,3\n0,0,0.1,0.01,0,0,9.81,1,2,3\n\
+                    0,0,0.1,0.02,0.1,0,9.81,1,2,3\n";
+        let r = parse(text, "f.csv").unwrap();
+        assert_eq!(r.t, vec![0.0, 0.01, 0.02]);
+        assert_eq!(r.gyro[0], Vector3::new(0.0, 0.0, 0.1));
+        assert_eq!(r.accel[2], Vector3::new(0.1, 0.0, 9.81));
+        assert_eq!(r.position.unwrap()[1], Vector3::new(1.0, 2.0, 3.0));
+        assert!(r.mag.is_none() && r.euler.is_none());
+    }
+
+    #[test]
+    fn rejects_malformed_files_naming_the_line() {
+        let head = "t,ax,ay,az,gx,gy,gz\n";
+        let ok = "0,0,0,9.8,0,0,0\n0.01,0,0,9.8,0,0,0\n";
+        let cases: Vec<(String, usize, &str)> = vec![
+            (String::new(), 1, "empty file"),
+            ("t,ax,ay,az,gx,gy\n".into(), 1, "gyro needs all three"),
+            ("t,ax,ay,az,gx,gy,gz,q\n".into(), 1, "unknown column `q`"),
+            ("t,ax,ay,az,gx,gy,gz,t\n".into(), 1, "appears twice"),
+            (format!("{head}{ok}0.02,0,0,9.8,0,0\n"), 4, "6 fields"),
+            (format!("{head}{ok}0.02,0,0,nine,0,0,0\n"), 4, "`nine` in column `az`"),
+            (format!("{head}{ok}0.01,0,0,9.8,0,0,0\n"), 4, "does not increase"),
+            (format!("{head}0,0,0,9.8,0,0,NaN\n"), 2, "not a finite number"),
+            (format!("{head}{ok}"), 1, "need at least 3"),
+        ];
+        for (text, line, needle) in cases {
+            let e = parse(&text, "f.csv").unwrap_err();
+            assert_eq!(e.line, line, "{text:?}: {e}");
+            assert!(
+                e.to_string().contains(needle) && e.to_string().starts_with(&format!("f.csv:{line}:")),
+                "{e}"
+            );
+        }
+    }
+}
