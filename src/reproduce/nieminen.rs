@@ -192,7 +192,7 @@ pub struct Output {
 pub fn run(s: &Sensor) -> anyhow::Result<Output> {
     let results: Vec<TestResult> = tests().iter().map(|t| run_test(t, s)).collect::<Result<_, _>>()?;
     let mut table = String::from(
-        "| test | method | Δv at P1, P2, P3 (m/s) | Δx at P1, P2, P3 (m) | max |Δx| (m) |\n|---|---|---|---|---|\n",
+        "| test | method | Δv at P1, P2, P3 (m/s) | Δx at P1, P2, P3 (m) | max ‖Δx‖ (m) |\n|---|---|---|---|---|\n",
     );
     for r in &results {
         for m in &r.methods {
@@ -243,7 +243,7 @@ pub fn run(s: &Sensor) -> anyhow::Result<Output> {
                 .iter()
                 .map(|r| {
                     format!(
-                        "{}: |Δx| {:.4} m at P1, {:.4} m at P3",
+                        "{}: ‖Δx‖ {:.4} m at P1, {:.4} m at P3",
                         r.test.name,
                         r.methods[0].position[0].abs(),
                         r.methods[0].position[2].abs()
@@ -258,7 +258,7 @@ pub fn run(s: &Sensor) -> anyhow::Result<Output> {
             source: "§6, Table 1",
             claim: "FEM with Dirichlet conditions (II) gives much better estimates than I in the longer test",
             figures: format!(
-                "test 2: largest |Δx| at the points {:.4} m (II) against {:.4} m (I); |Δv| {:.4} against {:.4} m/s",
+                "test 2: largest ‖Δx‖ at the points {:.4} m (II) against {:.4} m (I); ‖Δv‖ {:.4} against {:.4} m/s",
                 abs_max(&long.methods[1].position),
                 abs_max(&long.methods[0].position),
                 abs_max(&long.methods[1].velocity),
@@ -274,7 +274,7 @@ pub fn run(s: &Sensor) -> anyhow::Result<Output> {
                 .iter()
                 .map(|r| {
                     format!(
-                        "{}: largest |Δx| {:.5} m (III), {:.4} (II), {:.4} (I)",
+                        "{}: largest ‖Δx‖ {:.5} m (III), {:.4} (II), {:.4} (I)",
                         r.test.name,
                         abs_max(&r.methods[2].position),
                         abs_max(&r.methods[1].position),
