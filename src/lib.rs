@@ -25,7 +25,7 @@
 //! | [`compose`] | the docker compose file of a topology (one container per node) |
 //!
 //! Support: [`geom`] (Euler ZYX attitude), [`rng`] (seeded streams), [`stats`] (quantiles for tests and reports),
-//! [`imu_csv`] (recorded IMU files: `simnet run --out` writes them, `simnet reconstruct` reads them).
+//! [`par`] (jobs over every core), [`imu_csv`] (recorded IMU files: `simnet run --out` writes them, `simnet reconstruct` reads them).
 
 pub mod cli;
 pub mod compose;
@@ -36,6 +36,7 @@ pub mod link;
 pub mod motion;
 pub mod net;
 pub mod node;
+pub mod par;
 pub mod protocol;
 pub mod reconstruct;
 pub mod report;

@@ -15,7 +15,6 @@
 //! exchanged weight ([`Objective::Exchange`]). With the `sdp` feature,
 //! the `sdp` module searches all β, not only the family, for the most exchanged weight.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 
 use serde::Serialize;
@@ -257,36 +256,11 @@ pub fn evaluate(topo: &Topology, beta: &[Vec<f64>], u: f64, seeds: &[u64]) -> Ev
 
 /// Score family points in parallel, one worker per core; `tick` after each protocol.
 fn evaluate_many(topo: &Topology, us: &[f64], cfg: &SearchConfig, tick: &(dyn Fn() + Sync)) -> Vec<Evaluation> {
-    let workers = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(us.len().max(1));
-    let next = AtomicUsize::new(0);
-    let mut out: Vec<Option<Evaluation>> = vec![None; us.len()];
-    let results: Vec<Vec<(usize, Evaluation)>> = std::thread::scope(|s| {
-        let handles: Vec<_> = (0..workers)
-            .map(|_| {
-                s.spawn(|| {
-                    let mut mine = Vec::new();
-                    loop {
-                        let i = next.fetch_add(1, Ordering::Relaxed);
-                        let Some(&u) = us.get(i) else { break };
-                        let beta = family(topo, u, cfg.max_row_sum);
-                        mine.push((i, evaluate(topo, &beta, u, &cfg.seeds)));
-                        tick();
-                    }
-                    mine
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().expect("scoring worker panicked"))
-            .collect()
-    });
-    for (i, e) in results.into_iter().flatten() {
-        out[i] = Some(e);
-    }
-    out.into_iter().map(|e| e.expect("every point scored")).collect()
+    crate::par::map(
+        us,
+        |&u| evaluate(topo, &family(topo, u, cfg.max_row_sum), u, &cfg.seeds),
+        tick,
+    )
 }
 
 /// How many protocol evaluations [`search`] runs at most (for a progress bar).

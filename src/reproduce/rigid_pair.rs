@@ -8,8 +8,6 @@
 //! Sensor noise is datasheet-class: accelerometer 350 µg/√Hz (the paper's MMA7361), gyro 0.014 °/s/√Hz. The error
 //! of a run is the position error of both sensors averaged over the run.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
-
 use nalgebra::{Matrix3, Vector3};
 use rand::Rng as _;
 use rand_distr::StandardNormal;
@@ -215,34 +213,9 @@ pub fn monte_carlo(cfg: &Config, tick: &(dyn Fn() + Sync)) -> Result<Vec<MotionR
         .iter()
         .flat_map(|&m| (0..cfg.runs as u64).map(move |r| (m, r)))
         .collect();
-    let workers = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(jobs.len().max(1));
-    let next = AtomicUsize::new(0);
-    let parts: Vec<Vec<(usize, Result<RunErrors, EstimateError>)>> = std::thread::scope(|s| {
-        let handles: Vec<_> = (0..workers)
-            .map(|_| {
-                s.spawn(|| {
-                    let mut mine = Vec::new();
-                    loop {
-                        let i = next.fetch_add(1, Ordering::Relaxed);
-                        let Some(&(m, r)) = jobs.get(i) else { break };
-                        mine.push((i, one_run(m, cfg, r)));
-                        tick();
-                    }
-                    mine
-                })
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().expect("Monte Carlo worker panicked"))
-            .collect()
-    });
-    let mut results: Vec<Option<RunErrors>> = vec![None; jobs.len()];
-    for (i, r) in parts.into_iter().flatten() {
-        results[i] = Some(r?);
-    }
+    let results: Vec<RunErrors> = crate::par::map(&jobs, |&(m, r)| one_run(m, cfg, r), tick)
+        .into_iter()
+        .collect::<Result<_, _>>()?;
     Ok(Motion::ALL
         .iter()
         .map(|&m| {
@@ -250,7 +223,7 @@ pub fn monte_carlo(cfg: &Config, tick: &(dyn Fn() + Sync)) -> Result<Vec<MotionR
                 .iter()
                 .zip(&results)
                 .filter(|(j, _)| j.0 == m)
-                .filter_map(|(_, r)| *r)
+                .map(|(_, r)| *r)
                 .collect();
             summarise(m, &runs)
         })
