@@ -138,7 +138,7 @@ pub fn one_run(m: Motion, cfg: &Config, run: u64) -> Result<RunErrors, EstimateE
         let acc = offsets.map(|d| a - r * d * (w * w));
         (p, vel, acc, r, w)
     };
-    let (p0, v0, _, r0, _) = truth(0.0);
+    let (p0, v0, _, _, _) = truth(0.0);
     let psi0 = body(m, cfg, 0.0).3;
     // Each IMU runs its own strapdown (stage one): two independent dead-reckoning tracks.
     let q0 = from_euler(&Vector3::new(0.0, 0.0, psi0));
@@ -146,7 +146,6 @@ pub fn one_run(m: Motion, cfg: &Config, run: u64) -> Result<RunErrors, EstimateE
     let mut dr = [DeadReckoning::new(p0[0], v0[0]), DeadReckoning::new(p0[1], v0[1])];
     let (accel_var, vector_var, norm_var) = (sa * sa, (cfg.separation * 0.5_f64.to_radians()).powi(2), 1e-6);
     let mut ekf = SeparationEkf::new(p0, v0, accel_var, vector_var, norm_var);
-    let _ = r0;
     let mut randn3 = || {
         Vector3::new(
             noise.sample::<f64, _>(StandardNormal),

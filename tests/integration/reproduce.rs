@@ -117,7 +117,7 @@ fn nieminen_fem_beats_trapezoid_and_the_error_model_recovers_bias_and_scale() {
     use simnet::estimate::bvp::{fit_error_model, Constraint, End};
     use simnet::reproduce::nieminen::{record, run_test, tests, Sensor};
     let s = Sensor::default();
-    let long = run_test(&tests()[1], &s).unwrap();
+    let (long, _) = run_test(&tests()[1], &s).unwrap();
     let (i, ii) = (&long.methods[0], &long.methods[1]);
     assert!(
         ii.max_position < i.max_position,
