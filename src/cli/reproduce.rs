@@ -209,22 +209,7 @@ fn rigid_pair(args: &RigidPairArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         started.elapsed().as_secs_f64(),
         std::thread::available_parallelism().map_or(1, |n| n.get())
     )?;
-    writeln!(
-        out,"| motion | dead reckoning (m) | averaged pair (m) | constrained EKF (m) | improvement | paper: DR / EKF (m), improvement |")?;
-    writeln!(out, "|---|---|---|---|---|---|")?;
-    for r in &results {
-        let (pd, pe, pi) = r.motion.published();
-        writeln!(
-            out,
-            "| {} | {:.3} | {:.3} | {:.3} | {:.1} ± {:.1} % | {pd} / {pe}, {pi} % |",
-            r.motion.name(),
-            r.dead_reckoning,
-            r.averaged,
-            r.ekf,
-            r.improvement,
-            r.improvement_se
-        )?;
-    }
+    writeln!(out, "{}", rigid_pair::table(&results))?;
     writeln!(out)?;
     drop(out);
     std::fs::create_dir_all(&args.out)?;

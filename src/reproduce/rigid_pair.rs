@@ -252,6 +252,27 @@ fn summarise(m: Motion, runs: &[RunErrors]) -> MotionResult {
     }
 }
 
+/// The Monte Carlo beside the paper's table, as Markdown.
+pub fn table(results: &[MotionResult]) -> String {
+    let mut s = String::from(
+        "| motion | dead reckoning (m) | averaged pair (m) | constrained EKF (m) | improvement | paper: DR / EKF (m), \
+         improvement |\n|---|---|---|---|---|---|\n",
+    );
+    for r in results {
+        let (pd, pe, pi) = r.motion.published();
+        s.push_str(&format!(
+            "| {} | {:.3} | {:.3} | {:.3} | {:.1} ± {:.1} % | {pd} / {pe}, {pi} % |\n",
+            r.motion.name(),
+            r.dead_reckoning,
+            r.averaged,
+            r.ekf,
+            r.improvement,
+            r.improvement_se
+        ));
+    }
+    s
+}
+
 /// The paper's claims against the Monte Carlo.
 pub fn claims(results: &[MotionResult]) -> Vec<Claim> {
     let table: Vec<String> = results
