@@ -49,6 +49,21 @@ pub fn compose_file(topo: &Topology, topology_arg: &str, builtin: bool, image: &
         if let Some(m) = mount {
             writeln!(y, "    - ./{m}:/topology.toml:ro")?;
         }
+        // Every node reads the whole topology, recorded IMU files included: each file where the containers look
+        // for it, next to /topology.toml or at its absolute path.
+        for r in topo.nodes.iter().filter_map(|n| n.recording.as_ref()) {
+            let host = if std::path::Path::new(&r.path).is_absolute() {
+                r.path.clone()
+            } else {
+                format!("./{}", r.path)
+            };
+            let inside = if r.given.starts_with('/') {
+                r.given.clone()
+            } else {
+                format!("/{}", r.given)
+            };
+            writeln!(y, "    - {host}:{inside}:ro")?;
+        }
         writeln!(y, "  stop_grace_period: 5s")?;
         writeln!(y)?;
         writeln!(y, "services:")?;

@@ -6,6 +6,7 @@
 use nalgebra::Vector3;
 
 use crate::node::ImuRow;
+use crate::sensor::ImuSample;
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{file}:{line}: {message}")]
@@ -126,15 +127,106 @@ pub fn parse(text: &str, file: &str) -> Result<ImuRecording, CsvError> {
     Ok(rec)
 }
 
-/// The `imu-ID.csv` a run writes: samples with the true pose as reference.
+/// A recording read at a run's steps t_k = k Δt, time counted from its first row: the row itself where one falls
+/// on t_k (a file written by `simnet run --out` replays exactly), else linear interpolation between neighbours
+/// (angles along the shorter arc).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepRecording {
+    pub imu: Vec<ImuSample>,
+    pub mag: Option<Vec<Vector3<f64>>>,
+    pub position: Option<Vec<Vector3<f64>>>,
+    pub euler: Option<Vec<Vector3<f64>>>,
+}
+
+impl StepRecording {
+    /// Steps covered.
+    pub fn len(&self) -> usize {
+        self.imu.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.imu.is_empty()
+    }
+}
+
+impl ImuRecording {
+    /// Seconds from the first row to the last.
+    pub fn span(&self) -> f64 {
+        self.t.last().copied().unwrap_or(0.0) - self.t.first().copied().unwrap_or(0.0)
+    }
+
+    /// The samples at steps 0, 1, … `steps − 1` of period `dt`, as far as the recording reaches.
+    pub fn at_steps(&self, dt: f64, steps: u64) -> StepRecording {
+        let t0 = self.t.first().copied().unwrap_or(0.0);
+        let tol = 1e-6 * dt;
+        // (row, weight of the next row) per covered step.
+        let mut at: Vec<(usize, f64)> = Vec::new();
+        let mut i = 0;
+        for k in 0..steps {
+            let tk = k as f64 * dt;
+            while i + 1 < self.t.len() && self.t[i + 1] - t0 <= tk + tol {
+                i += 1;
+            }
+            let ti = self.t[i] - t0;
+            if (ti - tk).abs() <= tol {
+                at.push((i, 0.0));
+            } else if i + 1 < self.t.len() && ti < tk {
+                at.push((i, (tk - ti) / (self.t[i + 1] - self.t[i])));
+            } else {
+                break;
+            }
+        }
+        let lerp = |v: &[Vector3<f64>], angles: bool| -> Vec<Vector3<f64>> {
+            at.iter()
+                .map(|&(i, w)| {
+                    if w == 0.0 {
+                        return v[i];
+                    }
+                    let mut d = v[i + 1] - v[i];
+                    if angles {
+                        d = d.map(crate::geom::wrap_angle);
+                    }
+                    let mut x = v[i] + d * w;
+                    if angles {
+                        x = x.map(crate::geom::wrap_angle);
+                    }
+                    x
+                })
+                .collect()
+        };
+        let accel = lerp(&self.accel, false);
+        let gyro = lerp(&self.gyro, false);
+        StepRecording {
+            imu: accel
+                .into_iter()
+                .zip(gyro)
+                .map(|(accel, gyro)| ImuSample { accel, gyro })
+                .collect(),
+            mag: self.mag.as_deref().map(|v| lerp(v, false)),
+            position: self.position.as_deref().map(|v| lerp(v, false)),
+            euler: self.euler.as_deref().map(|v| lerp(v, true)),
+        }
+    }
+}
+
+/// The `imu-ID.csv` a run writes: samples (magnetometer too when every row has one) with the true pose as
+/// reference. Numbers are written in their shortest exact form, so a file reads back to the same values.
 pub fn write(rows: &[ImuRow]) -> String {
-    let mut s = String::from("t,ax,ay,az,gx,gy,gz,x,y,z,roll,pitch,yaw\n");
+    let mag = !rows.is_empty() && rows.iter().all(|r| r.mag.is_some());
+    let mut s = String::from(if mag {
+        "t,ax,ay,az,gx,gy,gz,mx,my,mz,x,y,z,roll,pitch,yaw\n"
+    } else {
+        "t,ax,ay,az,gx,gy,gz,x,y,z,roll,pitch,yaw\n"
+    });
     for r in rows {
         let (a, g, p, e) = (r.sample.accel, r.sample.gyro, r.position, r.euler);
         s.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
-            r.t, a[0], a[1], a[2], g[0], g[1], g[2], p[0], p[1], p[2], e[0], e[1], e[2]
+            "{},{},{},{},{},{},{}",
+            r.t, a[0], a[1], a[2], g[0], g[1], g[2]
         ));
+        if let (true, Some(m)) = (mag, r.mag) {
+            s.push_str(&format!(",{},{},{}", m[0], m[1], m[2]));
+        }
+        s.push_str(&format!(",{},{},{},{},{},{}\n", p[0], p[1], p[2], e[0], e[1], e[2]));
     }
     s
 }
@@ -153,6 +245,21 @@ mod tests {
         assert_eq!(r.accel[2], Vector3::new(0.1, 0.0, 9.81));
         assert_eq!(r.position.unwrap()[1], Vector3::new(1.0, 2.0, 3.0));
         assert!(r.mag.is_none() && r.euler.is_none());
+    }
+
+    #[test]
+    fn steps_take_rows_on_the_grid_and_interpolate_between() {
+        let text = "t,ax,ay,az,gx,gy,gz,roll,pitch,yaw\n10,0,0,9,1,0,0,0,0,3.1\n10.02,2,0,9,3,0,0,0,0,-3.1\n\
+                    10.04,4,0,9,5,0,0,0,0,-3.0\n";
+        let r = parse(text, "f.csv").unwrap();
+        let s = r.at_steps(0.01, 10);
+        // 0.04 s of recording covers steps 0–4 at 100 Hz.
+        assert_eq!(s.len(), 5);
+        assert_eq!(s.imu[2].accel.x, 2.0);
+        assert!((s.imu[1].accel.x - 1.0).abs() < 1e-9 && (s.imu[3].gyro.x - 4.0).abs() < 1e-9);
+        // Yaw 3.1 → −3.1 crosses ±π: the midpoint is π, not 0.
+        let yaw = s.euler.as_ref().unwrap()[1].z;
+        assert!((yaw.abs() - std::f64::consts::PI).abs() < 1e-9, "{yaw}");
     }
 
     #[test]

@@ -21,9 +21,12 @@ pub enum Trajectory {
     Piecewise,
     /// Lissajous figure-8, 6 m × 3 m, 20 s per lap.
     Figure8,
+    /// Turning in place: roll ±35°, pitch ±25°, yaw ±90°, periods of 9–21 s (for the attitude model, whose
+    /// accelerometer channel assumes no linear acceleration).
+    Tumble,
 }
 
-pub const TRAJECTORIES: &[&str] = &["spiral", "circle", "line", "rest", "piecewise", "figure8"];
+pub const TRAJECTORIES: &[&str] = &["spiral", "circle", "line", "rest", "piecewise", "figure8", "tumble"];
 
 impl FromStr for Trajectory {
     type Err = String;
@@ -35,6 +38,7 @@ impl FromStr for Trajectory {
             "rest" => Trajectory::Rest,
             "piecewise" => Trajectory::Piecewise,
             "figure8" => Trajectory::Figure8,
+            "tumble" => Trajectory::Tumble,
             other => return Err(format!("expected one of {}, got `{other}`", TRAJECTORIES.join(" | "))),
         })
     }
@@ -58,6 +62,18 @@ impl Trajectory {
         let (p, v, a) = self.translation(t);
         let (euler, euler_rate) = if self == Trajectory::Rest {
             (Vector3::zeros(), Vector3::zeros())
+        } else if self == Trajectory::Tumble {
+            let (ar, wr) = (0.6, 2.0 * PI / 9.0);
+            let (ap, wp) = (0.45, 2.0 * PI / 13.0);
+            let (ay, wy) = (PI / 2.0, 2.0 * PI / 21.0);
+            (
+                Vector3::new(ar * (wr * t).sin(), ap * (wp * t + 0.5).sin(), ay * (wy * t).sin()),
+                Vector3::new(
+                    ar * wr * (wr * t).cos(),
+                    ap * wp * (wp * t + 0.5).cos(),
+                    ay * wy * (wy * t).cos(),
+                ),
+            )
         } else {
             // Yaw follows the horizontal heading; roll and pitch sway so that every axis is excited.
             let h2 = v.x * v.x + v.y * v.y;
@@ -103,7 +119,7 @@ impl Trajectory {
                     Vector3::new(-0.5 * w * w * (w * t).sin(), 0.0, 0.0),
                 )
             }
-            Trajectory::Rest => (Vector3::zeros(), Vector3::zeros(), Vector3::zeros()),
+            Trajectory::Rest | Trajectory::Tumble => (Vector3::zeros(), Vector3::zeros(), Vector3::zeros()),
             Trajectory::Piecewise => {
                 let v1 = Vector3::new(1.0, 0.0, 0.0);
                 let v2 = Vector3::new(0.0, 1.0, 0.1);

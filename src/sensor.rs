@@ -25,6 +25,8 @@ pub struct SensorProfile {
     /// Pose-fix noise variances (seed §2.2: N(0, 0.01) position, N(0, 0.001) orientation).
     pub pos_noise: f64,
     pub att_noise: f64,
+    /// Magnetometer noise variance per sample, in the squared unit of `model.mag_field` (attitude model).
+    pub mag_noise: f64,
 }
 
 impl Default for SensorProfile {
@@ -38,6 +40,8 @@ impl Default for SensorProfile {
             gyro_drift: [0.0; 3],
             pos_noise: 0.01,
             att_noise: 0.001,
+            // 2 mG on a 0.5 G field.
+            mag_noise: 4e-6,
         }
     }
 }
@@ -111,6 +115,11 @@ impl Sensor {
             z[3 + i] = crate::geom::wrap_angle(truth.euler[i] + na[i]);
         }
         z
+    }
+
+    /// A magnetometer sample: the navigation-frame field `h` seen in the body frame, C(q) h + noise.
+    pub fn magnetometer(&mut self, truth: &PoseTruth, h: &Vector3<f64>) -> Vector3<f64> {
+        rotation(&truth.euler).transpose() * h + randn3(&mut self.rng) * self.profile.mag_noise.sqrt()
     }
 
     /// y = C x + v, v ~ N(0, R) with `r_chol` the lower Cholesky factor of R.

@@ -294,6 +294,7 @@ impl RunArgs {
             .ok_or_else(|| UsageError::Option("--topology NAME|PATH is required (see `simnet topologies`)".into()))?;
         let mut t = Topology::resolve(name)?;
         t.apply(&self.overrides()?);
+        t.check_recordings()?;
         if t.sim.duration_s * t.sim.rate_hz > MAX_STEPS {
             return Err(UsageError::Option(format!(
                 "--duration/--rate: {} s at {} Hz is more than {MAX_STEPS:e} steps",
@@ -493,8 +494,15 @@ fn write_outputs(
     rows: &[crate::node::TraceRow],
     fused: &[crate::report::observer::FusedRow],
 ) -> anyhow::Result<()> {
-    let pose = matches!(topo.model, ModelConfig::Pose(_));
-    write_files(dir, s, &Truth::new(topo).columns(), topo.sim.dt(), pose, rows, fused)
+    write_files(
+        dir,
+        s,
+        &Truth::new(topo).columns(),
+        topo.sim.dt(),
+        topo.model.kind(),
+        rows,
+        fused,
+    )
 }
 
 /// summary.json, trace.csv, links.csv and the three plots, each written atomically.
@@ -503,7 +511,7 @@ fn write_files(
     s: &summary::Summary,
     columns: &[String],
     dt: f64,
-    pose: bool,
+    model: &str,
     rows: &[crate::node::TraceRow],
     fused: &[crate::report::observer::FusedRow],
 ) -> anyhow::Result<()> {
@@ -522,11 +530,11 @@ fn write_files(
     let title = |what: &str| format!("{} — {what} (seed {})", s.topology, s.seed);
     put(
         "trajectory.svg",
-        plot::trajectory(rows, fused, pose, &title("trajectories"))?.as_bytes(),
+        plot::trajectory(rows, fused, model, &title("trajectories"))?.as_bytes(),
     )?;
     put(
         "error.svg",
-        plot::error(rows, fused, dt, pose, &title("error, networked vs independent"))?.as_bytes(),
+        plot::error(rows, fused, dt, model, &title("error, networked vs independent"))?.as_bytes(),
     )?;
     put(
         "trace_p.svg",
@@ -708,18 +716,15 @@ fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
     let dir = args.out.clone().unwrap_or_else(|| args.dirs[0].clone());
     rows.sort_by_key(|r| (r.step, r.node, !r.networked));
     let fused = observer.plot_rows();
-    let pose = s.model == "pose";
-    let columns: Vec<String> = if pose {
-        ["x", "y", "z", "roll", "pitch", "yaw"]
-            .iter()
-            .map(|c| c.to_string())
-            .collect()
-    } else {
-        (0..rows.first().map_or(0, |r| r.truth.len()))
+    let named = |c: &[&str]| c.iter().map(|c| c.to_string()).collect();
+    let columns: Vec<String> = match s.model.as_str() {
+        "pose" => named(&["x", "y", "z", "roll", "pitch", "yaw"]),
+        "attitude" => named(&["roll", "pitch", "yaw"]),
+        _ => (0..rows.first().map_or(0, |r| r.truth.len()))
             .map(|i| format!("x{i}"))
-            .collect()
+            .collect(),
     };
-    write_files(&dir, &s, &columns, 1.0 / s.rate_hz, pose, &rows, &fused)?;
+    write_files(&dir, &s, &columns, 1.0 / s.rate_hz, &s.model, &rows, &fused)?;
     if !args.json {
         println!(
             "\nwrote {}/{{summary.json, trace.csv, links.csv, trajectory.svg, error.svg, trace_p.svg}}",
@@ -781,10 +786,13 @@ fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
     let (A, C, Q, R) = match (&topo, &args.a, &args.c, &args.q, &args.r) {
         (Some(t), None, None, None, None) => match &t.model {
             ModelConfig::Linear(m) => (m.A.clone(), m.C.clone(), m.Q.clone(), m.R.clone()),
-            ModelConfig::Pose(_) => {
-                return Err(
-                    UsageError::Option(format!("`{}` has a pose model: bounds need kind = \"linear\"", t.name)).into(),
-                )
+            other => {
+                return Err(UsageError::Option(format!(
+                    "`{}` has a {} model: bounds need kind = \"linear\"",
+                    t.name,
+                    other.kind()
+                ))
+                .into())
             }
         },
         (None, Some(a), Some(c), Some(q), Some(r)) => (

@@ -99,10 +99,49 @@ pub fn to_euler(q: &Vector4<f64>) -> Vector3<f64> {
     )
 }
 
+/// Euler angles of a body at rest from one accelerometer sample (roll, pitch: the measured specific force is
+/// C(q)(−g)) and, when there is one, a magnetometer sample (yaw: the levelled reading against the field h).
+pub fn level(accel: &Vector3<f64>, mag: Option<&Vector3<f64>>, g: &Vector3<f64>, h: &Vector3<f64>) -> Vector3<f64> {
+    // For z-up navigation with g = [0, 0, −|g|], f_b = |g| [−sin θ, sin φ cos θ, cos φ cos θ].
+    let up = if g[2] < 0.0 { 1.0 } else { -1.0 };
+    let f = accel * up;
+    let roll = f[1].atan2(f[2]);
+    let pitch = (-f[0]).atan2((f[1] * f[1] + f[2] * f[2]).sqrt());
+    let yaw = mag.map_or(0.0, |m| {
+        // Undo roll and pitch: Ry(θ) Rx(φ) m_b = Rz(ψ)ᵀ h.
+        let l = crate::geom::rotation(&Vector3::new(roll, pitch, 0.0)) * m;
+        crate::geom::wrap_angle(h[1].atan2(h[0]) - l[1].atan2(l[0]))
+    });
+    Vector3::new(roll, pitch, yaw)
+}
+
 /// Angle of the rotation between two attitudes, rad.
 pub fn angle_between(a: &Vector4<f64>, b: &Vector4<f64>) -> f64 {
     let d = (a.dot(b) / (a.norm() * b.norm())).abs().min(1.0);
     2.0 * d.acos()
+}
+
+/// Q_t of the slides: the gyro noise through Ξ(q̂), and through the uncertainty of q,
+/// Q_t = (Tₑ²/4) Ξ(q̂) R_g Ξ(q̂)ᵀ + (Tₑ²/4) Y [R_g ⊗ P] Yᵀ.
+pub fn process_noise(q: &Vector4<f64>, P: &DMatrix<f64>, Rg: &Matrix3<f64>, dt: f64) -> DMatrix<f64> {
+    let X = DMatrix::from_column_slice(4, 3, xi(q).as_slice());
+    let Rg = DMatrix::from_column_slice(3, 3, Rg.as_slice());
+    let mut Y = DMatrix::zeros(4, 12);
+    for (k, e) in [Vector3::x(), Vector3::y(), Vector3::z()].iter().enumerate() {
+        Y.view_mut((0, 4 * k), (4, 4)).copy_from(&omega(e));
+    }
+    let c = dt * dt / 4.0;
+    (&X * &Rg * X.transpose()) * c + (&Y * Rg.kronecker(P) * Y.transpose()) * c
+}
+
+/// The predicted measurement h(q) = [C(q)(−g); C(q) h] (accelerometer, magnetometer) and its Jacobian (6 × 4).
+pub fn measurement(q: &Vector4<f64>, g: &Vector3<f64>, h: &Vector3<f64>) -> (DVector<f64>, DMatrix<f64>) {
+    let (ya, ja) = rotate_to_body(q, &(-g));
+    let (ym, jm) = rotate_to_body(q, h);
+    let mut C = DMatrix::zeros(6, 4);
+    C.view_mut((0, 0), (3, 4)).copy_from(&ja);
+    C.view_mut((3, 0), (3, 4)).copy_from(&jm);
+    (DVector::from_iterator(6, ya.iter().chain(ym.iter()).copied()), C)
 }
 
 /// Which form carries the covariance.
@@ -188,15 +227,7 @@ impl AttitudeEkf {
         let At = transition(w, dt);
         let A = DMatrix::from_column_slice(4, 4, At.as_slice());
         let P = self.P();
-        // Q_t of the slides: the gyro noise through Ξ(q̂), and through the uncertainty of q (Y [R_g ⊗ P] Yᵀ).
-        let X = DMatrix::from_column_slice(4, 3, xi(&self.q).as_slice());
-        let Rg = DMatrix::from_column_slice(3, 3, m.Rg.as_slice());
-        let mut Y = DMatrix::zeros(4, 12);
-        for (k, e) in [Vector3::x(), Vector3::y(), Vector3::z()].iter().enumerate() {
-            Y.view_mut((0, 4 * k), (4, 4)).copy_from(&omega(e));
-        }
-        let c = dt * dt / 4.0;
-        let Q = (&X * &Rg * X.transpose()) * c + (&Y * Rg.kronecker(&P) * Y.transpose()) * c;
+        let Q = process_noise(&self.q, &P, &m.Rg, dt);
         self.q = (At * self.q).normalize();
         self.cov = match self.form {
             Form::Standard => {
@@ -221,12 +252,7 @@ impl AttitudeEkf {
         if !present.iter().any(|p| *p) {
             return Ok(());
         }
-        let (ya, ja) = rotate_to_body(&self.q, &(-m.g));
-        let (ym, jm) = rotate_to_body(&self.q, &m.h);
-        let mut C = DMatrix::zeros(6, 4);
-        C.view_mut((0, 0), (3, 4)).copy_from(&ja);
-        C.view_mut((3, 0), (3, 4)).copy_from(&jm);
-        let predicted = DVector::from_iterator(6, ya.iter().chain(ym.iter()).copied());
+        let (predicted, C) = measurement(&self.q, &m.g, &m.h);
         // R̄ = M R M with M(i, i) = λ on the rows of a missing channel.
         let mut Rb = m.R.clone();
         for i in 0..6 {
@@ -296,6 +322,22 @@ mod tests {
         }
         // C(q) is the transpose of the body-to-navigation rotation.
         assert!((rotate_to_body(&q, &u).0 - rotation(&q).transpose() * u).norm() < 1e-12);
+    }
+
+    #[test]
+    fn levelling_recovers_the_attitude_of_a_body_at_rest() {
+        let g = Vector3::new(0.0, 0.0, -9.81);
+        let h = Vector3::new(0.25, 0.0, -0.433);
+        for e in [
+            Vector3::new(0.3, -0.5, 1.1),
+            Vector3::new(-1.0, 0.7, -2.9),
+            Vector3::zeros(),
+        ] {
+            let q = from_euler(&e);
+            let a = rotate_to_body(&q, &(-g)).0;
+            let m = rotate_to_body(&q, &h).0;
+            assert!((level(&a, Some(&m), &g, &h) - e).norm() < 1e-12, "{e}");
+        }
     }
 
     #[test]

@@ -1,6 +1,8 @@
 //! Prediction (eq. (4) of the consensus seed): x_{k|k−1} = f(x_{k−1|k−1}), P_{k|k−1} = F P Fᵀ + Q.
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector4};
+
+use super::attitude::{process_noise, transition};
 
 use super::{symmetrize, Gaussian};
 use crate::geom::{euler_rates, euler_rates_jacobian, rotation, rotation_partials, wrap_angle, GRAVITY};
@@ -13,6 +15,9 @@ pub enum Process {
     /// x = [p, v, θ]; driven by the node's own IMU (accelerometer rotated to the navigation frame, gyro through the
     /// Euler-rate kinematics of eq. (3)).
     Pose { dt: f64, Q: DMatrix<f64> },
+    /// x = q (unit quaternion, scalar first), driven by the gyro: q⁺ = A_t q, A_t = exp(½ Ω(ω) Tₑ), and the Q_t of
+    /// Lesecq's slides built from Ξ(q̂) and the gyro noise covariance R_g.
+    Attitude { dt: f64, Rg: Matrix3<f64> },
 }
 
 impl Process {
@@ -36,6 +41,7 @@ impl Process {
         match self {
             Process::Linear { A, .. } => A.nrows(),
             Process::Pose { .. } => 9,
+            Process::Attitude { .. } => 4,
         }
     }
 
@@ -44,6 +50,7 @@ impl Process {
         match self {
             Process::Linear { A, .. } => vec![false; A.nrows()],
             Process::Pose { .. } => (0..9).map(|i| i >= 6).collect(),
+            Process::Attitude { .. } => vec![false; 4],
         }
     }
 
@@ -60,6 +67,31 @@ impl Process {
                 let mut P = &F * &g.P * F.transpose() + Q;
                 symmetrize(&mut P);
                 Gaussian { x, P }
+            }
+            Process::Attitude { dt, Rg } => {
+                // The mean rate over the interval; without a gyro the body is assumed not to turn.
+                let w = imu.map_or(Vector3::zeros(), |s| (s.start.gyro + s.end.gyro) * 0.5);
+                let q = Vector4::new(g.x[0], g.x[1], g.x[2], g.x[3]);
+                let At = transition(&w, *dt);
+                let A = DMatrix::from_column_slice(4, 4, At.as_slice());
+                let mut P = &A * &g.P * A.transpose() + process_noise(&q, &g.P, Rg, *dt);
+                symmetrize(&mut P);
+                let qn = (At * q).normalize();
+                Gaussian {
+                    x: DVector::from_column_slice(qn.as_slice()),
+                    P,
+                }
+            }
+        }
+    }
+
+    /// Bring an updated state back onto its manifold: the attitude quaternion to unit norm (the slides' EKF
+    /// normalises after each correction).
+    pub fn normalize(&self, g: &mut Gaussian) {
+        if let Process::Attitude { .. } = self {
+            let n = g.x.norm();
+            if n > 0.0 && n.is_finite() {
+                g.x /= n;
             }
         }
     }

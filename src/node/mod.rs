@@ -13,13 +13,15 @@ use std::collections::{BTreeMap, BinaryHeap, HashMap};
 use std::sync::Arc;
 
 use bytes::Bytes;
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use crate::estimate::{
     guarded_update, kalman_update, nees, EstimateError, Gaussian, ImuInterval, LmiTerms, MissingChannels, Observation,
     Process, Source,
 };
+use crate::imu_csv::StepRecording;
 use crate::link::{Link, LinkCounters, Verdict};
+use crate::motion::PoseTruth;
 use crate::report::metrics::{FilterMetrics, RxCounters};
 use crate::sensor::{ImuSample, Sensor};
 use crate::topology::{ModelConfig, Role, Topology};
@@ -175,8 +177,12 @@ pub struct Node {
     id_to_index: HashMap<u32, usize>,
     truth: Truth,
     sensor: Option<Sensor>,
+    /// The IMU file that replaces the simulated IMU, read at this run's steps.
+    recorded: Option<Arc<StepRecording>>,
     process: Process,
+    /// The observation; for the attitude model a template (dimensions, R, channels) linearised about each prior.
     obs: Observation,
+    attitude: Option<AttitudeSensing>,
     /// Lower Cholesky factor of R for simulating the linear model's measurement noise.
     r_chol: Option<DMatrix<f64>>,
     policy: MissingChannels,
@@ -212,11 +218,20 @@ pub struct Node {
     imu_log: Option<Vec<ImuRow>>,
 }
 
+/// The attitude model's measurement: gravity and Earth's field in the navigation frame, seen in the body frame.
+#[derive(Debug, Clone, Copy)]
+struct AttitudeSensing {
+    g: Vector3<f64>,
+    h: Vector3<f64>,
+}
+
 /// One IMU sample as recorded, with the true pose at its time (`imu-ID.csv`).
 #[derive(Debug, Clone, Copy)]
 pub struct ImuRow {
     pub t: f64,
     pub sample: ImuSample,
+    /// Magnetometer (attitude model).
+    pub mag: Option<Vector3<f64>>,
     pub position: nalgebra::Vector3<f64>,
     /// Euler ZYX [roll, pitch, yaw], rad.
     pub euler: nalgebra::Vector3<f64>,
@@ -266,6 +281,24 @@ impl Node {
                 };
                 (process, obs, None)
             }
+            ModelConfig::Attitude(m) => {
+                // Without a gyro the filter assumes no rotation and covers the turn rate with process noise.
+                let gyro = if cfg.role.senses() { cfg.sensor.gyro_noise } else { 0.3 };
+                let process = Process::Attitude {
+                    dt,
+                    Rg: Matrix3::identity() * (gyro * gyro / dt),
+                };
+                let R = DMatrix::from_diagonal(&DVector::from_vec(vec![
+                    m.r_acc, m.r_acc, m.r_acc, m.r_mag, m.r_mag, m.r_mag,
+                ]));
+                let obs = Observation {
+                    H: DMatrix::zeros(6, 4),
+                    R,
+                    angle_rows: vec![false; 6],
+                    channel_of_row: (0..6).map(|i| i / 3).collect(),
+                };
+                (process, obs, None)
+            }
             ModelConfig::Linear(m) => {
                 let obs = Observation {
                     H: m.C.clone(),
@@ -303,7 +336,19 @@ impl Node {
                 )
             })
             .collect();
-        let truth = Truth::new(&topo);
+        let recorded = cfg
+            .recording
+            .as_ref()
+            .filter(|_| cfg.role.senses())
+            .map(|r| Arc::new(r.data.at_steps(dt, topo.sim.steps())));
+        let attitude = match &topo.model {
+            ModelConfig::Attitude(m) => Some(AttitudeSensing {
+                g: Vector3::new(0.0, 0.0, -crate::geom::GRAVITY),
+                h: Vector3::from(m.mag_field),
+            }),
+            _ => None,
+        };
+        let truth = Truth::of_node(&topo, recorded.clone());
         let id_to_index = topo.nodes.iter().enumerate().map(|(i, n)| (n.id, i)).collect();
         let n = topo.nodes.len();
         let mut node = Node {
@@ -313,8 +358,10 @@ impl Node {
             id_to_index,
             truth,
             sensor,
+            recorded,
             process,
             obs,
+            attitude,
             r_chol,
             policy,
             filters: None,
@@ -367,7 +414,7 @@ impl Node {
             lmi_log: None,
             topo,
         };
-        node.initial = node.initial_estimate(0);
+        node.initial = node.initial_estimate(0, 0);
         node.filters = node.role.estimates().then(|| Filters {
             networked: node.initial.clone(),
             independent: node.initial.clone(),
@@ -383,9 +430,35 @@ impl Node {
     }
 
     /// The prior a (re)started filter begins from. Pose: the truth perturbed by N(0, P₀) from the node's own stream
-    /// (the seed's "initial unfiltered estimate"); linear: the model's x₀, P₀, from which the truth itself is drawn.
-    fn initial_estimate(&self, restart: u64) -> Gaussian {
+    /// (the seed's "initial unfiltered estimate"); attitude: the true Euler angles perturbed likewise; linear: the
+    /// model's x₀, P₀, from which the truth itself is drawn. Where a recording has no reference: the origin at rest,
+    /// and the attitude levelled from the accelerometer and magnetometer.
+    fn initial_estimate(&self, restart: u64, k: u64) -> Gaussian {
+        let k = k as usize;
         match &self.topo.model {
+            ModelConfig::Attitude(m) => {
+                use crate::estimate::attitude::{from_euler, level, to_euler};
+                let truth = self.truth.state();
+                let euler = if truth.iter().all(|v| v.is_finite()) {
+                    to_euler(&nalgebra::Vector4::new(truth[0], truth[1], truth[2], truth[3]))
+                } else {
+                    let rec = self.recorded.as_deref();
+                    let sample = rec.and_then(|r| r.imu.get(k));
+                    let mag = rec.and_then(|r| r.mag.as_ref()).and_then(|v| v.get(k));
+                    match (sample, &self.attitude) {
+                        (Some(s), Some(a)) => level(&s.accel, mag, &a.g, &a.h),
+                        _ => Vector3::zeros(),
+                    }
+                };
+                let mut rng = crate::rng::stream(self.topo.sim.seed, "init", self.index as u64, restart);
+                let noise = Vector3::from_fn(|_, _| rand::Rng::sample(&mut rng, rand_distr::StandardNormal));
+                let q = from_euler(&(euler + noise * m.p0_att.sqrt()));
+                // δq ≈ ½ Ξ(q) δθ: an angle variance σ² is about σ²/4 per quaternion component.
+                Gaussian {
+                    x: DVector::from_column_slice(q.as_slice()),
+                    P: DMatrix::identity(4, 4) * (m.p0_att / 4.0),
+                }
+            }
             ModelConfig::Pose(m) => {
                 let mut P = DMatrix::zeros(9, 9);
                 for i in 0..3 {
@@ -400,6 +473,8 @@ impl Node {
                     x[i] += n * P[(i, i)].sqrt();
                 }
                 crate::estimate::wrap_rows(&mut x, &self.process.angle_states());
+                // A recording without reference columns: start at the origin, at rest, level.
+                x.iter_mut().filter(|v| !v.is_finite()).for_each(|v| *v = 0.0);
                 Gaussian { x, P }
             }
             ModelConfig::Linear(m) => Gaussian {
@@ -435,7 +510,7 @@ impl Node {
             if !joining {
                 self.counters.restarts += 1;
             }
-            let g = self.initial_estimate(self.counters.restarts + k);
+            let g = self.initial_estimate(self.counters.restarts + k, k);
             if let Some(f) = &mut self.filters {
                 f.networked = g.clone();
                 f.independent = g;
@@ -443,26 +518,7 @@ impl Node {
             self.last_imu = None;
         }
         // Sense first: the IMU sample at t_k closes the interval the prediction integrates over.
-        let (imu, z) = match (&mut self.sensor, &self.truth) {
-            (Some(sensor), Truth::Pose { trajectory, .. }) => {
-                let tr = trajectory.at(t);
-                let sample = sensor.imu(&tr);
-                if let Some(log) = self.imu_log.as_mut() {
-                    log.push(ImuRow {
-                        t,
-                        sample,
-                        position: tr.p,
-                        euler: tr.euler,
-                    });
-                }
-                (Some(sample), Some(DVector::from_row_slice(&sensor.pose_fix(&tr))))
-            }
-            (Some(sensor), Truth::Linear { x, .. }) => (
-                None,
-                Some(sensor.linear(&self.obs.H, self.r_chol.as_ref().expect("validated R is SPD"), x)),
-            ),
-            (None, _) => (None, None),
-        };
+        let (imu, own) = self.sense(k, t);
         if k > 0 && !restarted {
             // Trapezoid: the mean of the samples at both ends of the interval, second-order accurate where a
             // sample held from the start leaves an O(Δt²) error per step that the IMU noise model does not cover.
@@ -483,15 +539,10 @@ impl Node {
         self.last_imu = imu;
         self.open = Some(k);
         self.inbox.clear();
-        self.own = None;
-        let m = self.obs.dim();
-        if let Some(z) = z {
-            self.own = Some(Partial {
-                z: z.clone(),
-                present: vec![true; m],
-            });
-            self.send(k, t, &z);
+        if let Some(own) = &own {
+            self.send(k, t, own);
         }
+        self.own = own;
         // Measurements that arrived early for this step.
         let early = std::mem::take(&mut self.early);
         for (step, src, rows, values) in early {
@@ -505,17 +556,92 @@ impl Node {
         }
     }
 
-    fn send(&mut self, k: u64, t: f64, z: &DVector<f64>) {
-        let m = z.len();
+    /// This step's IMU sample and the node's own measurement: a pose fix, the accelerometer and magnetometer
+    /// (attitude), or y = C x + v (linear). A recorded IMU gives its rows (no sample past its end); its pose fixes
+    /// are simulated from the reference columns, and a channel the file lacks is missing.
+    fn sense(&mut self, k: u64, t: f64) -> (Option<ImuSample>, Option<Partial>) {
+        let Some(sensor) = self.sensor.as_mut() else {
+            return (None, None);
+        };
+        let full = |z: DVector<f64>| {
+            let m = z.len();
+            Partial {
+                z,
+                present: vec![true; m],
+            }
+        };
+        let stacked = |a: &Vector3<f64>, b: &Vector3<f64>| DVector::from_iterator(6, a.iter().chain(b.iter()).copied());
+        if let Some(rec) = &self.recorded {
+            let i = k as usize;
+            let Some(sample) = rec.imu.get(i).copied() else {
+                return (None, None);
+            };
+            let at = |v: &Option<Vec<Vector3<f64>>>| v.as_ref().and_then(|v| v.get(i).copied());
+            let (first, second) = match self.attitude {
+                Some(_) => (Some(sample.accel), at(&rec.mag)),
+                None => {
+                    let (p, e) = (at(&rec.position), at(&rec.euler));
+                    let tr = PoseTruth {
+                        p: p.unwrap_or_default(),
+                        v: Vector3::zeros(),
+                        a: Vector3::zeros(),
+                        euler: e.unwrap_or_default(),
+                        euler_rate: Vector3::zeros(),
+                        omega_body: Vector3::zeros(),
+                    };
+                    let fix = sensor.pose_fix(&tr);
+                    let v = |o: usize| Vector3::new(fix[o], fix[o + 1], fix[o + 2]);
+                    (p.map(|_| v(0)), e.map(|_| v(3)))
+                }
+            };
+            let z = (first.is_some() || second.is_some()).then(|| Partial {
+                z: stacked(&first.unwrap_or_default(), &second.unwrap_or_default()),
+                present: (0..6)
+                    .map(|r| if r < 3 { first.is_some() } else { second.is_some() })
+                    .collect(),
+            });
+            return (Some(sample), z);
+        }
+        if let Truth::Linear { x, .. } = &self.truth {
+            let r_chol = self.r_chol.as_ref().expect("validated R is SPD");
+            return (None, Some(full(sensor.linear(&self.obs.H, r_chol, x))));
+        }
+        let Some(tr) = self.truth.motion() else {
+            return (None, None);
+        };
+        let sample = sensor.imu(&tr);
+        let mag = self.attitude.map(|a| sensor.magnetometer(&tr, &a.h));
+        if let Some(log) = self.imu_log.as_mut() {
+            log.push(ImuRow {
+                t,
+                sample,
+                mag,
+                position: tr.p,
+                euler: tr.euler,
+            });
+        }
+        let z = match mag {
+            Some(m) => stacked(&sample.accel, &m),
+            None => DVector::from_row_slice(&sensor.pose_fix(&tr)),
+        };
+        (Some(sample), Some(full(z)))
+    }
+
+    fn send(&mut self, k: u64, t: f64, own: &Partial) {
+        let (z, m) = (&own.z, own.z.len());
+        let have = (0..m).filter(|&r| own.present[r]).fold(0u64, |acc, r| acc | 1 << r);
         let groups: Vec<u64> = if self.topo.sim.split_channels {
-            // Position and orientation travel separately so that loss can be partial.
+            // The channels travel separately so that loss can be partial.
             let mut g = vec![0u64; self.obs.channels()];
             for (row, ch) in self.obs.channel_of_row.iter().enumerate() {
                 g[*ch] |= 1 << row;
             }
-            g
+            g.into_iter()
+                .map(|rows| rows & have)
+                .filter(|rows| *rows != 0)
+                .collect()
         } else {
-            vec![if m == 64 { u64::MAX } else { (1u64 << m) - 1 }]
+            vec![have]
         };
         for li in 0..self.links.len() {
             for rows in &groups {
@@ -673,29 +799,34 @@ impl Node {
         }
         used.extend(inbox.iter().map(|(s, p)| (*s, p)));
         used.sort_by_key(|(s, _)| *s);
+        // Each filter sees the observation about its own prior (linearised for the attitude EKF).
+        let (obs_net, z_net) = linearised(&self.obs, self.attitude.as_ref(), &priors.networked, &used);
+        let own_at = used.iter().position(|(s, _)| *s == self.index);
         let sources: Vec<Source<'_>> = used
             .iter()
-            .filter(|(s, _)| beta[*s] > 0.0)
-            .map(|(s, p)| Source {
+            .zip(&z_net)
+            .filter(|((s, _), _)| beta[*s] > 0.0)
+            .map(|((s, p), z)| Source {
                 beta: beta[*s],
-                z: &p.z,
+                z,
                 present: &p.present,
             })
             .collect();
         // The independent update this step if (17)/(19) fail: own measurement, else the highest-weight source.
-        let own = self.own.as_ref().map(|o| Source {
+        let own = own_at.map(|i| Source {
             beta: 1.0,
-            z: &o.z,
-            present: &o.present,
+            z: &z_net[i],
+            present: &used[i].1.present,
         });
         let fallback = own.or_else(|| sources.iter().max_by(|a, b| a.beta.total_cmp(&b.beta)).cloned());
         let lmi = c.lmi.enabled.then_some((c.lmi.alpha, c.lmi.gamma));
         if let Some(log) = self.lmi_log.as_mut() {
             // Every source that arrived, whatever its β, so that a search may weigh it.
-            let data: Vec<(&DVector<f64>, &[bool])> = used.iter().map(|(_, p)| (&p.z, &p.present[..])).collect();
+            let data: Vec<(&DVector<f64>, &[bool])> =
+                used.iter().zip(&z_net).map(|((_, p), z)| (z, &p.present[..])).collect();
             let terms = LmiTerms::new(
                 &priors.networked,
-                &self.obs,
+                &obs_net,
                 c.beta0,
                 &data,
                 self.policy,
@@ -713,7 +844,7 @@ impl Node {
         }
         let (networked, feasible) = guarded_update(
             &priors.networked,
-            &self.obs,
+            &obs_net,
             c.beta0,
             &sources,
             fallback.as_ref(),
@@ -721,10 +852,22 @@ impl Node {
             k,
             lmi,
         );
-        let independent = match &self.own {
-            Some(o) => kalman_update(&priors.independent, &self.obs, &o.z, &o.present, self.policy),
+        let independent = match own_at {
+            Some(i) => {
+                let mine = &used[i..=i];
+                let (obs, z) = linearised(&self.obs, self.attitude.as_ref(), &priors.independent, mine);
+                kalman_update(&priors.independent, &obs, &z[0], &mine[0].1.present, self.policy)
+            }
             None => Ok(priors.independent.clone()),
         };
+        let process = &self.process;
+        let normalised = |r: Result<Gaussian, EstimateError>| {
+            r.map(|mut g| {
+                process.normalize(&mut g);
+                g
+            })
+        };
+        let (networked, independent) = (normalised(networked), normalised(independent));
 
         let truth = self.truth.state();
         let counted = k >= topo.sim.burn_in_steps();
@@ -752,8 +895,8 @@ impl Node {
             if tq > limit || tp > limit || !tq.is_finite() {
                 m.mark_diverged();
             }
-            let err = error_norm(&self.truth, &truth, &post.x);
-            let v = nees(&post, &truth, &angle);
+            let err = self.truth.error(&truth, &post.x);
+            let v = nees(&post, &self.truth.aligned(&truth, &post.x), &angle);
             m.record(counted, err, tp, tq, v, if networked { feasible } else { true });
             if let Some(rows) = trace {
                 rows.push(TraceRow {
@@ -894,12 +1037,26 @@ pub fn step_in_memory(nodes: &mut [Node], k: u64) -> Vec<StepEstimate> {
     nodes.iter_mut().filter_map(|n| n.handle_deadline(k)).collect()
 }
 
-/// Position error norm (pose) or state error norm (linear).
-fn error_norm(truth_kind: &Truth, truth: &DVector<f64>, est: &DVector<f64>) -> f64 {
-    match truth_kind {
-        Truth::Pose { .. } => (truth.rows(0, 3) - est.rows(0, 3)).norm(),
-        Truth::Linear { .. } => (truth - est).norm(),
-    }
+/// The observation about `prior` and the measurements of `sources` in its coordinates. Linear and pose: as they
+/// are. Attitude: the EKF's first-order expansion h(q) ≈ h(q̂) + C (q − q̂), i.e. H = C and z − (h(q̂) − C q̂), so
+/// that the linear (consensus) update sees the innovation z − h(q̂).
+fn linearised(
+    template: &Observation,
+    attitude: Option<&AttitudeSensing>,
+    prior: &Gaussian,
+    sources: &[(usize, &Partial)],
+) -> (Observation, Vec<DVector<f64>>) {
+    let Some(a) = attitude else {
+        return (template.clone(), sources.iter().map(|(_, p)| p.z.clone()).collect());
+    };
+    let q = nalgebra::Vector4::new(prior.x[0], prior.x[1], prior.x[2], prior.x[3]);
+    let (h, C) = crate::estimate::attitude::measurement(&q, &a.g, &a.h);
+    let offset = h - &C * &prior.x;
+    let obs = Observation {
+        H: C,
+        ..template.clone()
+    };
+    (obs, sources.iter().map(|(_, p)| &p.z - &offset).collect())
 }
 
 #[cfg(test)]
@@ -921,5 +1078,50 @@ mod tests {
             assert!(s.mean_error.unwrap() < 0.2, "{s:?}");
             assert!(!s.diverged);
         }
+    }
+
+    /// A lone attitude node's filter is the quaternion EKF of `estimate::attitude` (standard form) fed with the same
+    /// samples: the linearised update inside the node changes nothing.
+    #[test]
+    fn attitude_node_is_the_quaternion_ekf() {
+        use crate::estimate::attitude::{AttitudeEkf, AttitudeModel, Form};
+        let text = "[sim]\nrate_hz = 100.0\nduration_s = 5.0\ntrajectory = \"tumble\"\n[model]\nkind = \"attitude\"\n\
+                    [[node]]\nid = 0\n";
+        let topo = Arc::new(Topology::from_toml(text, "t.toml").unwrap());
+        let ModelConfig::Attitude(cfg) = &topo.model else {
+            unreachable!()
+        };
+        let dt = topo.sim.dt();
+        let sg = topo.nodes[0].sensor.gyro_noise;
+        let model = AttitudeModel {
+            g: Vector3::new(0.0, 0.0, -crate::geom::GRAVITY),
+            h: Vector3::from(cfg.mag_field),
+            Rg: Matrix3::identity() * (sg * sg / dt),
+            R: DMatrix::from_diagonal(&DVector::from_vec(vec![
+                cfg.r_acc, cfg.r_acc, cfg.r_acc, cfg.r_mag, cfg.r_mag, cfg.r_mag,
+            ])),
+            lambda: topo.consensus.inflation,
+        };
+        let mut node = Node::new(topo.clone(), 0, true);
+        let x0 = &node.initial.x;
+        let q0 = nalgebra::Vector4::new(x0[0], x0[1], x0[2], x0[3]);
+        let mut ekf = AttitudeEkf::new(q0, &node.initial.P, Form::Standard).unwrap();
+        let mut worst: f64 = 0.0;
+        for k in 0..500 {
+            step_in_memory(std::slice::from_mut(&mut node), k);
+            let log = node.imu_log.as_ref().unwrap();
+            let now = log[k as usize];
+            if k > 0 {
+                let before = log[k as usize - 1];
+                ekf.predict(&((before.sample.gyro + now.sample.gyro) * 0.5), dt, &model)
+                    .unwrap();
+            }
+            let y = DVector::from_iterator(6, now.sample.accel.iter().chain(now.mag.unwrap().iter()).copied());
+            ekf.update(&y, [true, true], &model).unwrap();
+            let f = &node.filters.as_ref().unwrap().independent;
+            worst = worst.max((&f.x - DVector::from_column_slice(ekf.q.as_slice())).amax());
+            worst = worst.max((&f.P - ekf.P()).amax() / ekf.P().amax());
+        }
+        assert!(worst < 1e-10, "largest gap {worst:e}");
     }
 }

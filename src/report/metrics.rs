@@ -6,6 +6,8 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Default)]
 pub struct FilterMetrics {
     n: u64,
+    /// Counted steps with a known truth (a recording without reference columns has none).
+    n_error: u64,
     sum_error: f64,
     sum_sq_error: f64,
     sum_trace_prior: f64,
@@ -16,16 +18,17 @@ pub struct FilterMetrics {
     feasible: u64,
     /// Steps, burn-in included, at which the LMI guard rejected the consensus update.
     infeasible: u64,
-    pub final_error: f64,
+    pub final_error: Option<f64>,
     pub diverged: bool,
 }
 
 impl FilterMetrics {
-    /// Record one step. `counted` is false during the burn-in (only divergence and the final error are tracked).
+    /// Record one step. `counted` is false during the burn-in (only divergence and the final error are tracked);
+    /// `error` is `None` where the truth is unknown.
     pub fn record(
         &mut self,
         counted: bool,
-        error: f64,
+        error: Option<f64>,
         trace_prior: f64,
         trace_post: f64,
         nees: Option<f64>,
@@ -33,15 +36,18 @@ impl FilterMetrics {
     ) {
         self.final_error = error;
         self.infeasible += !feasible as u64;
-        if !(error.is_finite() && trace_prior.is_finite() && trace_post.is_finite()) {
+        if !(error.is_none_or(f64::is_finite) && trace_prior.is_finite() && trace_post.is_finite()) {
             self.diverged = true;
         }
         if !counted {
             return;
         }
         self.n += 1;
-        self.sum_error += error;
-        self.sum_sq_error += error * error;
+        if let Some(e) = error {
+            self.n_error += 1;
+            self.sum_error += e;
+            self.sum_sq_error += e * e;
+        }
         self.sum_trace_prior += trace_prior;
         self.sum_trace_post += trace_post;
         self.max_trace_post = self.max_trace_post.max(trace_post);
@@ -59,10 +65,17 @@ impl FilterMetrics {
     pub fn summary(&self, with_lmi: bool) -> FilterSummary {
         let n = self.n as f64;
         let mean = |s: f64| if self.n > 0 { finite(s / n) } else { None };
+        let mean_error = |s: f64| {
+            if self.n_error > 0 {
+                finite(s / self.n_error as f64)
+            } else {
+                None
+            }
+        };
         FilterSummary {
-            mean_error: mean(self.sum_error),
-            rms_error: mean(self.sum_sq_error).map(f64::sqrt),
-            final_error: finite(self.final_error),
+            mean_error: mean_error(self.sum_error),
+            rms_error: mean_error(self.sum_sq_error).map(f64::sqrt),
+            final_error: self.final_error.and_then(finite),
             mean_trace_p_prior: mean(self.sum_trace_prior),
             mean_trace_p_post: mean(self.sum_trace_post),
             max_trace_p_post: if self.n > 0 { finite(self.max_trace_post) } else { None },

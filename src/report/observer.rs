@@ -45,6 +45,7 @@ pub struct FusedSummary {
 pub fn fusion_layout(topo: &crate::topology::Topology) -> (Vec<bool>, Vec<usize>, bool) {
     match &topo.model {
         crate::topology::ModelConfig::Pose(_) => ((0..9).map(|i| i >= 6).collect(), vec![0, 1, 2], true),
+        crate::topology::ModelConfig::Attitude(_) => (vec![false; 4], vec![0, 1, 2, 3], false),
         crate::topology::ModelConfig::Linear(m) => (vec![false; m.A.nrows()], (0..m.A.nrows()).collect(), false),
     }
 }
@@ -62,6 +63,8 @@ pub struct Observer {
     record: bool,
     /// The median smooths a trajectory (pose); on a linear model's state it is not a smoother.
     median: bool,
+    /// The state is a quaternion: errors are rotation angles (degrees), and estimates share one sign before fusion.
+    attitude: bool,
 }
 
 impl Observer {
@@ -76,15 +79,29 @@ impl Observer {
             nodes: 0,
             record,
             median,
+            attitude: false,
         }
     }
 
+    /// Fuse attitude quaternions (the model named `kind`).
+    pub fn for_model(mut self, kind: &str) -> Observer {
+        self.attitude = kind == "attitude";
+        self
+    }
+
     fn error(&self, truth: &DVector<f64>, x: &DVector<f64>) -> f64 {
-        self.error_rows
-            .iter()
-            .map(|&i| (truth[i] - x[i]).powi(2))
-            .sum::<f64>()
-            .sqrt()
+        let pick = |v: &DVector<f64>| self.error_rows.iter().map(|&i| v[i]).collect::<Vec<f64>>();
+        self.distance(&pick(truth), &pick(x))
+    }
+
+    /// Between two picks of the error rows.
+    fn distance(&self, a: &[f64], b: &[f64]) -> f64 {
+        if self.attitude {
+            let q = |v: &[f64]| nalgebra::Vector4::new(v[0], v[1], v[2], v[3]);
+            crate::estimate::attitude::angle_between(&q(a), &q(b)).to_degrees()
+        } else {
+            a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt()
+        }
     }
 
     /// Fuse one step's estimates (any order; they are sorted by node).
@@ -92,21 +109,37 @@ impl Observer {
         estimates.retain(|e| !e.diverged);
         estimates.sort_by_key(|e| e.node);
         let Some(first) = estimates.first() else { return };
-        let (step, frame, truth) = (first.step, first.frame, first.truth.clone());
+        // The truth of the first node that knows it (a recording without reference columns does not).
+        let scored = estimates
+            .iter()
+            .find(|e| e.truth.iter().all(|v| v.is_finite()))
+            .unwrap_or(first);
+        let (step, frame, truth) = (first.step, scored.frame, scored.truth.clone());
         let counted = step >= self.burn_in;
         self.nodes = self.nodes.max(estimates.len());
-        let gs: Vec<Gaussian> = estimates.into_iter().map(|e| e.networked).collect();
+        let mut gs: Vec<Gaussian> = estimates.into_iter().map(|e| e.networked).collect();
+        if self.attitude {
+            // q and −q are one attitude: fuse them on the first estimate's side.
+            let first = gs[0].x.clone();
+            for g in &mut gs {
+                if g.x.dot(&first) < 0.0 {
+                    g.x = -&g.x;
+                }
+            }
+        }
         let Ok(fused) = cascade(&gs, Omega::Fixed(0.5), &self.angle_states) else {
             return;
         };
-        let err = self.error(&truth, &fused.x);
+        // A recording without reference has no truth to score against.
+        let known = truth.iter().all(|v| v.is_finite());
+        let err = known.then(|| self.error(&truth, &fused.x));
         let tr = fused.P.trace();
         self.fixed.record(counted, err, tr, tr, None, true);
         if gs.len() <= OPTIMAL_FUSION_MAX_NODES {
             if let Ok(opt) = cascade(&gs, Omega::TraceOptimal, &self.angle_states) {
                 let t2 = opt.P.trace();
-                self.optimal
-                    .record(counted, self.error(&truth, &opt.x), t2, t2, None, true);
+                let e2 = known.then(|| self.error(&truth, &opt.x));
+                self.optimal.record(counted, e2, t2, t2, None, true);
             }
         }
         let pick = |v: &DVector<f64>| self.error_rows.iter().map(|&i| v[i]).collect::<Vec<f64>>();
@@ -115,7 +148,7 @@ impl Observer {
 
     /// The fused trajectory after the centred median, with errors.
     pub fn rows(&self) -> Vec<FusedRow> {
-        let dist = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt();
+        let dist = |a: &[f64], b: &[f64]| self.distance(a, b);
         let mut out = Vec::with_capacity(self.fused.len());
         // The median window never straddles a change of coordinate frame.
         for segment in self.fused.chunk_by(|a, b| a.1 == b.1) {

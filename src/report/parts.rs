@@ -196,7 +196,8 @@ pub fn merge(
         fi.error_rows.clone(),
         true,
         fi.median,
-    );
+    )
+    .for_model(&first.model);
     let mut by_step: BTreeMap<u64, Vec<StepEstimate>> = BTreeMap::new();
     for es in estimates.values() {
         for e in es {

@@ -70,25 +70,39 @@ fn series(rows: &[TraceRow]) -> BTreeMap<(u32, bool), Vec<&TraceRow>> {
     m
 }
 
-/// True trajectory and estimates: the x–y plane for pose, x₀ against time for linear.
-pub fn trajectory(rows: &[TraceRow], fused: &[FusedRow], pose: bool, title: &str) -> Result<String, PlotError> {
+/// True trajectory and estimates: the x–y plane for pose, roll, pitch and yaw against time for attitude (networked
+/// estimates only), x₀ against time for linear. `model` is the model's kind.
+pub fn trajectory(rows: &[TraceRow], fused: &[FusedRow], model: &str, title: &str) -> Result<String, PlotError> {
     font();
     let name = "trajectory";
+    let (pose, attitude) = (model == "pose", model == "attitude");
     let mut out = String::new();
     {
         let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
         root.fill(&WHITE).map_err(err(name))?;
-        let s = series(rows);
-        let xy = |r: &TraceRow, est: bool| -> (f64, f64) {
+        let mut s = series(rows);
+        if attitude {
+            s.retain(|(_, networked), _| *networked);
+        }
+        // Component c of the curve: one per Euler angle for attitude.
+        let components = if attitude { 3 } else { 1 };
+        let xy = |r: &TraceRow, est: bool, c: usize| -> (f64, f64) {
             let v = if est { &r.est } else { &r.truth };
             if pose {
                 (v[0], v[1])
+            } else if attitude {
+                (r.t, v[c].to_degrees())
             } else {
                 (r.t, v[0])
             }
         };
-        let (x0, x1) = range(rows.iter().flat_map(|r| [xy(r, false).0, xy(r, true).0]));
-        let (y0, y1) = range(rows.iter().flat_map(|r| [xy(r, false).1, xy(r, true).1]));
+        let all = || {
+            rows.iter()
+                .flat_map(move |r| (0..components).flat_map(move |c| [xy(r, false, c), xy(r, true, c)]))
+                .filter(|(x, y)| x.is_finite() && y.is_finite())
+        };
+        let (x0, x1) = range(all().map(|p| p.0));
+        let (y0, y1) = range(all().map(|p| p.1));
         let mut chart = ChartBuilder::on(&root)
             .caption(title, ("sans-serif", 22))
             .margin(12)
@@ -99,34 +113,54 @@ pub fn trajectory(rows: &[TraceRow], fused: &[FusedRow], pose: bool, title: &str
         chart
             .configure_mesh()
             .x_desc(if pose { "x (m)" } else { "t (s)" })
-            .y_desc(if pose { "y (m)" } else { "x₀" })
+            .y_desc(if pose {
+                "y (m)"
+            } else if attitude {
+                "roll, pitch, yaw (°)"
+            } else {
+                "x₀"
+            })
             .draw()
             .map_err(err(name))?;
+        let finite = |p: &(f64, f64)| p.0.is_finite() && p.1.is_finite();
         if let Some(first) = s.values().next() {
-            chart
-                .draw_series(LineSeries::new(
-                    first.iter().map(|r| xy(r, false)),
-                    BLACK.stroke_width(2),
-                ))
-                .map_err(err(name))?
-                .label("truth")
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.stroke_width(2)));
+            for c in 0..components {
+                let drawn = chart
+                    .draw_series(LineSeries::new(
+                        first.iter().map(|r| xy(r, false, c)).filter(finite),
+                        BLACK.stroke_width(2),
+                    ))
+                    .map_err(err(name))?;
+                if c == 0 {
+                    drawn
+                        .label("truth")
+                        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.stroke_width(2)));
+                }
+            }
         }
         for (i, ((node, networked), pts)) in s.iter().enumerate() {
-            let c = palette(i / 2);
+            let c = palette(if attitude { i } else { i / 2 });
             let style = if *networked {
                 c.stroke_width(1)
             } else {
                 c.mix(0.35).stroke_width(1)
             };
-            chart
-                .draw_series(LineSeries::new(pts.iter().map(|r| xy(r, true)), style))
-                .map_err(err(name))?
-                .label(format!(
-                    "node {node} {}",
-                    if *networked { "networked" } else { "independent" }
-                ))
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+            for comp in 0..components {
+                let drawn = chart
+                    .draw_series(LineSeries::new(
+                        pts.iter().map(|r| xy(r, true, comp)).filter(finite),
+                        style,
+                    ))
+                    .map_err(err(name))?;
+                if comp == 0 {
+                    drawn
+                        .label(format!(
+                            "node {node} {}",
+                            if *networked { "networked" } else { "independent" }
+                        ))
+                        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+                }
+            }
         }
         if pose && !fused.is_empty() {
             let style = RGBColor(0, 0, 0).mix(0.6).stroke_width(2);
@@ -249,8 +283,14 @@ fn over_time(
     Ok(out)
 }
 
-pub fn error(rows: &[TraceRow], fused: &[FusedRow], dt: f64, pose: bool, title: &str) -> Result<String, PlotError> {
-    let y = if pose { "position error (m)" } else { "state error" };
+/// The error figure against time: position (pose), rotation angle (attitude, from the Euler columns), state
+/// (linear).
+pub fn error(rows: &[TraceRow], fused: &[FusedRow], dt: f64, model: &str, title: &str) -> Result<String, PlotError> {
+    let y = match model {
+        "pose" => "position error (m)",
+        "attitude" => "attitude error (°)",
+        _ => "state error",
+    };
     over_time(
         "error",
         rows,
@@ -258,9 +298,16 @@ pub fn error(rows: &[TraceRow], fused: &[FusedRow], dt: f64, pose: bool, title: 
         dt,
         title,
         y,
-        |r| {
-            let n = if pose { 3 } else { r.truth.len() };
-            (0..n).map(|i| (r.truth[i] - r.est[i]).powi(2)).sum::<f64>().sqrt()
+        |r| match model {
+            "attitude" => {
+                use crate::estimate::attitude::{angle_between, from_euler};
+                let q = |v: &[f64]| from_euler(&nalgebra::Vector3::new(v[0], v[1], v[2]));
+                angle_between(&q(&r.truth), &q(&r.est)).to_degrees()
+            }
+            _ => {
+                let n = if model == "pose" { 3 } else { r.truth.len() };
+                (0..n).map(|i| (r.truth[i] - r.est[i]).powi(2)).sum::<f64>().sqrt()
+            }
         },
         false,
     )

@@ -188,6 +188,15 @@ impl Summary {
             if self.interrupted { " · INTERRUPTED" } else { "" },
             self.wall_s
         )?;
+        let unit = match self.model.as_str() {
+            "pose" => "errors: mean position error, m",
+            "attitude" => "errors: mean attitude error, degrees",
+            _ => "errors: mean state error norm",
+        };
+        writeln!(
+            w,
+            "{unit} (after the burn-in); trP: mean trace of the posterior covariance"
+        )?;
         writeln!(w)?;
         writeln!(
             w,

@@ -344,7 +344,7 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> anyhow::Res
                 &r.rows,
                 &r.fused,
                 1.0 / rate,
-                true,
+                "pose",
                 &format!("§5: {}", r.summary.topology),
             )?,
         ));
@@ -433,7 +433,7 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> anyhow::Res
             &drift_runs[0].rows,
             &drift_runs[0].fused,
             1.0 / rate,
-            true,
+            "pose",
             "§6, Fig. 12: drift on every node",
         )?,
     ));
@@ -443,7 +443,7 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> anyhow::Res
             &piece[0].rows,
             &piece[0].fused,
             1.0 / rate,
-            true,
+            "pose",
             "§6, Fig. 13: piecewise-linear, drift",
         )?,
     ));
@@ -486,7 +486,7 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> anyhow::Res
         plot::trajectory(
             &tri3[0].rows,
             &tri3[0].fused,
-            true,
+            "pose",
             "§7, Fig. 14: covariance intersection of three nodes",
         )?,
     ));

@@ -11,6 +11,7 @@ pub const ALL: &[(&str, &str)] = &[
     ("grid16", include_str!("../../topologies/grid16.toml")),
     ("sinopoli-scalar", include_str!("../../topologies/sinopoli-scalar.toml")),
     ("ring100", include_str!("../../topologies/ring100.toml")),
+    ("attitude3", include_str!("../../topologies/attitude3.toml")),
 ];
 
 pub fn get(name: &str) -> Option<&'static str> {

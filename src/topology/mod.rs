@@ -10,9 +10,11 @@ mod raw;
 use std::collections::HashMap;
 use std::fmt;
 use std::path::Path;
+use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector};
 
+use crate::imu_csv::ImuRecording;
 use crate::link::{FaultSchedule, Jitter, LinkConfig, LossModel, ScheduledFault};
 use crate::motion::Trajectory;
 use crate::sensor::SensorProfile;
@@ -124,9 +126,24 @@ pub struct LinearModel {
     pub P0: DMatrix<f64>,
 }
 
+/// The quaternion attitude EKF of Lesecq's slides (`seeds/004`): the gyro drives the prediction, the accelerometer
+/// (channel 0) and the magnetometer (channel 1) are the measurements that travel over the network.
+#[derive(Debug, Clone)]
+pub struct AttitudeConfig {
+    /// Accelerometer noise variance in the filter, (m/s²)²; covers unmodelled linear acceleration too.
+    pub r_acc: f64,
+    /// Magnetometer noise variance, in the squared unit of `mag_field`.
+    pub r_mag: f64,
+    /// Earth's field in the navigation frame (z up).
+    pub mag_field: [f64; 3],
+    /// Prior variance of each Euler angle, rad².
+    pub p0_att: f64,
+}
+
 #[derive(Debug, Clone)]
 pub enum ModelConfig {
     Pose(PoseModel),
+    Attitude(AttitudeConfig),
     Linear(LinearModel),
 }
 
@@ -134,6 +151,7 @@ impl ModelConfig {
     pub fn kind(&self) -> &'static str {
         match self {
             ModelConfig::Pose(_) => "pose",
+            ModelConfig::Attitude(_) => "attitude",
             ModelConfig::Linear(_) => "linear",
         }
     }
@@ -163,6 +181,16 @@ pub struct NodeConfig {
     pub role: Role,
     pub addr: Option<String>,
     pub sensor: SensorProfile,
+    /// A recorded IMU that replaces the simulated one (`imu_csv`).
+    pub recording: Option<RecordedImu>,
+}
+
+/// A node's IMU file: the path as written, as resolved, and its rows.
+#[derive(Debug, Clone)]
+pub struct RecordedImu {
+    pub given: String,
+    pub path: String,
+    pub data: Arc<ImuRecording>,
 }
 
 #[derive(Debug, Clone)]
@@ -256,6 +284,42 @@ impl Topology {
     }
 }
 
+/// A recording that ends before the run does (checked again after command-line overrides change the duration or
+/// the rate).
+fn recording_problems(sim: &SimConfig, nodes: &[NodeConfig]) -> Vec<Problem> {
+    let need = sim.steps().saturating_sub(1) as f64 * sim.dt();
+    nodes
+        .iter()
+        .enumerate()
+        .filter_map(|(i, n)| {
+            let r = n.recording.as_ref()?;
+            let span = r.data.span();
+            (span + 1e-6 * sim.dt() < need).then(|| Problem {
+                key: format!("node[{i}].imu_csv"),
+                message: format!(
+                    "{} covers {span:.3} s, the run needs {need:.3} s (shorten sim.duration_s or --duration)",
+                    r.path
+                ),
+            })
+        })
+        .collect()
+}
+
+impl Topology {
+    /// After [`Topology::apply`]: every recorded IMU still covers the run.
+    pub fn check_recordings(&self) -> Result<(), TopologyError> {
+        let problems = recording_problems(&self.sim, &self.nodes);
+        if problems.is_empty() {
+            Ok(())
+        } else {
+            Err(TopologyError::Invalid {
+                file: self.source.clone(),
+                problems,
+            })
+        }
+    }
+}
+
 /// Command-line overrides applied on top of a file.
 #[derive(Debug, Clone, Default)]
 pub struct Overrides {
@@ -318,6 +382,34 @@ impl Validator {
             key: key.into(),
             message: message.into(),
         });
+    }
+
+    /// Read `imu_csv`: relative to the topology file's folder, or to the working directory for a built-in.
+    fn recording(&mut self, key: &str, path: &str, topology_file: &str) -> Option<RecordedImu> {
+        let base = Path::new(topology_file);
+        let resolved = match base.parent() {
+            Some(dir) if base.is_file() && Path::new(path).is_relative() => dir.join(path),
+            _ => Path::new(path).to_path_buf(),
+        };
+        let shown = resolved.display().to_string();
+        let text = match std::fs::read_to_string(&resolved) {
+            Ok(t) => t,
+            Err(e) => {
+                self.bad(key, format!("cannot read {shown}: {e}"));
+                return None;
+            }
+        };
+        match crate::imu_csv::parse(&text, &shown) {
+            Ok(data) => Some(RecordedImu {
+                given: path.to_string(),
+                path: shown,
+                data: Arc::new(data),
+            }),
+            Err(e) => {
+                self.bad(key, e.to_string());
+                None
+            }
+        }
     }
 
     fn prob(&mut self, key: &str, v: Option<f64>, default: f64) -> f64 {
@@ -393,11 +485,27 @@ impl Validator {
                 }
             };
             let sensor = self.sensor(&format!("{key}.sensor"), n.sensor.as_ref(), &sensor_defaults);
+            let recording = n
+                .imu_csv
+                .as_deref()
+                .and_then(|f| self.recording(&format!("{key}.imu_csv"), f, file));
+            if recording.is_some() {
+                if role == Role::Estimator {
+                    self.bad(format!("{key}.imu_csv"), "an estimator has no IMU to replace");
+                }
+                if let ModelConfig::Linear(_) = model {
+                    self.bad(
+                        format!("{key}.imu_csv"),
+                        "a linear model has no IMU: only for kind = pose or attitude",
+                    );
+                }
+            }
             nodes.push(NodeConfig {
                 id: id.clamp(0, u32::MAX as i64) as u32,
                 role,
                 addr: n.addr.clone(),
                 sensor,
+                recording,
             });
         }
         let n = nodes.len();
@@ -470,10 +578,11 @@ impl Validator {
             if sim.split_channels {
                 self.bad(
                     "sim.split_channels",
-                    "only the pose model has separate position and orientation channels",
+                    "only the pose and attitude models have separate channels",
                 );
             }
         }
+        self.problems.extend(recording_problems(&sim, &nodes));
         Some(Topology {
             name,
             description,
@@ -568,21 +677,64 @@ impl Validator {
     }
 
     fn model(&mut self, m: RawModel) -> ModelConfig {
-        match m.kind.as_deref().unwrap_or("pose") {
-            "pose" => {
-                for (k, v) in [("a", &m.a), ("c", &m.c), ("q", &m.q), ("r", &m.r), ("p0", &m.p0)] {
-                    if v.is_some() {
-                        self.bad(format!("model.{k}"), "only for kind = \"linear\"");
-                    }
+        let kind = m.kind.as_deref().unwrap_or("pose");
+        // Keys that belong to some kinds only.
+        let owned: [(&str, bool, &[&str]); 17] = [
+            ("q_pos", m.q_pos.is_some(), &["pose"]),
+            ("q_vel", m.q_vel.is_some(), &["pose"]),
+            ("q_att", m.q_att.is_some(), &["pose"]),
+            ("r_pos", m.r_pos.is_some(), &["pose"]),
+            ("r_att", m.r_att.is_some(), &["pose"]),
+            ("p0_pos", m.p0_pos.is_some(), &["pose"]),
+            ("p0_vel", m.p0_vel.is_some(), &["pose"]),
+            ("p0_att", m.p0_att.is_some(), &["pose", "attitude"]),
+            ("r_acc", m.r_acc.is_some(), &["attitude"]),
+            ("r_mag", m.r_mag.is_some(), &["attitude"]),
+            ("mag_field", m.mag_field.is_some(), &["attitude"]),
+            ("a", m.a.is_some(), &["linear"]),
+            ("c", m.c.is_some(), &["linear"]),
+            ("q", m.q.is_some(), &["linear"]),
+            ("r", m.r.is_some(), &["linear"]),
+            ("x0", m.x0.is_some(), &["linear"]),
+            ("p0", m.p0.is_some(), &["linear"]),
+        ];
+        if ["pose", "attitude", "linear"].contains(&kind) {
+            for (key, given, owners) in owned {
+                if given && !owners.contains(&kind) {
+                    let kinds: Vec<String> = owners.iter().map(|o| format!("\"{o}\"")).collect();
+                    self.bad(
+                        format!("model.{key}"),
+                        format!("only for kind = {}", kinds.join(" or ")),
+                    );
                 }
-                ModelConfig::Pose(PoseModel {
-                    q_pos: self.non_negative("model.q_pos", m.q_pos, 0.0),
-                    q_vel: self.non_negative("model.q_vel", m.q_vel, 0.0),
-                    q_att: self.non_negative("model.q_att", m.q_att, 0.0),
-                    r_pos: self.positive("model.r_pos", m.r_pos, 0.01),
-                    r_att: self.positive("model.r_att", m.r_att, 0.001),
-                    p0_pos: self.positive("model.p0_pos", m.p0_pos, 0.25),
-                    p0_vel: self.positive("model.p0_vel", m.p0_vel, 0.01),
+            }
+        }
+        match kind {
+            "pose" => ModelConfig::Pose(PoseModel {
+                q_pos: self.non_negative("model.q_pos", m.q_pos, 0.0),
+                q_vel: self.non_negative("model.q_vel", m.q_vel, 0.0),
+                q_att: self.non_negative("model.q_att", m.q_att, 0.0),
+                r_pos: self.positive("model.r_pos", m.r_pos, 0.01),
+                r_att: self.positive("model.r_att", m.r_att, 0.001),
+                p0_pos: self.positive("model.p0_pos", m.p0_pos, 0.25),
+                p0_vel: self.positive("model.p0_vel", m.p0_vel, 0.01),
+                p0_att: self.positive("model.p0_att", m.p0_att, 0.003),
+            }),
+            "attitude" => {
+                let field = m.mag_field.unwrap_or([0.25, 0.0, -0.433]);
+                let norm = field.iter().map(|v| v * v).sum::<f64>().sqrt();
+                if !(norm > 0.0 && norm.is_finite()) {
+                    self.bad("model.mag_field", "must be a finite non-zero vector");
+                } else if (field[0] * field[0] + field[1] * field[1]).sqrt() < 1e-3 * norm {
+                    self.bad(
+                        "model.mag_field",
+                        "must have a horizontal component: a vertical field leaves yaw unobservable",
+                    );
+                }
+                ModelConfig::Attitude(AttitudeConfig {
+                    r_acc: self.positive("model.r_acc", m.r_acc, 0.01),
+                    r_mag: self.positive("model.r_mag", m.r_mag, 1e-5),
+                    mag_field: field,
                     p0_att: self.positive("model.p0_att", m.p0_att, 0.003),
                 })
             }
@@ -646,7 +798,10 @@ impl Validator {
                 })
             }
             other => {
-                self.bad("model.kind", format!("expected pose | linear, got `{other}`"));
+                self.bad(
+                    "model.kind",
+                    format!("expected pose | attitude | linear, got `{other}`"),
+                );
                 ModelConfig::Pose(PoseModel {
                     q_pos: 0.0,
                     q_vel: 0.0,
@@ -778,6 +933,7 @@ impl Validator {
             gyro_drift: non_neg3(self, "gyro_drift", s.gyro_drift, base.gyro_drift),
             pos_noise: self.non_negative(&format!("{key}.pos_noise"), s.pos_noise, base.pos_noise),
             att_noise: self.non_negative(&format!("{key}.att_noise"), s.att_noise, base.att_noise),
+            mag_noise: self.non_negative(&format!("{key}.mag_noise"), s.mag_noise, base.mag_noise),
         }
     }
 

@@ -47,6 +47,10 @@ pub struct RawModel {
     pub p0_pos: Option<f64>,
     pub p0_vel: Option<f64>,
     pub p0_att: Option<f64>,
+    // attitude
+    pub r_acc: Option<f64>,
+    pub r_mag: Option<f64>,
+    pub mag_field: Option<[f64; 3]>,
     // linear
     pub a: Option<Vec<Vec<f64>>>,
     pub c: Option<Vec<Vec<f64>>>,
@@ -111,6 +115,7 @@ pub struct RawSensor {
     pub gyro_drift: Option<[f64; 3]>,
     pub pos_noise: Option<f64>,
     pub att_noise: Option<f64>,
+    pub mag_noise: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -120,6 +125,7 @@ pub struct RawNode {
     pub role: Option<String>,
     pub addr: Option<String>,
     pub sensor: Option<RawSensor>,
+    pub imu_csv: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]

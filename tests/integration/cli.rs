@@ -58,6 +58,61 @@ fn broken_topology_exits_2_naming_the_key() {
     }
 }
 
+/// A node's IMU file that cannot be read, is malformed, or ends before the run: exit 2 naming the node's key and the
+/// file (with its line for a malformed one). A file that covers the run at the topology's duration but not at
+/// `--duration` is caught after the override.
+#[test]
+fn bad_imu_files_exit_2_naming_node_and_line() {
+    let d = tmp("imu");
+    let head = "t,ax,ay,az,gx,gy,gz\n";
+    let rows: String = (0..=100)
+        .map(|k| format!("{},0,0,9.81,0,0,0\n", k as f64 * 0.01))
+        .collect();
+    std::fs::write(d.join("good.csv"), format!("{head}{rows}")).unwrap();
+    std::fs::write(
+        d.join("bad.csv"),
+        format!("{head}0,0,0,9.81,0,0,0\n0.01,0,0,9.81,0,zero,0\n"),
+    )
+    .unwrap();
+    let topo = |file: &str| {
+        format!(
+            "[sim]\nduration_s = 1.0\nburn_in_s = 0.1\n[model]\nkind = \"attitude\"\n[[node]]\nid = 0\n\
+             [[node]]\nid = 1\nimu_csv = \"{file}\"\n[[edge]]\nnodes = [0, 1]\n"
+        )
+    };
+    let cases = [
+        ("missing.csv", vec![], "cannot read"),
+        ("bad.csv", vec![], "bad.csv:3: `zero` in column `gy`"),
+        (
+            "good.csv",
+            vec!["--duration", "2"],
+            "covers 1.000 s, the run needs 1.990 s",
+        ),
+    ];
+    for (file, extra, needle) in cases {
+        let f = d.join(format!("{file}.toml"));
+        std::fs::write(&f, topo(file)).unwrap();
+        let out = simnet()
+            .args(["run", "-t", f.to_str().unwrap()])
+            .args(&extra)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{file}: {err}");
+        assert!(err.contains("node[1].imu_csv") && err.contains(needle), "{file}: {err}");
+    }
+    // The good file at the topology's own duration runs, node 1 on the recording (no reference: no error figure).
+    let f = d.join("good.csv.toml");
+    let out = simnet()
+        .args(["run", "-t", f.to_str().unwrap(), "--json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let s: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(s["nodes"][1]["networked"]["mean_error"].is_null());
+    assert!(s["nodes"][0]["networked"]["mean_error"].as_f64().is_some());
+}
+
 #[test]
 fn bad_options_exit_2() {
     for args in [

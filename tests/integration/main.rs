@@ -1,5 +1,6 @@
 //! simnet's integration tests, one binary (DESIGN/STYLE: keep builds lean). Fixed seeds throughout.
 
+mod attitude;
 mod cli;
 mod common;
 mod estimation;
