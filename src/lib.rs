@@ -11,11 +11,11 @@
 //! |---|---|
 //! | [`topology`] | topology TOML → validated [`topology::Topology`]; every error names the file and the key; built-ins |
 //! | [`motion`] | analytic ground-truth trajectories shared by every node |
-//! | [`sensor`] | accelerometer/gyro (noise, bias, Wiener drift), pose fixes, linear measurements |
-//! | [`estimate`] | Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection |
+//! | [`sensor`] | accelerometer/gyro (noise, bias, Wiener drift), magnetometer, pose fixes, linear measurements |
+//! | [`estimate`] | Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKF, the rigid-pair EKF, the FEM boundary-value solver |
 //! | [`wire`] | the datagram format: postcard + CRC-32, checked decode |
 //! | [`link`] | per-datagram verdicts: Bernoulli / Gilbert–Elliott loss, delay, jitter, duplication, corruption, fault schedules |
-//! | [`node`] | one node's sans-IO state machine: `handle_step`, `handle_datagram`, `handle_deadline`, `poll_transmit` |
+//! | [`node`] | one node's sans-IO state machine: `handle_step`, `handle_datagram`, `handle_deadline`, `poll_transmit`; pose, attitude (linearised about each prior) and linear models; simulated or recorded IMU |
 //! | [`protocol`] | β protocol search over whole in-memory runs: the seed's family by bisection on (17)/(19); all β by SDP (feature `sdp`) |
 //! | [`reconstruct`] | position from a recorded IMU file as a boundary value problem (FEM), trapezoid for comparison, sensor-error model |
 //! | [`reproduce`] | the source documents' experiments rerun: claims tables with simnet's figures, and plots |
@@ -25,7 +25,8 @@
 //! | [`compose`] | the docker compose file of a topology (one container per node) |
 //!
 //! Support: [`geom`] (Euler ZYX attitude), [`rng`] (seeded streams), [`stats`] (quantiles for tests and reports),
-//! [`par`] (jobs over every core), [`imu_csv`] (recorded IMU files: `simnet run --out` writes them, `simnet reconstruct` reads them).
+//! [`par`] (jobs over every core), [`imu_csv`] (recorded IMU files: `simnet run --out` writes them, `imu_csv` on a
+//! node and `simnet reconstruct` read them).
 
 pub mod cli;
 pub mod compose;

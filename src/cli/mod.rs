@@ -377,7 +377,7 @@ fn list_topologies() {
 fn validate(files: &[PathBuf]) -> ExitCode {
     let mut bad = false;
     for f in files {
-        match Topology::from_path(f) {
+        match Topology::from_path(f).and_then(|t| t.check_recordings().map(|_| t)) {
             Ok(t) => println!(
                 "{}: ok — `{}`, {} nodes, {} directed links, {} model, {} steps",
                 f.display(),

@@ -163,6 +163,7 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         (result.reference.exchange, result.reference.mean_error),
         (found.exchange, found.mean_error),
         boundary_exchange,
+        topo.model.error_label(),
         &format!("{}: mean error against exchanged weight", topo.name),
     )?;
     write_atomic(&out_dir.join("protocol.svg"), svg.as_bytes())?;
@@ -213,9 +214,14 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         let o = fresh_figures(&fresh_own);
         writeln!(
             stdout,
-            "fresh run over UDP (seed {verify_seed}): found protocol mean error {:.5} m, {} infeasible steps; \
-             the topology's own protocol {:.5} m, {} infeasible steps; independent nodes {:.5} m",
-            f.mean_error, f.infeasible_steps, o.mean_error, o.infeasible_steps, f.independent_error
+            "fresh run over UDP (seed {verify_seed}): found protocol mean error {:.5}{u}, {} infeasible steps; \
+             the topology's own protocol {:.5}{u}, {} infeasible steps; independent nodes {:.5}{u}",
+            f.mean_error,
+            f.infeasible_steps,
+            o.mean_error,
+            o.infeasible_steps,
+            f.independent_error,
+            u = topo.model.error_unit()
         )?;
         writeln!(
             stdout,
@@ -244,12 +250,13 @@ fn choose(
         SolverArg::Sdp => {
             let r = protocol::sdp::search(topo, cfg, &result.beta, 5)?;
             let note = format!(
-                "SDP over all β (Clarabel, {} round(s), {} steps as PSD cones): exchange {:.4}, mean error {:.5} m, \
-                 {} infeasible steps",
+                "SDP over all β (Clarabel, {} round(s), {} steps as PSD cones): exchange {:.4}, mean error \
+                 {:.5}{}, {} infeasible steps",
                 r.rounds,
                 r.steps_as_cones,
                 r.evaluation.exchange,
                 r.evaluation.mean_error,
+                topo.model.error_unit(),
                 r.evaluation.infeasible_steps
             );
             Ok((r.beta, r.evaluation, Some(note)))
@@ -309,7 +316,12 @@ fn print_table(
     writeln!(
         o,
         "{:>8} {:>9} {:>11} {:>11} {:>12} {:>11}",
-        "u", "exchange", "mean err m", "worst seed", "independent", "infeasible"
+        "u",
+        "exchange",
+        format!("mean err{}", topo.model.error_unit()),
+        "worst seed",
+        "independent",
+        "infeasible"
     )?;
     for e in &r.curve {
         let mark = if e.u == r.chosen.u { "  ← chosen" } else { "" };
@@ -338,17 +350,21 @@ fn print_table(
     let pct = |a: f64, b: f64| 100.0 * (1.0 - a / b);
     writeln!(
         o,
-        "topology's own protocol: exchange {:.4}, mean error {:.5} m ({} infeasible steps)",
-        r.reference.exchange, r.reference.mean_error, r.reference.infeasible_steps
+        "topology's own protocol: exchange {:.4}, mean error {:.5}{} ({} infeasible steps)",
+        r.reference.exchange,
+        r.reference.mean_error,
+        topo.model.error_unit(),
+        r.reference.infeasible_steps
     )?;
     if let Some(n) = sdp_note {
         writeln!(o, "{n}")?;
     }
     writeln!(
         o,
-        "found: exchange {:.4}, mean error {:.5} m — {:.1} % below the own protocol, {:.1} % below independent nodes",
+        "found: exchange {:.4}, mean error {:.5}{} — {:.1} % below the own protocol, {:.1} % below independent nodes",
         found.exchange,
         found.mean_error,
+        topo.model.error_unit(),
         pct(found.mean_error, r.reference.mean_error),
         pct(found.mean_error, found.independent_error)
     )

