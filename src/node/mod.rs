@@ -8,6 +8,7 @@
 
 mod truth;
 
+use std::borrow::Cow;
 use std::cmp::Reverse;
 use std::collections::{BTreeMap, BinaryHeap, HashMap};
 use std::sync::Arc;
@@ -822,8 +823,11 @@ impl Node {
         let lmi = c.lmi.enabled.then_some((c.lmi.alpha, c.lmi.gamma));
         if let Some(log) = self.lmi_log.as_mut() {
             // Every source that arrived, whatever its β, so that a search may weigh it.
-            let data: Vec<(&DVector<f64>, &[bool])> =
-                used.iter().zip(&z_net).map(|((_, p), z)| (z, &p.present[..])).collect();
+            let data: Vec<(&DVector<f64>, &[bool])> = used
+                .iter()
+                .zip(&z_net)
+                .map(|((_, p), z)| (z.as_ref(), &p.present[..]))
+                .collect();
             let terms = LmiTerms::new(
                 &priors.networked,
                 &obs_net,
@@ -1038,16 +1042,19 @@ pub fn step_in_memory(nodes: &mut [Node], k: u64) -> Vec<StepEstimate> {
 }
 
 /// The observation about `prior` and the measurements of `sources` in its coordinates. Linear and pose: as they
-/// are. Attitude: the EKF's first-order expansion h(q) ≈ h(q̂) + C (q − q̂), i.e. H = C and z − (h(q̂) − C q̂), so
-/// that the linear (consensus) update sees the innovation z − h(q̂).
-fn linearised(
-    template: &Observation,
+/// are (borrowed). Attitude: the EKF's first-order expansion h(q) ≈ h(q̂) + C (q − q̂), i.e. H = C and
+/// z − (h(q̂) − C q̂), so that the linear (consensus) update sees the innovation z − h(q̂).
+fn linearised<'a>(
+    template: &'a Observation,
     attitude: Option<&AttitudeSensing>,
     prior: &Gaussian,
-    sources: &[(usize, &Partial)],
-) -> (Observation, Vec<DVector<f64>>) {
+    sources: &[(usize, &'a Partial)],
+) -> (Cow<'a, Observation>, Vec<Cow<'a, DVector<f64>>>) {
     let Some(a) = attitude else {
-        return (template.clone(), sources.iter().map(|(_, p)| p.z.clone()).collect());
+        return (
+            Cow::Borrowed(template),
+            sources.iter().map(|(_, p)| Cow::Borrowed(&p.z)).collect(),
+        );
     };
     let q = nalgebra::Vector4::new(prior.x[0], prior.x[1], prior.x[2], prior.x[3]);
     let (h, C) = crate::estimate::attitude::measurement(&q, &a.g, &a.h);
@@ -1056,7 +1063,10 @@ fn linearised(
         H: C,
         ..template.clone()
     };
-    (obs, sources.iter().map(|(_, p)| &p.z - &offset).collect())
+    (
+        Cow::Owned(obs),
+        sources.iter().map(|(_, p)| Cow::Owned(&p.z - &offset)).collect(),
+    )
 }
 
 #[cfg(test)]
