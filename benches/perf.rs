@@ -9,7 +9,8 @@ use std::hint::black_box;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector4};
+use simnet::estimate::attitude::{from_euler, measurement};
 use simnet::estimate::bvp::End;
 use simnet::estimate::{
     consensus_update, kalman_update, Gaussian, ImuInterval, MissingChannels, Observation, Process, Source,
@@ -129,6 +130,40 @@ fn main() {
         "| KF step, pose model (9 states, 6 measurements): predict + Joseph update | {:.2} µs |",
         kf / 1e3
     );
+    // The attitude node's step: quaternion prediction (A_t, Q_t from Ξ(q̂)), the measurement linearised about the
+    // prior, the Joseph update.
+    let att = Process::Attitude {
+        dt: 0.01,
+        Rg: Matrix3::identity() * 2.8e-4,
+    };
+    let q0 = from_euler(&Vector3::new(0.2, -0.1, 0.7));
+    let ga = Gaussian {
+        x: DVector::from_column_slice(q0.as_slice()),
+        P: DMatrix::identity(4, 4) * 1e-4,
+    };
+    let (g_nav, h_nav) = (Vector3::new(0.0, 0.0, -9.81), Vector3::new(0.25, 0.0, -0.433));
+    let (y, _) = measurement(&q0, &g_nav, &h_nav);
+    let att_obs = Observation {
+        H: DMatrix::zeros(6, 4),
+        R: DMatrix::from_diagonal(&DVector::from_vec(vec![0.01, 0.01, 0.01, 1e-5, 1e-5, 1e-5])),
+        angle_rows: vec![false; 6],
+        channel_of_row: (0..6).map(|i| i / 3).collect(),
+    };
+    let ekf = time_per_call(|| {
+        let p = att.predict(black_box(&ga), Some(&interval));
+        let q = Vector4::new(p.x[0], p.x[1], p.x[2], p.x[3]);
+        let (hq, C) = measurement(&q, &g_nav, &h_nav);
+        let z = &y - (hq - &C * &p.x);
+        let obs = Observation {
+            H: C,
+            ..att_obs.clone()
+        };
+        black_box(kalman_update(&p, &obs, &z, &present, MissingChannels::Inflate(1e3)).unwrap());
+    });
+    println!(
+        "| EKF step, attitude model (quaternion, accelerometer + magnetometer): predict + linearised Joseph update | {:.2} µs |",
+        ekf / 1e3
+    );
     for neighbours in [2usize, 4] {
         let zs: Vec<DVector<f64>> = (0..=neighbours).map(|j| &z * (1.0 + 0.01 * j as f64)).collect();
         let srcs: Vec<Source<'_>> = zs
@@ -203,7 +238,7 @@ fn main() {
         "| raw loopback UDP, one blocking sender → one receiver thread (64 B) | {:.0} datagrams/s |",
         raw
     );
-    for (name, duration) in [("ring3", 30.0), ("ring100", 3.0)] {
+    for (name, duration) in [("ring3", 30.0), ("attitude3", 30.0), ("ring100", 3.0)] {
         let (ns, dg, wall) = end_to_end(name, duration);
         println!(
             "| end to end, virtual clock, `{name}` ({duration} s simulated, {wall:.2} s wall) | {ns:.0} node-steps/s, {dg:.0} datagrams/s = {:.1} % of raw UDP |",
