@@ -132,7 +132,17 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         cfg.seeds.len(),
         found.exchange
     );
-    let text = protocol::topology_text(&base_text, &found_name, &description, &beta)
+    // Recorded IMU files by absolute path: the written topology lives in the output folder.
+    let imu_files: Vec<Option<String>> = topo
+        .nodes
+        .iter()
+        .map(|n| {
+            let r = n.recording.as_ref()?;
+            let path = std::path::absolute(&r.path).unwrap_or_else(|_| PathBuf::from(&r.path));
+            Some(path.display().to_string())
+        })
+        .collect();
+    let text = protocol::topology_text(&base_text, &found_name, &description, &beta, &imu_files)
         .map_err(|e| anyhow::anyhow!("writing the protocol topology: {e}"))?;
     // The file must load as it is written: the verification run below uses it.
     let mut found_topo = Topology::from_toml(&text, &found_name)?;
@@ -273,23 +283,19 @@ struct Fresh {
     infeasible_steps: u64,
 }
 
-/// Mean over estimating nodes of the networked and independent mean errors, and the guard's rejections.
+/// Mean over estimating nodes with a known truth of the networked and independent mean errors, and the guard's
+/// rejections.
 fn fresh_figures(s: &crate::report::summary::Summary) -> Fresh {
-    let (mut net, mut ind, mut bad, mut n) = (0.0, 0.0, 0, 0usize);
-    for node in &s.nodes {
-        let (Some(a), Some(b)) = (&node.networked, &node.independent) else {
-            continue;
-        };
-        net += a.mean_error.unwrap_or(f64::INFINITY);
-        ind += b.mean_error.unwrap_or(f64::INFINITY);
-        bad += a.lmi_infeasible_steps.unwrap_or(0);
-        n += 1;
-    }
-    let n = n.max(1) as f64;
+    let pairs = s.scored_errors();
+    let n = pairs.len().max(1) as f64;
     Fresh {
-        mean_error: net / n,
-        independent_error: ind / n,
-        infeasible_steps: bad,
+        mean_error: pairs.iter().map(|p| p.0).sum::<f64>() / n,
+        independent_error: pairs.iter().map(|p| p.1).sum::<f64>() / n,
+        infeasible_steps: s
+            .nodes
+            .iter()
+            .filter_map(|node| node.networked.as_ref()?.lmi_infeasible_steps)
+            .sum(),
     }
 }
 

@@ -66,6 +66,11 @@ pub enum ProtocolError {
          raise consensus.lmi.alpha"
     )]
     NoneFeasible { alpha: f64, gamma: f64 },
+    #[error(
+        "topology `{0}`: no estimating node has a known truth to score protocols against (its recorded IMU files \
+         have no reference columns)"
+    )]
+    NoReference(String),
 }
 
 /// Mean errors within this fraction of the lowest count as equal; among them the most exchange wins.
@@ -87,6 +92,8 @@ pub struct Evaluation {
     /// Steps, all nodes and seeds, at which (17) or (19) failed.
     pub infeasible_steps: u64,
     pub diverged: bool,
+    /// Estimating nodes whose error could be measured (the fewest of any seed); the errors are means over them.
+    pub scored_nodes: usize,
 }
 
 impl Evaluation {
@@ -223,6 +230,7 @@ pub fn evaluate(topo: &Topology, beta: &[Vec<f64>], u: f64, seeds: &[u64]) -> Ev
     let mut independent = 0.0;
     let mut infeasible_steps = 0;
     let mut diverged = false;
+    let mut scored_nodes = usize::MAX;
     for &seed in seeds {
         let (mut nodes, _) = run_in_memory(&t, seed, false);
         let (mut net, mut ind, mut n) = (0.0, 0.0, 0usize);
@@ -234,10 +242,13 @@ pub fn evaluate(topo: &Topology, beta: &[Vec<f64>], u: f64, seeds: &[u64]) -> Ev
             let (sn, si) = (mn.summary(true), mi.summary(false));
             diverged |= sn.diverged;
             infeasible_steps += sn.lmi_infeasible_steps.unwrap_or(0);
-            net += sn.mean_error.unwrap_or(f64::INFINITY);
-            ind += si.mean_error.unwrap_or(f64::INFINITY);
-            n += 1;
+            if let (Some(en), Some(ei)) = (sn.scored_error(), si.scored_error()) {
+                net += en;
+                ind += ei;
+                n += 1;
+            }
         }
+        scored_nodes = scored_nodes.min(n);
         let n = n.max(1) as f64;
         per_seed.push(net / n);
         independent += ind / n;
@@ -251,6 +262,7 @@ pub fn evaluate(topo: &Topology, beta: &[Vec<f64>], u: f64, seeds: &[u64]) -> Ev
         independent_error: independent / s,
         infeasible_steps,
         diverged,
+        scored_nodes: if seeds.is_empty() { 0 } else { scored_nodes },
     }
 }
 
@@ -285,6 +297,9 @@ pub fn search(topo: &Topology, cfg: &SearchConfig, tick: &(dyn Fn() + Sync)) -> 
     }
     let reference = evaluate(topo, &topo.consensus.beta, f64::NAN, &cfg.seeds);
     tick();
+    if reference.scored_nodes == 0 {
+        return Err(ProtocolError::NoReference(topo.name.clone()));
+    }
     let us: Vec<f64> = (0..cfg.grid).map(|k| umax * k as f64 / (cfg.grid - 1) as f64).collect();
     let mut curve = evaluate_many(topo, &us, cfg, tick);
 
@@ -356,8 +371,23 @@ pub fn round_beta(beta: &[Vec<f64>]) -> Vec<Vec<f64>> {
 }
 
 /// `base` (a topology file's text) with the protocol β, a new name and description. Comments of the base are lost.
-pub fn topology_text(base: &str, name: &str, description: &str, beta: &[Vec<f64>]) -> Result<String, String> {
+/// `imu_files[i]`, where given, replaces node i's `imu_csv`: the written file lives in another folder, so a path
+/// relative to the base's folder would no longer resolve.
+pub fn topology_text(
+    base: &str,
+    name: &str,
+    description: &str,
+    beta: &[Vec<f64>],
+    imu_files: &[Option<String>],
+) -> Result<String, String> {
     let mut doc: toml::Table = toml::from_str(base).map_err(|e| e.to_string())?;
+    if let Some(nodes) = doc.get_mut("node").and_then(|n| n.as_array_mut()) {
+        for (node, file) in nodes.iter_mut().zip(imu_files) {
+            if let (Some(node), Some(file)) = (node.as_table_mut(), file) {
+                node.insert("imu_csv".into(), toml::Value::String(file.clone()));
+            }
+        }
+    }
     doc.insert("name".into(), toml::Value::String(name.into()));
     doc.insert("description".into(), toml::Value::String(description.into()));
     let consensus = doc
@@ -410,11 +440,23 @@ mod tests {
             let text = crate::topology::builtin::get(name).unwrap();
             let n = Topology::from_toml(text, name).unwrap().nodes.len();
             let beta = vec![vec![1.0 / n as f64; n]; n];
-            let out = topology_text(text, "found", "found", &beta).unwrap();
+            let out = topology_text(text, "found", "found", &beta, &[]).unwrap();
             let t = Topology::from_toml(&out, "test").unwrap();
             assert_eq!(t.name, "found");
             assert_eq!(t.consensus.beta, beta);
             assert!(t.consensus.lmi.enabled);
         }
+    }
+
+    #[test]
+    fn written_topology_points_at_the_imu_files_given() {
+        let base = "[[node]]\nid = 0\nimu_csv = \"rel/imu-0.csv\"\n[[node]]\nid = 1\n";
+        let beta = vec![vec![0.5; 2]; 2];
+        let files = [Some("/data/run/imu-0.csv".to_string()), None];
+        let out = topology_text(base, "found", "found", &beta, &files).unwrap();
+        let doc: toml::Table = toml::from_str(&out).unwrap();
+        let nodes = doc["node"].as_array().unwrap();
+        assert_eq!(nodes[0]["imu_csv"].as_str(), Some("/data/run/imu-0.csv"));
+        assert!(nodes[1].get("imu_csv").is_none());
     }
 }

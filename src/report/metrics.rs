@@ -113,6 +113,14 @@ pub struct FilterSummary {
     pub lmi_infeasible_steps: Option<u64>,
 }
 
+impl FilterSummary {
+    /// The mean error as a comparison of runs counts it: infinite where divergence left no finite mean, `None`
+    /// where no error was measured (a recorded IMU without reference columns).
+    pub fn scored_error(&self) -> Option<f64> {
+        self.mean_error.or(self.diverged.then_some(f64::INFINITY))
+    }
+}
+
 /// What the receiving end of a link saw, per source.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct RxCounters {

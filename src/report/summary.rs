@@ -91,6 +91,18 @@ pub struct Summary {
 }
 
 impl Summary {
+    /// (networked, independent) scored errors of every estimating node whose error was measured
+    /// ([`FilterSummary::scored_error`]).
+    pub fn scored_errors(&self) -> Vec<(f64, f64)> {
+        self.nodes
+            .iter()
+            .filter_map(|n| {
+                let (a, b) = (n.networked.as_ref()?, n.independent.as_ref()?);
+                Some((a.scored_error()?, b.scored_error()?))
+            })
+            .collect()
+    }
+
     #[allow(clippy::too_many_arguments)]
     pub fn build(
         topo: &Topology,

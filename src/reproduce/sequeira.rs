@@ -97,21 +97,13 @@ impl Stats {
 
 /// Mean over estimating nodes of (networked, independent) mean errors, and every node's networked/independent ratio.
 fn errors(r: &RunResult) -> (f64, f64, Vec<f64>) {
-    let (mut net, mut ind, mut ratios) = (0.0, 0.0, Vec::new());
-    for n in &r.summary.nodes {
-        let (Some(a), Some(b)) = (&n.networked, &n.independent) else {
-            continue;
-        };
-        let (a, b) = (
-            a.mean_error.unwrap_or(f64::INFINITY),
-            b.mean_error.unwrap_or(f64::INFINITY),
-        );
-        net += a;
-        ind += b;
-        ratios.push(a / b);
-    }
-    let n = ratios.len().max(1) as f64;
-    (net / n, ind / n, ratios)
+    let pairs = r.summary.scored_errors();
+    let n = pairs.len().max(1) as f64;
+    (
+        pairs.iter().map(|p| p.0).sum::<f64>() / n,
+        pairs.iter().map(|p| p.1).sum::<f64>() / n,
+        pairs.iter().map(|(a, b)| a / b).collect(),
+    )
 }
 
 /// Position error of node `id`'s filter over time, from trace rows.

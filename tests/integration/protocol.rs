@@ -232,3 +232,61 @@ fn protocol_bad_input_exits_2_naming_it() {
         assert!(err.contains(needle), "{args:?}: {err}");
     }
 }
+
+/// A node fed from a file with no reference columns is left out of the score; with no node left the search exits 2.
+/// The written topology names the file by absolute path, so it loads from its own folder as from any other.
+#[test]
+fn protocol_over_recorded_imus_scores_known_truths_and_keeps_the_files() {
+    let d = tmp("protocol-recorded");
+    let rows: String = (0..=100)
+        .map(|k| format!("{},0,0,9.81,0,0,0\n", k as f64 * 0.01))
+        .collect();
+    std::fs::write(d.join("still.csv"), format!("t,ax,ay,az,gx,gy,gz\n{rows}")).unwrap();
+    let topo = |recorded: &[u32]| {
+        let mut s = String::from("[sim]\nduration_s = 1.0\nburn_in_s = 0.1\n[model]\nkind = \"attitude\"\n");
+        for id in 0..2 {
+            s += &format!("[[node]]\nid = {id}\n");
+            if recorded.contains(&id) {
+                s += "imu_csv = \"still.csv\"\n";
+            }
+        }
+        s + "[[edge]]\nnodes = [0, 1]\n"
+    };
+    std::fs::write(d.join("one.toml"), topo(&[1])).unwrap();
+    std::fs::write(d.join("both.toml"), topo(&[0, 1])).unwrap();
+    // Run from another folder: relative paths must resolve against the topology's folder.
+    let elsewhere = std::env::temp_dir();
+    let protocol = |file: &str| {
+        Command::new(env!("CARGO_BIN_EXE_simnet"))
+            .current_dir(&elsewhere)
+            .args(["protocol", "-q", "--json", "-t"])
+            .arg(d.join(file))
+            .arg("--out")
+            .arg(d.join(format!("out-{file}")))
+            .output()
+            .unwrap()
+    };
+    let out = protocol("one.toml");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let chosen = &v["search"]["chosen"];
+    assert_eq!(chosen["scored_nodes"], 1, "{chosen}");
+    assert!(chosen["mean_error"].as_f64().is_some_and(f64::is_finite), "{chosen}");
+    let written = d.join("out-one.toml").join("one-protocol.toml");
+    let text = std::fs::read_to_string(&written).unwrap();
+    let doc: toml::Table = toml::from_str(&text).unwrap();
+    let file = doc["node"][1]["imu_csv"].as_str().unwrap();
+    assert!(std::path::Path::new(file).is_absolute(), "{file}");
+    let check = Command::new(env!("CARGO_BIN_EXE_simnet"))
+        .current_dir(&elsewhere)
+        .arg("validate")
+        .arg(&written)
+        .output()
+        .unwrap();
+    assert!(check.status.success(), "{}", String::from_utf8_lossy(&check.stderr));
+
+    let out = protocol("both.toml");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("no estimating node has a known truth"), "{err}");
+}
