@@ -144,6 +144,13 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         .collect();
     let text = protocol::topology_text(&base_text, &found_name, &description, &beta, &imu_files)
         .map_err(|e| anyhow::anyhow!("writing the protocol topology: {e}"))?;
+    // The command-line options (--loss, --duration, …) are not in the file: say which ones the search ran under.
+    let command: Vec<String> = std::env::args().skip(1).collect();
+    let text = format!(
+        "# Written by `simnet {}`.\n# Options given there (--loss, --duration, …) are not part of this file:\n\
+         # pass them again to run under the search's conditions.\n{text}",
+        command.join(" ")
+    );
     // The file must load as it is written: the verification run below uses it.
     let mut found_topo = Topology::from_toml(&text, &found_name)?;
 

@@ -282,12 +282,14 @@ fn node_processes_run_a_network_and_collect_merges_it() {
     assert_eq!(part["part"]["steps_done"], 300);
     for l in v["links"].as_array().unwrap() {
         let (sent, delivered) = (l["sent"].as_u64().unwrap(), l["delivered"].as_u64().unwrap());
-        // Into node 2, everything sent before it existed is lost; otherwise everything is delivered, bar the odd
-        // datagram late at a step boundary.
+        // Into node 2, nothing sent before it joined is delivered (accepted into a step); everything else arrives.
+        // Arriving after its step closed (late) depends on how busy the machine is, so late datagrams count as
+        // arrived.
+        let arrived = delivered + l["late"].as_u64().unwrap();
         let absent = if l["to"] == 2 { first } else { 0 };
         assert!(
-            sent >= 150 && (delivered + absent) * 100 >= sent * 97 && delivered + absent <= sent + 1,
-            "{l}"
+            sent >= 150 && (arrived + absent) * 100 >= sent * 97 && delivered + absent <= sent + 1,
+            "node 2 joined at step {first}: {l}"
         );
     }
     for n in v["nodes"].as_array().unwrap() {
