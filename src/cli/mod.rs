@@ -10,6 +10,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use crate::link::LossModel;
 use crate::net::{self, Clock, RunOptions};
 use crate::node::Truth;
+use crate::report::trace::TraceRecorder;
 use crate::report::{plot, summary};
 use crate::topology::{builtin, ModelConfig, Overrides, Topology, TopologyError};
 
@@ -354,8 +355,9 @@ pub fn main() -> ExitCode {
             if e.downcast_ref::<std::io::Error>()
                 .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe) =>
         {
-            // stdout closed by the reader (`| head`): nothing left to say.
-            ExitCode::SUCCESS
+            // stdout closed by the reader (`| head`): the files are written, but what was printed is cut short,
+            // which a shell reports as 128 + SIGPIPE.
+            ExitCode::from(141)
         }
         Err(e) => {
             let usage = e.downcast_ref::<UsageError>().is_some();
@@ -402,53 +404,105 @@ fn validate(files: &[PathBuf]) -> ExitCode {
 
 fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let topo = Arc::new(args.topology()?);
+    // A bad --out fails now, not after the run.
+    let out_dir = args.out.as_deref().map(OutDir::prepare).transpose()?;
     let steps = topo.sim.steps();
     tracing::info!(topology = %topo.name, seed = topo.sim.seed, steps, "starting");
     let progress = (!quiet && !args.json).then(|| progress_bar(steps));
     let opts = RunOptions {
         clock: if args.realtime { Clock::Realtime } else { Clock::Virtual },
-        record_trace: args.out.is_some(),
+        trace: out_dir.as_ref().map(|d| d.trace(&topo)).transpose()?,
         progress: progress
             .clone()
             .map(|pb| -> net::Progress { Arc::new(move |d, _| pb.set_position(d)) }),
         ..Default::default()
     };
     let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
-    let shutdown = async {
-        let _ = tokio::signal::ctrl_c().await;
-    };
-    let mut out = rt.block_on(net::run(topo.clone(), opts, shutdown))?;
+    let mut out = rt.block_on(net::run(topo.clone(), opts, shutdown_signal()))?;
     if let Some(pb) = progress {
         pb.finish_and_clear();
     }
     let s = out.summary(&topo, if args.realtime { Clock::Realtime } else { Clock::Virtual });
-    // Print first: whatever happens to the files, the result is not lost.
-    print_summary(&s, args.json, None)?;
-    if let Some(dir) = &args.out {
-        let mut rows = Vec::new();
-        for r in &mut out.reports {
-            rows.append(&mut r.trace);
-        }
-        rows.sort_by_key(|r| (r.step, r.node, !r.networked));
-        let fused = out.observer.plot_rows();
-        write_outputs(dir, &topo, &s, &rows, &fused)?;
+    // Files first: a reader that closes stdout early (`| head`) loses nothing.
+    let mut wrote = Vec::new();
+    if let Some(d) = &out_dir {
+        let (rows, fused) = d.finish_trace(out.trace.take())?;
+        wrote = write_files(&d.dir, &s, topo.sim.dt(), &rows, &fused)?;
         // Each sensing node's IMU samples with the true pose: input for `simnet reconstruct`.
-        let mut imu_files = String::new();
         for r in &out.reports {
             if !r.imu.is_empty() {
                 let name = format!("imu-{}.csv", r.id);
-                write_atomic(&dir.join(&name), crate::imu_csv::write(&r.imu).as_bytes())?;
-                imu_files.push_str(&format!(", {name}"));
+                d.put(&name, crate::imu_csv::write(&r.imu).as_bytes())?;
+                wrote.push(name);
             }
         }
-        if !args.json {
-            println!(
-                "\nwrote {}/{{summary.json, trace.csv, links.csv, trajectory.svg, error.svg, trace_p.svg{imu_files}}}",
-                dir.display()
-            );
-        }
     }
-    Ok(ExitCode::SUCCESS)
+    print_summary(&s, args.json, None)?;
+    if let (Some(d), false) = (&out_dir, args.json) {
+        println!("\nwrote {}/{{{}}}", d.dir.display(), wrote.join(", "));
+    }
+    Ok(exit_code(s.interrupted))
+}
+
+/// For a run stopped early by a signal, whose partial results were still written: 128 + the signal, as a shell
+/// reports it (130 for Ctrl-C, 143 for SIGTERM).
+fn exit_code(interrupted: bool) -> ExitCode {
+    match STOPPED_BY.load(std::sync::atomic::Ordering::SeqCst) {
+        0 if !interrupted => ExitCode::SUCCESS,
+        0 => ExitCode::from(130),
+        sig => ExitCode::from(128 + sig),
+    }
+}
+
+/// An output directory checked before the run: it exists (or was made) and can be written.
+struct OutDir {
+    dir: PathBuf,
+}
+
+const TRACE_TMP: &str = "trace.csv.tmp";
+
+impl OutDir {
+    fn prepare(dir: &Path) -> Result<OutDir, UsageError> {
+        let bad = |what: String| UsageError::Option(format!("--out {}: {what}", dir.display()));
+        if dir.exists() && !dir.is_dir() {
+            return Err(bad("exists and is not a directory".into()));
+        }
+        std::fs::create_dir_all(dir).map_err(|e| bad(format!("cannot create it: {e}")))?;
+        let probe = dir.join(".simnet-write-check");
+        std::fs::write(&probe, b"").map_err(|e| bad(format!("cannot write in it: {e}")))?;
+        let _ = std::fs::remove_file(&probe);
+        Ok(OutDir { dir: dir.to_path_buf() })
+    }
+
+    /// The recorder that streams `trace.csv` into this directory (under a temporary name until the run ends).
+    fn trace(&self, topo: &Topology) -> Result<TraceRecorder, UsageError> {
+        let path = self.dir.join(TRACE_TMP);
+        let f = std::fs::File::create(&path)
+            .map_err(|e| UsageError::Option(format!("--out: cannot write {}: {e}", path.display())))?;
+        Ok(TraceRecorder::for_topology(topo).to_writer(Box::new(std::io::BufWriter::new(f))))
+    }
+
+    /// Close the streamed `trace.csv`; the plot sample it kept.
+    fn finish_trace(
+        &self,
+        rec: Option<TraceRecorder>,
+    ) -> anyhow::Result<(Vec<crate::node::TraceRow>, Vec<crate::report::observer::FusedRow>)> {
+        use anyhow::Context;
+        let path = self.dir.join("trace.csv");
+        let sample = rec
+            .map(TraceRecorder::finish)
+            .transpose()
+            .with_context(|| format!("cannot write {}", path.display()))?
+            .unwrap_or_default();
+        std::fs::rename(self.dir.join(TRACE_TMP), &path).with_context(|| format!("cannot write {}", path.display()))?;
+        Ok(sample)
+    }
+
+    fn put(&self, name: &str, bytes: &[u8]) -> anyhow::Result<()> {
+        use anyhow::Context;
+        let path = self.dir.join(name);
+        write_atomic(&path, bytes).with_context(|| format!("cannot write {}", path.display()))
+    }
 }
 
 /// summary.json or the table (with an optional note under it) on stdout.
@@ -487,60 +541,43 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     std::fs::rename(&tmp, path)
 }
 
-fn write_outputs(
-    dir: &Path,
-    topo: &Topology,
-    s: &summary::Summary,
-    rows: &[crate::node::TraceRow],
-    fused: &[crate::report::observer::FusedRow],
-) -> anyhow::Result<()> {
-    write_files(
-        dir,
-        s,
-        &Truth::new(topo).columns(),
-        topo.sim.dt(),
-        topo.model.kind(),
-        rows,
-        fused,
-    )
-}
-
-/// summary.json, trace.csv, links.csv and the three plots, each written atomically.
+/// summary.json, links.csv and the three plots, each written atomically; the names written.
 fn write_files(
     dir: &Path,
     s: &summary::Summary,
-    columns: &[String],
     dt: f64,
-    model: &str,
     rows: &[crate::node::TraceRow],
     fused: &[crate::report::observer::FusedRow],
-) -> anyhow::Result<()> {
-    use anyhow::Context;
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let put = |name: &str, bytes: &[u8]| {
-        write_atomic(&dir.join(name), bytes).with_context(|| format!("cannot write {}", dir.join(name).display()))
-    };
-    put("summary.json", s.to_json().as_bytes())?;
-    let mut buf = Vec::new();
-    summary::write_trace(&mut buf, columns, rows)?;
-    put("trace.csv", &buf)?;
+) -> anyhow::Result<Vec<String>> {
+    let d = OutDir { dir: dir.to_path_buf() };
+    d.put("summary.json", s.to_json().as_bytes())?;
     let mut buf = Vec::new();
     summary::write_links(&mut buf, &s.links)?;
-    put("links.csv", &buf)?;
+    d.put("links.csv", &buf)?;
+    let model = s.model.as_str();
     let title = |what: &str| format!("{} — {what} (seed {})", s.topology, s.seed);
-    put(
+    d.put(
         "trajectory.svg",
         plot::trajectory(rows, fused, model, &title("trajectories"))?.as_bytes(),
     )?;
-    put(
+    d.put(
         "error.svg",
         plot::error(rows, fused, dt, model, &title("error, networked vs independent"))?.as_bytes(),
     )?;
-    put(
+    d.put(
         "trace_p.svg",
         plot::trace_p(rows, dt, &title("trace P, networked vs independent"))?.as_bytes(),
     )?;
-    Ok(())
+    Ok([
+        "trace.csv",
+        "summary.json",
+        "links.csv",
+        "trajectory.svg",
+        "error.svg",
+        "trace_p.svg",
+    ]
+    .map(String::from)
+    .to_vec())
 }
 
 fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode> {
@@ -579,6 +616,7 @@ fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let bind = args
         .bind
         .unwrap_or_else(|| std::net::SocketAddr::from(([0, 0, 0, 0], port)));
+    let out_dir = args.run.out.as_deref().map(OutDir::prepare).transpose()?;
     let steps = topo.sim.steps();
     let progress = (!quiet && !args.run.json).then(|| progress_bar(steps));
     let cfg = HostConfig {
@@ -625,49 +663,50 @@ fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     });
     // One end of a link cannot tell its loss: the per-link figures come from `simnet collect`.
     s.links.clear();
+    if let Some(d) = &out_dir {
+        let mut buf = Vec::new();
+        crate::report::trace::write_trace(&mut buf, &Truth::new(&topo).columns(), &out.report.trace)?;
+        d.put(&format!("trace-{}.csv", args.id), &buf)?;
+        let mut buf = Vec::new();
+        crate::report::parts::write_estimates(&mut buf, &out.estimates)?;
+        d.put(&format!("estimates-{}.csv", args.id), &buf)?;
+        // The part last: its presence means the node finished writing.
+        d.put(&format!("node-{}.json", args.id), s.to_json().as_bytes())?;
+    }
     print_summary(
         &s,
         args.run.json,
         Some("(per-link figures: `simnet collect` on the parts of every node)"),
     )?;
-    if let Some(dir) = &args.run.out {
-        use anyhow::Context;
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-        let put = |name: String, bytes: &[u8]| {
-            write_atomic(&dir.join(&name), bytes).with_context(|| format!("cannot write {}", dir.join(&name).display()))
-        };
-        let mut buf = Vec::new();
-        summary::write_trace(&mut buf, &Truth::new(&topo).columns(), &out.report.trace)?;
-        put(format!("trace-{}.csv", args.id), &buf)?;
-        let mut buf = Vec::new();
-        crate::report::parts::write_estimates(&mut buf, &out.estimates)?;
-        put(format!("estimates-{}.csv", args.id), &buf)?;
-        // The part last: its presence means the node finished writing.
-        put(format!("node-{}.json", args.id), s.to_json().as_bytes())?;
-    }
-    Ok(ExitCode::SUCCESS)
+    Ok(exit_code(s.interrupted))
 }
 
-/// Ctrl-C or SIGTERM (what `docker stop` sends).
+/// The signal that stopped the run, for its exit code (0 while none did).
+static STOPPED_BY: std::sync::atomic::AtomicU8 = std::sync::atomic::AtomicU8::new(0);
+
+/// Ctrl-C (SIGINT) or SIGTERM (what `docker stop` sends); which one is kept for [`exit_code`].
 async fn shutdown_signal() {
+    use std::sync::atomic::Ordering;
     #[cfg(unix)]
     {
         use tokio::signal::unix::{signal, SignalKind};
         match signal(SignalKind::terminate()) {
             Ok(mut term) => {
                 tokio::select! {
-                    _ = tokio::signal::ctrl_c() => {}
-                    _ = term.recv() => {}
+                    _ = tokio::signal::ctrl_c() => STOPPED_BY.store(2, Ordering::SeqCst),
+                    _ = term.recv() => STOPPED_BY.store(15, Ordering::SeqCst),
                 }
             }
             Err(_) => {
                 let _ = tokio::signal::ctrl_c().await;
+                STOPPED_BY.store(2, Ordering::SeqCst);
             }
         }
     }
     #[cfg(not(unix))]
     {
         let _ = tokio::signal::ctrl_c().await;
+        STOPPED_BY.store(2, Ordering::SeqCst);
     }
 }
 
@@ -678,6 +717,7 @@ fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
     let mut parts = Vec::new();
     let mut estimates = BTreeMap::new();
     let mut rows = Vec::new();
+    let mut columns = Vec::new();
     for dir in &args.dirs {
         let entries = std::fs::read_dir(dir).map_err(|e| UsageError::Option(format!("{}: {e}", dir.display())))?;
         let mut names: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).collect();
@@ -700,10 +740,12 @@ fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
             }
             let tr = dir.join(format!("trace-{id}.csv"));
             if let Ok(f) = std::fs::File::open(&tr) {
-                rows.extend(
-                    read_trace(std::io::BufReader::new(f), &tr.display().to_string())
-                        .map_err(|e| UsageError::Option(e.to_string()))?,
-                );
+                let (names, r) = read_trace(std::io::BufReader::new(f), &tr.display().to_string())
+                    .map_err(|e| UsageError::Option(e.to_string()))?;
+                if columns.is_empty() {
+                    columns = names;
+                }
+                rows.extend(r);
             }
         }
     }
@@ -711,25 +753,31 @@ fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
         let dirs: Vec<String> = args.dirs.iter().map(|d| d.display().to_string()).collect();
         return Err(UsageError::Option(PartError::Empty(dirs.join(", ")).to_string()).into());
     }
-    let (s, observer) = merge(&parts, &estimates).map_err(|e| UsageError::Option(e.to_string()))?;
-    print_summary(&s, args.json, None)?;
-    let dir = args.out.clone().unwrap_or_else(|| args.dirs[0].clone());
+    let (s, mut observer) = merge(&parts, &estimates).map_err(|e| UsageError::Option(e.to_string()))?;
+    let d = OutDir::prepare(args.out.as_deref().unwrap_or(&args.dirs[0]))?;
     rows.sort_by_key(|r| (r.step, r.node, !r.networked));
-    let fused = observer.plot_rows();
-    let named = |c: &[&str]| c.iter().map(|c| c.to_string()).collect();
-    let columns: Vec<String> = match s.model.as_str() {
-        "pose" => named(&["x", "y", "z", "roll", "pitch", "yaw"]),
-        "attitude" => named(&["roll", "pitch", "yaw"]),
-        _ => (0..rows.first().map_or(0, |r| r.truth.len()))
-            .map(|i| format!("x{i}"))
-            .collect(),
-    };
-    write_files(&dir, &s, &columns, 1.0 / s.rate_hz, &s.model, &rows, &fused)?;
+    let dt = 1.0 / s.rate_hz;
+    let path = d.dir.join(TRACE_TMP);
+    let f = std::fs::File::create(&path)
+        .map_err(|e| UsageError::Option(format!("cannot write {}: {e}", path.display())))?;
+    let mut rec = TraceRecorder::new(columns, &s.model, dt, s.steps).to_writer(Box::new(std::io::BufWriter::new(f)));
+    // Fused rows go after the node rows of their step.
+    let mut fused = observer.drain_rows().into_iter().peekable();
+    for chunk in rows.chunk_by(|a, b| a.step == b.step) {
+        rec.rows(chunk.to_vec());
+        let step = chunk[0].step;
+        let mut now = Vec::new();
+        while let Some(f) = fused.next_if(|f| f.step <= step) {
+            now.push(f);
+        }
+        rec.fused(now);
+    }
+    rec.fused(fused.collect());
+    let (rows, fused) = d.finish_trace(Some(rec))?;
+    let wrote = write_files(&d.dir, &s, dt, &rows, &fused)?;
+    print_summary(&s, args.json, None)?;
     if !args.json {
-        println!(
-            "\nwrote {}/{{summary.json, trace.csv, links.csv, trajectory.svg, error.svg, trace_p.svg}}",
-            dir.display()
-        );
+        println!("\nwrote {}/{{{}}}", d.dir.display(), wrote.join(", "));
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -9,6 +9,7 @@ use clap::{Args, Subcommand};
 
 use super::{write_atomic, UsageError};
 use crate::net::{self, Clock, RunOptions};
+use crate::report::trace::TraceRecorder;
 use crate::reproduce::{self, lesecq, nieminen, rigid_pair, sequeira, RunResult};
 use crate::topology::Topology;
 
@@ -77,21 +78,16 @@ pub struct SequeiraArgs {
 fn run_over_udp(rt: &tokio::runtime::Runtime, topo: &Topology, record: bool) -> anyhow::Result<RunResult> {
     let topo = Arc::new(topo.clone());
     let opts = RunOptions {
-        record_trace: record,
+        trace: record.then(|| TraceRecorder::for_topology(&topo).keep_all()),
         ..Default::default()
     };
-    let mut out = rt.block_on(net::run(topo.clone(), opts, std::future::pending()))?;
+    let out = rt.block_on(net::run(topo.clone(), opts, std::future::pending()))?;
     let summary = out.summary(&topo, Clock::Virtual);
-    let mut rows = Vec::new();
-    for r in &mut out.reports {
-        rows.append(&mut r.trace);
-    }
-    rows.sort_by_key(|r| (r.step, r.node, !r.networked));
-    Ok(RunResult {
-        summary,
-        rows,
-        fused: out.observer.plot_rows(),
-    })
+    let (rows, fused) = match out.trace {
+        Some(t) => t.finish()?,
+        None => Default::default(),
+    };
+    Ok(RunResult { summary, rows, fused })
 }
 
 pub fn reproduce(paper: &Paper, quiet: bool) -> anyhow::Result<ExitCode> {

@@ -112,31 +112,88 @@ pub fn cascade(estimates: &[Gaussian], omega: Omega, angle_states: &[bool]) -> R
 /// Median filter over a centred window of `window` samples (k − window/2 … k + window/2 − 1), per coordinate; near
 /// the ends the window shrinks symmetrically so that it stays centred.
 pub fn centred_median(series: &[Vec<f64>], window: usize) -> Vec<Vec<f64>> {
-    let w = window.max(1);
-    let n = series.len();
-    (0..n)
-        .map(|k| {
-            let half = (w / 2).min(k).min(n - 1 - k);
-            let (lo, hi) = if half < w / 2 {
-                (k - half, k + half + 1)
-            } else {
-                (k - w / 2, (k + w - w / 2).min(n))
-            };
-            let dim = series[k].len();
-            (0..dim)
-                .map(|i| {
-                    let mut col: Vec<f64> = series[lo..hi].iter().map(|v| v[i]).collect();
-                    col.sort_by(f64::total_cmp);
-                    let m = col.len();
-                    if m % 2 == 1 {
-                        col[m / 2]
-                    } else {
-                        0.5 * (col[m / 2 - 1] + col[m / 2])
-                    }
-                })
-                .collect()
-        })
-        .collect()
+    let mut m = CentredMedian::new(window);
+    let mut out: Vec<Vec<f64>> = series
+        .iter()
+        .filter_map(|v| m.push(v.clone()))
+        .map(|(_, v)| v)
+        .collect();
+    out.extend(m.finish().into_iter().map(|(_, v)| v));
+    out
+}
+
+/// [`centred_median`] on a stream: sample k is emitted as soon as sample k + window/2 has arrived, and the tail by
+/// [`CentredMedian::finish`]. Holds window + 1 samples at most.
+#[derive(Debug, Clone)]
+pub struct CentredMedian {
+    window: usize,
+    buf: std::collections::VecDeque<Vec<f64>>,
+    /// Index of `buf[0]`.
+    first: usize,
+    /// Next index to emit.
+    next: usize,
+    /// Samples pushed.
+    n: usize,
+}
+
+impl CentredMedian {
+    pub fn new(window: usize) -> CentredMedian {
+        CentredMedian {
+            window: window.max(1),
+            buf: Default::default(),
+            first: 0,
+            next: 0,
+            n: 0,
+        }
+    }
+
+    /// Add the next sample; returns (index, median) of the sample whose window is now complete, if any.
+    pub fn push(&mut self, v: Vec<f64>) -> Option<(usize, Vec<f64>)> {
+        self.buf.push_back(v);
+        self.n += 1;
+        (self.n > self.next + self.window / 2).then(|| self.emit())
+    }
+
+    /// The medians of the samples not emitted yet (the series has ended); the filter starts afresh.
+    pub fn finish(&mut self) -> Vec<(usize, Vec<f64>)> {
+        let mut out = Vec::new();
+        while self.next < self.n {
+            out.push(self.emit());
+        }
+        *self = CentredMedian::new(self.window);
+        out
+    }
+
+    /// The median of sample `next` over the samples known so far (`n` of them).
+    fn emit(&mut self) -> (usize, Vec<f64>) {
+        let (w, n, k) = (self.window, self.n, self.next);
+        let half = (w / 2).min(k).min(n - 1 - k);
+        let (lo, hi) = if half < w / 2 {
+            (k - half, k + half + 1)
+        } else {
+            (k - w / 2, (k + w - w / 2).min(n))
+        };
+        let dim = self.buf[k - self.first].len();
+        let median = (0..dim)
+            .map(|i| {
+                let mut col: Vec<f64> = (lo..hi).map(|j| self.buf[j - self.first][i]).collect();
+                col.sort_by(f64::total_cmp);
+                let m = col.len();
+                if m % 2 == 1 {
+                    col[m / 2]
+                } else {
+                    0.5 * (col[m / 2 - 1] + col[m / 2])
+                }
+            })
+            .collect();
+        self.next += 1;
+        // The next window starts no lower than next − window/2.
+        while self.first + w / 2 < self.next && !self.buf.is_empty() {
+            self.buf.pop_front();
+            self.first += 1;
+        }
+        (k, median)
+    }
 }
 
 #[cfg(test)]
@@ -161,6 +218,51 @@ mod tests {
         for i in 0..=100 {
             let t = intersect(&a, &b, i as f64 / 100.0, &[false; 3]).unwrap().P.trace();
             assert!(best <= t + 1e-12, "ω = {w}: {best} > {t} at {}", i as f64 / 100.0);
+        }
+    }
+
+    /// The streaming median equals the whole-series definition, window by window, near both ends too.
+    #[test]
+    fn streaming_median_is_the_centred_median() {
+        let series: Vec<Vec<f64>> = (0..57)
+            .map(|i| vec![((i * 37) % 11) as f64, (i as f64).sin()])
+            .collect();
+        for w in [1, 2, 5, 20, 21] {
+            let direct: Vec<Vec<f64>> = (0..series.len())
+                .map(|k| {
+                    let n = series.len();
+                    let half = (w / 2).min(k).min(n - 1 - k);
+                    let (lo, hi) = if half < w / 2 {
+                        (k - half, k + half + 1)
+                    } else {
+                        (k - w / 2, (k + w - w / 2).min(n))
+                    };
+                    (0..2)
+                        .map(|i| {
+                            let mut c: Vec<f64> = series[lo..hi].iter().map(|v| v[i]).collect();
+                            c.sort_by(f64::total_cmp);
+                            let m = c.len();
+                            if m % 2 == 1 {
+                                c[m / 2]
+                            } else {
+                                0.5 * (c[m / 2 - 1] + c[m / 2])
+                            }
+                        })
+                        .collect()
+                })
+                .collect();
+            let mut m = CentredMedian::new(w);
+            let mut got = Vec::new();
+            for v in &series {
+                got.extend(m.push(v.clone()));
+                assert!(m.buf.len() <= w + 1, "window {w}: {} samples held", m.buf.len());
+            }
+            got.extend(m.finish());
+            assert_eq!(
+                got.iter().map(|g| g.0).collect::<Vec<_>>(),
+                (0..series.len()).collect::<Vec<_>>()
+            );
+            assert_eq!(got.into_iter().map(|g| g.1).collect::<Vec<_>>(), direct, "window {w}");
         }
     }
 }

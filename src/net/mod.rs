@@ -17,8 +17,10 @@ use tokio::net::UdpSocket;
 use tokio::sync::{mpsc, oneshot, watch};
 use tokio::time::Instant;
 
+use crate::node::TraceRow;
 use crate::node::{Node, NodeReport, StepEstimate};
 use crate::report::observer::Observer;
+use crate::report::trace::TraceRecorder;
 use crate::topology::Topology;
 use crate::wire::MAX_DATAGRAM;
 
@@ -52,8 +54,8 @@ pub type Progress = Arc<dyn Fn(u64, u64) + Send + Sync>;
 
 pub struct RunOptions {
     pub clock: Clock,
-    /// Keep per-step rows for `trace.csv` and the plots.
-    pub record_trace: bool,
+    /// Takes the per-step rows for `trace.csv` and the plots as the run goes (none: no rows are made).
+    pub trace: Option<TraceRecorder>,
     /// How long a virtual step waits for datagrams the link layer delivered before counting them as socket losses.
     pub recv_timeout: Duration,
     pub progress: Option<Progress>,
@@ -65,7 +67,7 @@ impl Default for RunOptions {
     fn default() -> Self {
         RunOptions {
             clock: Clock::Virtual,
-            record_trace: false,
+            trace: None,
             recv_timeout: Duration::from_secs(2),
             progress: None,
             on_bound: None,
@@ -81,6 +83,8 @@ pub struct RunOutput {
     pub wall_s: f64,
     /// Datagrams the link layer delivered that never came out of a socket in time (virtual clock).
     pub socket_losses: u64,
+    /// The recorder of [`RunOptions::trace`], handed back with every row given to it.
+    pub trace: Option<TraceRecorder>,
 }
 
 impl RunOutput {
@@ -129,8 +133,8 @@ pub async fn run(
     });
     let started = std::time::Instant::now();
     let mut out = match opts.clock {
-        Clock::Virtual => run_virtual(topo, sockets, addrs, &opts, stop_rx).await?,
-        Clock::Realtime => run_realtime(topo, sockets, addrs, &opts, stop_rx).await?,
+        Clock::Virtual => run_virtual(topo, sockets, addrs, &mut opts, stop_rx).await?,
+        Clock::Realtime => run_realtime(topo, sockets, addrs, &mut opts, stop_rx).await?,
     };
     out.wall_s = started.elapsed().as_secs_f64();
     Ok(out)
@@ -149,6 +153,7 @@ enum Reply {
     Closed {
         estimate: Option<StepEstimate>,
         timed_out: u64,
+        rows: Vec<TraceRow>,
     },
     Report(Box<NodeReport>),
 }
@@ -221,9 +226,11 @@ async fn virtual_task(
                     }
                     node.handle_datagram(from, &buf[..len]);
                 }
+                let estimate = node.handle_deadline(k);
                 Reply::Closed {
-                    estimate: node.handle_deadline(k),
+                    estimate,
                     timed_out,
+                    rows: node.take_trace(),
                 }
             }
             Cmd::Finish => {
@@ -241,7 +248,7 @@ async fn run_virtual(
     topo: Arc<Topology>,
     sockets: Vec<UdpSocket>,
     addrs: Vec<SocketAddr>,
-    opts: &RunOptions,
+    opts: &mut RunOptions,
     stop: watch::Receiver<bool>,
 ) -> Result<RunOutput, NetError> {
     let n = topo.nodes.len();
@@ -251,7 +258,7 @@ async fn run_virtual(
     let mut handles = Vec::with_capacity(n);
     for (i, socket) in sockets.into_iter().enumerate() {
         let (tx, rx) = mpsc::channel(2);
-        let node = Node::new(topo.clone(), i, opts.record_trace);
+        let node = Node::new(topo.clone(), i, opts.trace.is_some());
         handles.push(tokio::spawn(virtual_task(
             node,
             socket,
@@ -266,7 +273,8 @@ async fn run_virtual(
     let steps = topo.sim.steps();
     let dt = topo.sim.dt();
     let mut expected = vec![0u64; n];
-    let mut observer = observer_for(&topo, opts.record_trace);
+    let mut trace = opts.trace.take();
+    let mut observer = observer_for(&topo, trace.is_some());
     let mut socket_losses = 0;
     let mut done = 0;
     let mut interrupted = false;
@@ -302,16 +310,27 @@ async fn run_virtual(
                 .map_err(|_| NetError::TaskLost(i))?;
         }
         let mut estimates = Vec::new();
+        let mut step_rows = Vec::new();
         for _ in 0..n {
             match reply_rx.recv().await {
-                Some(Reply::Closed { estimate, timed_out }) => {
+                Some(Reply::Closed {
+                    estimate,
+                    timed_out,
+                    mut rows,
+                }) => {
                     socket_losses += timed_out;
                     estimates.extend(estimate);
+                    step_rows.append(&mut rows);
                 }
                 _ => return Err(NetError::TaskLost(usize::MAX)),
             }
         }
         observer.push(estimates);
+        if let Some(t) = trace.as_mut() {
+            step_rows.sort_by_key(|r| (r.node, !r.networked));
+            t.rows(step_rows);
+            t.fused(observer.drain_rows());
+        }
         done = k + 1;
         if let Some(p) = &opts.progress {
             p(done, steps);
@@ -321,6 +340,10 @@ async fn run_virtual(
     for h in handles {
         let _ = h.await;
     }
+    observer.finish();
+    if let Some(t) = trace.as_mut() {
+        t.fused(observer.drain_rows());
+    }
     Ok(RunOutput {
         reports,
         observer,
@@ -328,6 +351,7 @@ async fn run_virtual(
         interrupted,
         wall_s: 0.0,
         socket_losses,
+        trace,
     })
 }
 
@@ -351,6 +375,13 @@ async fn finish(
     Ok(reports)
 }
 
+/// What a realtime task hands the driver at each step's deadline.
+struct StepOut {
+    step: u64,
+    estimate: Option<StepEstimate>,
+    rows: Vec<TraceRow>,
+}
+
 /// Realtime: each node task runs its own timeline on the wall clock from the common start `t0`.
 #[allow(clippy::too_many_arguments)]
 async fn realtime_task(
@@ -362,7 +393,7 @@ async fn realtime_task(
     dt: f64,
     deadline: f64,
     mut stop: watch::Receiver<bool>,
-    estimates: mpsc::UnboundedSender<StepEstimate>,
+    estimates: mpsc::UnboundedSender<StepOut>,
     progress: Option<Progress>,
 ) -> (NodeReport, u64) {
     let index_of: HashMap<SocketAddr, usize> = addrs.iter().enumerate().map(|(i, a)| (*a, i)).collect();
@@ -401,9 +432,12 @@ async fn realtime_task(
                 _ = stop.changed() => break 'steps,
             }
         }
-        if let Some(e) = node.handle_deadline(k) {
-            let _ = estimates.send(e);
-        }
+        let estimate = node.handle_deadline(k);
+        let _ = estimates.send(StepOut {
+            step: k,
+            estimate,
+            rows: node.take_trace(),
+        });
         done = k + 1;
         if node.index() == 0 {
             if let Some(p) = &progress {
@@ -418,7 +452,7 @@ async fn run_realtime(
     topo: Arc<Topology>,
     sockets: Vec<UdpSocket>,
     addrs: Vec<SocketAddr>,
-    opts: &RunOptions,
+    opts: &mut RunOptions,
     stop: watch::Receiver<bool>,
 ) -> Result<RunOutput, NetError> {
     let n = topo.nodes.len();
@@ -429,7 +463,7 @@ async fn run_realtime(
     let t0 = Instant::now() + Duration::from_millis(50);
     let mut handles = Vec::with_capacity(n);
     for (i, socket) in sockets.into_iter().enumerate() {
-        let node = Node::new(topo.clone(), i, opts.record_trace);
+        let node = Node::new(topo.clone(), i, opts.trace.is_some());
         handles.push(tokio::spawn(realtime_task(
             node,
             socket,
@@ -444,10 +478,35 @@ async fn run_realtime(
         )));
     }
     drop(est_tx);
-    // Gather estimates per step while the tasks run; fuse once all are in.
-    let mut by_step: BTreeMap<u64, Vec<StepEstimate>> = BTreeMap::new();
-    while let Some(e) = est_rx.recv().await {
-        by_step.entry(e.step).or_default().push(e);
+    let mut trace = opts.trace.take();
+    let mut observer = observer_for(&topo, trace.is_some());
+    // Steps are fused (and their rows written) in order once every task is well past them: the tasks share one
+    // wall clock, so a step this far behind the newest has all its estimates.
+    let lag = (2.0 * topo.sim.rate_hz).ceil().max(100.0) as usize;
+    let mut by_step: BTreeMap<u64, Vec<StepOut>> = BTreeMap::new();
+    let close = |outs: Vec<StepOut>, observer: &mut Observer, trace: &mut Option<TraceRecorder>| {
+        let mut rows = Vec::new();
+        let mut estimates = Vec::new();
+        for o in outs {
+            estimates.extend(o.estimate);
+            rows.extend(o.rows);
+        }
+        observer.push(estimates);
+        if let Some(t) = trace.as_mut() {
+            rows.sort_by_key(|r| (r.node, !r.networked));
+            t.rows(rows);
+            t.fused(observer.drain_rows());
+        }
+    };
+    while let Some(o) = est_rx.recv().await {
+        by_step.entry(o.step).or_default().push(o);
+        while by_step.len() > lag {
+            let Some((_, outs)) = by_step.pop_first() else { break };
+            close(outs, &mut observer, &mut trace);
+        }
+    }
+    while let Some((_, outs)) = by_step.pop_first() {
+        close(outs, &mut observer, &mut trace);
     }
     let mut reports = Vec::with_capacity(n);
     let mut done = u64::MAX;
@@ -456,9 +515,9 @@ async fn run_realtime(
         done = done.min(d);
         reports.push(r);
     }
-    let mut observer = observer_for(&topo, opts.record_trace);
-    for (_, es) in by_step {
-        observer.push(es);
+    observer.finish();
+    if let Some(t) = trace.as_mut() {
+        t.fused(observer.drain_rows());
     }
     let done = if n == 0 { 0 } else { done };
     Ok(RunOutput {
@@ -468,5 +527,6 @@ async fn run_realtime(
         interrupted: done < steps,
         wall_s: 0.0,
         socket_losses: 0,
+        trace,
     })
 }

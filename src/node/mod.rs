@@ -106,6 +106,12 @@ pub struct TraceRow {
     pub received: Vec<u32>,
     pub feasible: bool,
     pub nees: f64,
+    /// The step's error figure ([`Truth::error`]); NaN where the truth is unknown.
+    pub error: f64,
+    /// The posterior variances of the reported columns (±3σ bands).
+    pub var: Vec<f64>,
+    /// The filter has diverged at or before this step.
+    pub diverged: bool,
 }
 
 /// What a node hands the observer after each update (for fusion and plots).
@@ -919,6 +925,9 @@ impl Node {
                     },
                     feasible: if networked { feasible } else { true },
                     nees: v.unwrap_or(f64::NAN),
+                    error: err.unwrap_or(f64::NAN),
+                    var: self.truth.reported_var(&post),
+                    diverged: m.diverged,
                 });
             }
             *slot = if post.x.iter().chain(post.P.iter()).all(|v| v.is_finite()) {
@@ -1001,6 +1010,11 @@ impl Node {
                 .collect(),
             Err(_) => Vec::new(),
         }
+    }
+
+    /// The trace rows recorded since the last call (a shell streams them out step by step).
+    pub fn take_trace(&mut self) -> Vec<TraceRow> {
+        self.trace.as_mut().map(std::mem::take).unwrap_or_default()
     }
 
     pub fn report(&mut self) -> NodeReport {

@@ -201,6 +201,29 @@ impl Truth {
         }
     }
 
+    /// The variances of the reported columns: the diagonal of P for pose and linear; for attitude the diagonal of
+    /// J P Jᵀ, J the Jacobian of the Euler angles with respect to q (central differences).
+    pub fn reported_var(&self, g: &crate::estimate::Gaussian) -> Vec<f64> {
+        match self {
+            Truth::Linear { .. } => g.P.diagonal().iter().copied().collect(),
+            _ if self.is_attitude() => {
+                let q = Vector4::new(g.x[0], g.x[1], g.x[2], g.x[3]);
+                let h = 1e-6;
+                let J = DMatrix::from_fn(3, 4, |i, j| {
+                    let mut e = Vector4::zeros();
+                    e[j] = h;
+                    let d = to_euler(&(q + e)) - to_euler(&(q - e));
+                    // Yaw and roll wrap at ±π: take the shorter way round.
+                    let d =
+                        d.map(|a| (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI);
+                    d[i] / (2.0 * h)
+                });
+                (&J * &g.P * J.transpose()).diagonal().iter().copied().collect()
+            }
+            _ => [0, 1, 2, 6, 7, 8].iter().map(|&i| g.P[(i, i)]).collect(),
+        }
+    }
+
     /// Names of the reported columns.
     pub fn columns(&self) -> Vec<String> {
         let names: &[&str] = match self {

@@ -5,3 +5,4 @@ pub mod observer;
 pub mod parts;
 pub mod plot;
 pub mod summary;
+pub mod trace;

@@ -6,7 +6,7 @@
 use nalgebra::DVector;
 use serde::{Deserialize, Serialize};
 
-use crate::estimate::fusion::{cascade, centred_median, Omega};
+use crate::estimate::fusion::{cascade, CentredMedian, Omega};
 use crate::estimate::Gaussian;
 use crate::node::StepEstimate;
 use crate::report::metrics::FilterMetrics;
@@ -24,6 +24,10 @@ pub struct FusedRow {
     pub median: Vec<f64>,
     pub error: f64,
     pub median_error: f64,
+    /// trace P of the fused estimate.
+    pub trace_p: f64,
+    /// `median` is the 20-sample median (pose); else it is the fused estimate itself.
+    pub smoothed: bool,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -57,8 +61,16 @@ pub struct Observer {
     error_rows: Vec<usize>,
     fixed: FilterMetrics,
     optimal: FilterMetrics,
-    /// (step, frame, truth, fused) of the error rows, kept for the centred median.
-    fused: Vec<(u64, u64, Vec<f64>, Vec<f64>)>,
+    /// (step, truth, fused, trace P) of the error rows whose median is not known yet, in step order.
+    waiting: std::collections::VecDeque<(u64, Vec<f64>, Vec<f64>, f64)>,
+    /// The centred median of the current coordinate frame.
+    smoother: CentredMedian,
+    frame: u64,
+    /// Sum and count of the median-filtered error after the burn-in.
+    median_sum: f64,
+    median_n: u64,
+    /// Finished rows not yet taken by [`Observer::drain_rows`] (kept only when `record`).
+    rows: Vec<FusedRow>,
     nodes: usize,
     record: bool,
     /// The median smooths a trajectory (pose); on a linear model's state it is not a smoother.
@@ -75,7 +87,12 @@ impl Observer {
             error_rows,
             fixed: FilterMetrics::default(),
             optimal: FilterMetrics::default(),
-            fused: Vec::new(),
+            waiting: Default::default(),
+            smoother: CentredMedian::new(MEDIAN_WINDOW),
+            frame: 0,
+            median_sum: 0.0,
+            median_n: 0,
+            rows: Vec::new(),
             nodes: 0,
             record,
             median,
@@ -143,34 +160,60 @@ impl Observer {
             }
         }
         let pick = |v: &DVector<f64>| self.error_rows.iter().map(|&i| v[i]).collect::<Vec<f64>>();
-        self.fused.push((step, frame, pick(&truth), pick(&fused.x)));
+        let (t, f) = (pick(&truth), pick(&fused.x));
+        // The median window never straddles a change of coordinate frame.
+        if frame != self.frame {
+            self.end_segment();
+            self.frame = frame;
+        }
+        self.waiting.push_back((step, t, f.clone(), tr));
+        // Without the smoother (attitude, linear) the "median" is the fused estimate itself.
+        if !self.median {
+            self.release(f);
+        } else if let Some((_, m)) = self.smoother.push(f) {
+            self.release(m);
+        }
     }
 
-    /// The fused trajectory after the centred median, with errors.
-    pub fn rows(&self) -> Vec<FusedRow> {
-        let dist = |a: &[f64], b: &[f64]| self.distance(a, b);
-        let mut out = Vec::with_capacity(self.fused.len());
-        // The median window never straddles a change of coordinate frame.
-        for segment in self.fused.chunk_by(|a, b| a.1 == b.1) {
-            let series: Vec<Vec<f64>> = segment.iter().map(|(_, _, _, f)| f.clone()).collect();
-            // Without the smoother (attitude, linear) the "median" is the fused estimate itself.
-            let smoothed = if self.median {
-                centred_median(&series, MEDIAN_WINDOW)
-            } else {
-                series.clone()
-            };
-            for ((step, _, truth, fused), median) in segment.iter().zip(smoothed) {
-                out.push(FusedRow {
-                    step: *step,
-                    error: dist(truth, fused),
-                    median_error: dist(truth, &median),
-                    truth: truth.clone(),
-                    fused: fused.clone(),
-                    median,
-                });
-            }
+    /// The oldest waiting sample's median is known.
+    fn release(&mut self, median: Vec<f64>) {
+        let Some((step, truth, fused, trace_p)) = self.waiting.pop_front() else {
+            return;
+        };
+        let median_error = self.distance(&truth, &median);
+        if step >= self.burn_in {
+            self.median_sum += median_error;
+            self.median_n += 1;
         }
-        out
+        if self.record {
+            self.rows.push(FusedRow {
+                step,
+                error: self.distance(&truth, &fused),
+                median_error,
+                truth,
+                fused,
+                median,
+                trace_p,
+                smoothed: self.median,
+            });
+        }
+    }
+
+    fn end_segment(&mut self) {
+        for (_, m) in self.smoother.finish() {
+            self.release(m);
+        }
+    }
+
+    /// The run has ended: the last samples get their (shrunken-window) medians.
+    pub fn finish(&mut self) {
+        self.end_segment();
+    }
+
+    /// Fused rows finished since the last call, in step order (with `record`); a median lags its step by half the
+    /// window.
+    pub fn drain_rows(&mut self) -> Vec<FusedRow> {
+        std::mem::take(&mut self.rows)
     }
 
     pub fn summary(&self) -> Option<FusedSummary> {
@@ -179,14 +222,7 @@ impl Observer {
         }
         let f = self.fixed.summary(false);
         let o = self.optimal.summary(false);
-        let counted: Vec<f64> = self
-            .rows()
-            .iter()
-            .filter(|r| r.step >= self.burn_in)
-            .map(|r| r.median_error)
-            .collect();
-        let median_mean_error =
-            (self.median && !counted.is_empty()).then(|| counted.iter().sum::<f64>() / counted.len() as f64);
+        let median_mean_error = (self.median && self.median_n > 0).then(|| self.median_sum / self.median_n as f64);
         Some(FusedSummary {
             nodes: self.nodes,
             omega: 0.5,
@@ -196,14 +232,5 @@ impl Observer {
             optimal_mean_error: o.mean_error,
             optimal_mean_trace_p: o.mean_trace_p_post,
         })
-    }
-
-    /// Rows for plots, if the run records traces.
-    pub fn plot_rows(&self) -> Vec<FusedRow> {
-        if self.record {
-            self.rows()
-        } else {
-            Vec::new()
-        }
     }
 }

@@ -102,7 +102,8 @@ pub fn read_estimates(r: impl BufRead, node: usize, file: &str) -> Result<Vec<St
 }
 
 /// Parse a `trace.csv` back (for the plots of `simnet collect`).
-pub fn read_trace(r: impl BufRead, file: &str) -> Result<Vec<TraceRow>, PartError> {
+/// The column names (as after `true_`) and the rows of the nodes' filters.
+pub fn read_trace(r: impl BufRead, file: &str) -> Result<(Vec<String>, Vec<TraceRow>), PartError> {
     let bad = |line: usize, m: String| PartError::Bad {
         file: file.to_string(),
         message: format!("line {line}: {m}"),
@@ -110,19 +111,28 @@ pub fn read_trace(r: impl BufRead, file: &str) -> Result<Vec<TraceRow>, PartErro
     let mut lines = r.lines();
     let header = match lines.next() {
         Some(h) => h.map_err(|e| bad(1, e.to_string()))?,
-        None => return Ok(Vec::new()),
+        None => return Ok(Default::default()),
     };
-    let cols = header.split(',').filter(|c| c.starts_with("true_")).count();
+    let names: Vec<String> = header
+        .split(',')
+        .filter_map(|c| c.strip_prefix("true_"))
+        .map(String::from)
+        .collect();
+    let cols = names.len();
+    let fields = 4 + 3 * cols + 7;
     let mut out = Vec::new();
     for (i, line) in lines.enumerate() {
         let line = line.map_err(|e| bad(i + 2, e.to_string()))?;
         let f: Vec<&str> = line.split(',').collect();
-        if f.len() != 4 + 2 * cols + 5 {
-            return Err(bad(
-                i + 2,
-                format!("expected {} fields, got {}", 4 + 2 * cols + 5, f.len()),
-            ));
+        if f.len() != fields {
+            return Err(bad(i + 2, format!("expected {fields} fields, got {}", f.len())));
         }
+        // Fused rows are recomputed from the estimates.
+        let networked = match f[3] {
+            "networked" => true,
+            "independent" => false,
+            _ => continue,
+        };
         let num = |s: &str| -> Result<f64, PartError> {
             if s.is_empty() {
                 Ok(f64::NAN)
@@ -131,26 +141,29 @@ pub fn read_trace(r: impl BufRead, file: &str) -> Result<Vec<TraceRow>, PartErro
             }
         };
         let vals = |a: usize, b: usize| -> Result<Vec<f64>, PartError> { f[a..b].iter().map(|s| num(s)).collect() };
-        let tail = 4 + 2 * cols;
+        let tail = 4 + 3 * cols;
         out.push(TraceRow {
             step: f[0].parse().map_err(|_| bad(i + 2, "bad step".into()))?,
             t: num(f[1])?,
             node: f[2].parse().map_err(|_| bad(i + 2, "bad node".into()))?,
-            networked: f[3] == "networked",
+            networked,
             truth: vals(4, 4 + cols)?,
-            est: vals(4 + cols, tail)?,
-            trace_p_prior: num(f[tail])?,
-            trace_p_post: num(f[tail + 1])?,
-            received: f[tail + 2]
+            est: vals(4 + cols, 4 + 2 * cols)?,
+            var: vals(4 + 2 * cols, tail)?,
+            error: num(f[tail])?,
+            trace_p_prior: num(f[tail + 1])?,
+            trace_p_post: num(f[tail + 2])?,
+            received: f[tail + 3]
                 .split(';')
                 .filter(|s| !s.is_empty())
                 .filter_map(|s| s.parse().ok())
                 .collect(),
-            feasible: f[tail + 3] == "true",
-            nees: num(f[tail + 4])?,
+            feasible: f[tail + 4] == "true",
+            nees: num(f[tail + 5])?,
+            diverged: f[tail + 6] == "true",
         });
     }
-    Ok(out)
+    Ok((names, out))
 }
 
 /// Merge node parts into one summary; `estimates` (by node id) are fused step by step when given.
@@ -207,6 +220,7 @@ pub fn merge(
     for (_, es) in by_step {
         observer.push(es);
     }
+    observer.finish();
     let merged = Summary {
         topology: first.topology.clone(),
         source: first.source.clone(),

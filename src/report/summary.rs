@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use super::metrics::{FilterSummary, RxCounters};
 use super::observer::FusedSummary;
 use crate::link::LinkCounters;
-use crate::node::{NodeReport, TraceRow};
+use crate::node::NodeReport;
 use crate::topology::Topology;
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -299,46 +299,6 @@ impl Summary {
         }
         Ok(())
     }
-}
-
-/// `trace.csv`: one row per (step, node, filter).
-pub fn write_trace(w: &mut impl Write, columns: &[String], rows: &[TraceRow]) -> io::Result<()> {
-    write!(w, "step,t,node,filter")?;
-    for c in columns {
-        write!(w, ",true_{c}")?;
-    }
-    for c in columns {
-        write!(w, ",est_{c}")?;
-    }
-    writeln!(w, ",trace_p_prior,trace_p_post,received,feasible,nees")?;
-    for r in rows {
-        write!(
-            w,
-            "{},{:.4},{},{}",
-            r.step,
-            r.t,
-            r.node,
-            if r.networked { "networked" } else { "independent" }
-        )?;
-        for v in r.truth.iter().chain(r.est.iter()) {
-            write!(w, ",{v:.6}")?;
-        }
-        let received: Vec<String> = r.received.iter().map(|x| x.to_string()).collect();
-        writeln!(
-            w,
-            ",{:.6e},{:.6e},{},{},{}",
-            r.trace_p_prior,
-            r.trace_p_post,
-            received.join(";"),
-            r.feasible,
-            if r.nees.is_finite() {
-                format!("{:.4}", r.nees)
-            } else {
-                String::new()
-            }
-        )?;
-    }
-    Ok(())
 }
 
 /// `links.csv`: the per-link counters.

@@ -193,9 +193,16 @@ fn run_prints_the_table_and_writes_files() {
     assert_eq!(summary["steps"], 500);
     assert_eq!(summary["nodes"].as_array().unwrap().len(), 3);
     let trace = std::fs::read_to_string(d.join("trace.csv")).unwrap();
-    // Header plus 500 steps × 3 nodes × 2 filters.
-    assert_eq!(trace.lines().count(), 1 + 500 * 3 * 2);
-    assert!(trace.lines().next().unwrap().starts_with("step,t,node,filter,true_x"));
+    // Header plus 500 steps × 3 nodes × 2 filters, and per step the fused estimate and its median.
+    let kinds = |k: &str| trace.lines().filter(|l| l.split(',').nth(3) == Some(k)).count();
+    assert_eq!(kinds("networked") + kinds("independent"), 500 * 3 * 2);
+    assert_eq!((kinds("fused"), kinds("fused_median")), (500, 500));
+    assert_eq!(trace.lines().count(), 1 + 500 * 3 * 2 + 2 * 500);
+    assert!(trace
+        .lines()
+        .next()
+        .unwrap()
+        .starts_with("step,t,node,estimator,true_x"));
     let svg = std::fs::read_to_string(d.join("error.svg")).unwrap();
     assert!(svg.contains("<svg") && svg.contains("networked"));
 
@@ -404,7 +411,11 @@ fn node_stops_cleanly_on_sigterm() {
         .status()
         .unwrap();
     assert!(status.success());
-    assert!(child.wait().unwrap().success(), "a node stopped by SIGTERM exits 0");
+    assert_eq!(
+        child.wait().unwrap().code(),
+        Some(143),
+        "a node stopped by SIGTERM exits 128 + 15 after writing its part"
+    );
     let part: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("node-0.json")).unwrap()).unwrap();
     assert_eq!(part["interrupted"], true);
     let done = part["part"]["steps_done"].as_u64().unwrap();

@@ -7,6 +7,7 @@ mod estimation;
 mod fusion;
 mod loss;
 mod network;
+mod outputs;
 mod protocol;
 mod reproduce;
 mod riccati;

@@ -1,0 +1,230 @@
+//! `trace.csv`, written row by row while a run goes (memory does not grow with the run's length), and the sample of
+//! rows the plots draw (every step up to [`PLOT_STEPS`] steps, every k-th step beyond).
+//!
+//! Columns: `step,t,node,estimator,true_*,est_*,var_*,error,trace_p_prior,trace_p_post,received,feasible,nees,diverged`.
+//! `estimator` is `networked`, `independent`, `fused` (covariance intersection, ω = 0.5) or `fused_median` (its
+//! 20-sample centred median, pose only); fused rows have no node and fill only the columns the fusion covers
+//! (position for pose). `var_*` is the posterior variance of each column, `error` the step's error figure. Numbers
+//! are written in their shortest round-trip form; a missing value is an empty cell.
+
+use std::io::{self, Write};
+
+use super::observer::FusedRow;
+use crate::node::TraceRow;
+
+/// Steps drawn per series before the plots thin the sample to every k-th step.
+pub const PLOT_STEPS: u64 = 5000;
+
+/// A number as `trace.csv` writes it: shortest round-trip form, `inf`/`-inf`, empty for NaN.
+pub fn num(v: f64) -> String {
+    if v.is_nan() {
+        String::new()
+    } else if v.is_infinite() {
+        if v > 0.0 { "inf" } else { "-inf" }.into()
+    } else {
+        format!("{v:?}")
+    }
+}
+
+/// The header of `trace.csv` for these column names.
+pub fn header(columns: &[String]) -> String {
+    let mut h = String::from("step,t,node,estimator");
+    for prefix in ["true_", "est_", "var_"] {
+        for c in columns {
+            h.push(',');
+            h.push_str(prefix);
+            h.push_str(c);
+        }
+    }
+    h.push_str(",error,trace_p_prior,trace_p_post,received,feasible,nees,diverged");
+    h
+}
+
+/// Streams `trace.csv` (when given a writer) and keeps the plot sample.
+pub struct TraceRecorder {
+    out: Option<Box<dyn Write + Send>>,
+    columns: Vec<String>,
+    attitude: bool,
+    dt: f64,
+    /// Plot every `stride`-th step.
+    stride: u64,
+    kept: Vec<TraceRow>,
+    fused: Vec<FusedRow>,
+    /// The first write error; later rows are not written, and [`TraceRecorder::finish`] returns it.
+    error: Option<io::Error>,
+}
+
+impl TraceRecorder {
+    /// Keep a plot sample of a run of `steps` steps; `columns` as [`crate::node::Truth::columns`], `model` the
+    /// model's kind.
+    pub fn new(columns: Vec<String>, model: &str, dt: f64, steps: u64) -> TraceRecorder {
+        TraceRecorder {
+            out: None,
+            columns,
+            attitude: model == "attitude",
+            dt,
+            stride: steps.div_ceil(PLOT_STEPS).max(1),
+            kept: Vec::new(),
+            fused: Vec::new(),
+            error: None,
+        }
+    }
+
+    /// The recorder of a run of `topo`.
+    pub fn for_topology(topo: &crate::topology::Topology) -> TraceRecorder {
+        TraceRecorder::new(
+            crate::node::Truth::new(topo).columns(),
+            topo.model.kind(),
+            topo.sim.dt(),
+            topo.sim.steps(),
+        )
+    }
+
+    /// Keep every row (an analysis that needs all of them; memory grows with the run).
+    pub fn keep_all(mut self) -> TraceRecorder {
+        self.stride = 1;
+        self
+    }
+
+    /// Also write every row to `w`, starting with the header.
+    pub fn to_writer(mut self, w: Box<dyn Write + Send>) -> TraceRecorder {
+        self.out = Some(w);
+        let h = header(&self.columns);
+        self.write(|w| writeln!(w, "{h}"));
+        self
+    }
+
+    fn write(&mut self, f: impl FnOnce(&mut dyn Write) -> io::Result<()>) {
+        if self.error.is_some() {
+            return;
+        }
+        if let Some(w) = self.out.as_mut() {
+            if let Err(e) = f(w.as_mut()) {
+                self.error = Some(e);
+            }
+        }
+    }
+
+    /// One step's rows of the nodes' filters.
+    pub fn rows(&mut self, rows: Vec<TraceRow>) {
+        if self.out.is_some() {
+            let mut text = String::new();
+            for r in &rows {
+                row_text(&mut text, r);
+            }
+            self.write(|w| w.write_all(text.as_bytes()));
+        }
+        let stride = self.stride;
+        self.kept.extend(rows.into_iter().filter(|r| r.step % stride == 0));
+    }
+
+    /// Fused rows as the observer finishes them.
+    pub fn fused(&mut self, rows: Vec<FusedRow>) {
+        if rows.is_empty() {
+            return;
+        }
+        if self.out.is_some() {
+            let mut text = String::new();
+            for f in &rows {
+                self.fused_text(&mut text, f);
+            }
+            self.write(|w| w.write_all(text.as_bytes()));
+        }
+        let stride = self.stride;
+        self.fused.extend(rows.into_iter().filter(|r| r.step % stride == 0));
+    }
+
+    fn fused_text(&self, text: &mut String, f: &FusedRow) {
+        use std::fmt::Write as _;
+        let n = self.columns.len();
+        // The fused values in the reported columns: Euler angles of the quaternion for attitude, else the fused
+        // rows in order (position for pose), the remaining columns empty.
+        let cells = |v: &[f64]| -> Vec<f64> {
+            let mut c = if self.attitude && v.len() == 4 {
+                let q = nalgebra::Vector4::new(v[0], v[1], v[2], v[3]);
+                crate::estimate::attitude::to_euler(&q).iter().copied().collect()
+            } else {
+                v.to_vec()
+            };
+            c.resize(n, f64::NAN);
+            c
+        };
+        let truth = cells(&f.truth);
+        let t = num((f.step as f64 * self.dt * 1e9).round() / 1e9);
+        let mut line = |name: &str, est: &[f64], error: f64, trace_p: f64| {
+            let _ = write!(text, "{},{t},,{name}", f.step);
+            for v in truth.iter().chain(cells(est).iter()) {
+                let _ = write!(text, ",{}", num(*v));
+            }
+            text.push_str(&",".repeat(n));
+            let _ = writeln!(text, ",{},{},{},,,,", num(error), num(trace_p), num(trace_p));
+        };
+        line("fused", &f.fused, f.error, f.trace_p);
+        if f.smoothed {
+            line("fused_median", &f.median, f.median_error, f64::NAN);
+        }
+    }
+
+    /// Flush the file and hand back the plot sample (node rows in step order, fused rows).
+    pub fn finish(mut self) -> io::Result<(Vec<TraceRow>, Vec<FusedRow>)> {
+        self.write(|w| w.flush());
+        match self.error {
+            Some(e) => Err(e),
+            None => Ok((self.kept, self.fused)),
+        }
+    }
+}
+
+/// One node filter's row.
+fn row_text(text: &mut String, r: &TraceRow) {
+    use std::fmt::Write as _;
+    let t = num((r.t * 1e9).round() / 1e9);
+    let _ = write!(
+        text,
+        "{},{t},{},{}",
+        r.step,
+        r.node,
+        if r.networked { "networked" } else { "independent" }
+    );
+    for v in r.truth.iter().chain(&r.est).chain(&r.var) {
+        let _ = write!(text, ",{}", num(*v));
+    }
+    let received: Vec<String> = r.received.iter().map(|x| x.to_string()).collect();
+    let _ = writeln!(
+        text,
+        ",{},{},{},{},{},{},{}",
+        num(r.error),
+        num(r.trace_p_prior),
+        num(r.trace_p_post),
+        received.join(";"),
+        r.feasible,
+        num(r.nees),
+        r.diverged
+    );
+}
+
+/// `trace.csv` of these rows at once (a node's part; tests).
+pub fn write_trace(w: &mut impl Write, columns: &[String], rows: &[TraceRow]) -> io::Result<()> {
+    writeln!(w, "{}", header(columns))?;
+    let mut text = String::new();
+    for r in rows {
+        row_text(&mut text, r);
+    }
+    w.write_all(text.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_are_shortest_round_trip() {
+        for v in [0.1, 1e-5, 1.7e308, -2.5, 123456.789, 5e-324] {
+            assert_eq!(num(v).parse::<f64>().unwrap(), v);
+        }
+        assert_eq!(num(0.1), "0.1");
+        assert_eq!(num(1.7e308), "1.7e308");
+        assert_eq!(num(f64::NAN), "");
+        assert_eq!(num(f64::NEG_INFINITY), "-inf");
+    }
+}

@@ -1,0 +1,191 @@
+//! (o) What a run leaves behind: every built-in writes its files and plots even when a covariance overflows; a bad
+//! `--out` fails before the run; files are written before stdout, so a closed pipe loses none; Ctrl-C keeps the
+//! partial results and exits 130.
+
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn simnet() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_simnet"))
+}
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("simnet-out-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+/// Waits for the child; a hang (the bug this guards against: plotters looping on an infinite axis) fails the test
+/// instead of blocking it forever.
+fn wait_bounded(mut child: std::process::Child, what: &str) -> std::process::ExitStatus {
+    let start = Instant::now();
+    loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            return s;
+        }
+        if start.elapsed() > Duration::from_secs(300) {
+            let _ = child.kill();
+            panic!("{what} did not finish in 300 s");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+const FILES: [&str; 6] = [
+    "summary.json",
+    "trace.csv",
+    "links.csv",
+    "trajectory.svg",
+    "error.svg",
+    "trace_p.svg",
+];
+
+#[test]
+fn every_builtin_writes_its_plots_even_when_a_covariance_overflows() {
+    let list = simnet().arg("topologies").output().unwrap();
+    let names: Vec<String> = String::from_utf8_lossy(&list.stdout)
+        .lines()
+        .filter_map(|l| l.split_whitespace().next().map(String::from))
+        .collect();
+    assert!(names.len() >= 10, "{names:?}");
+    for name in &names {
+        let d = tmp(&format!("all-{name}"));
+        // Heavy loss so that the prediction-only and starved filters drift as far as they will in a short run.
+        let child = simnet()
+            .args(["-t", name, "--duration", "1", "--loss", "0.9", "-q", "--out"])
+            .arg(&d)
+            .stdout(Stdio::null())
+            .spawn()
+            .unwrap();
+        let status = wait_bounded(child, name);
+        assert!(status.success(), "{name}: {status}");
+        for f in FILES {
+            assert!(d.join(f).metadata().is_ok_and(|m| m.len() > 0), "{name}: {f} missing");
+        }
+        let _ = std::fs::remove_dir_all(&d);
+    }
+    // Sinopoli's unstable scalar system: the estimator's prediction-only twin reaches trace P ≈ 1.7e308 in 20 s.
+    let d = tmp("sinopoli");
+    let child = simnet()
+        .args(["-t", "sinopoli-scalar", "--duration", "20", "-q", "--out"])
+        .arg(&d)
+        .stdout(Stdio::null())
+        .spawn()
+        .unwrap();
+    assert!(wait_bounded(child, "sinopoli-scalar").success());
+    let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(
+        summary["nodes"][1]["independent"]["diverged"], true,
+        "the twin must overflow for this test"
+    );
+    let svg = std::fs::read_to_string(d.join("trace_p.svg")).unwrap();
+    assert!(
+        svg.contains("clipped, not in scale"),
+        "the diverged twin is named in the legend"
+    );
+    // Its axis is the networked filter's: ticks of order 1, not 1e308.
+    assert!(!svg.contains("e30"), "the diverged twin set the scale");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn a_bad_out_fails_before_the_run_with_exit_2() {
+    let d = tmp("badout");
+    std::fs::create_dir_all(&d).unwrap();
+    let file = d.join("a-file");
+    std::fs::write(&file, "x").unwrap();
+    let ro = d.join("read-only");
+    std::fs::create_dir_all(&ro).unwrap();
+    let mut cases = vec![
+        (file.clone(), "is not a directory"),
+        (file.join("sub"), "cannot create"),
+    ];
+    // root may write anywhere: the read-only case only means something for other users.
+    let root = Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| o.stdout == b"0\n")
+        .unwrap_or(true);
+    if !root {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o555)).unwrap();
+        cases.push((ro.clone(), "cannot write"));
+    }
+    for (out, what) in cases {
+        // 1e6 steps: a check made after the run would take minutes, not return at once with nothing printed.
+        let o = simnet()
+            .args(["-t", "ring3", "--duration", "10000", "-q", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{}: {err}", out.display());
+        assert!(err.contains("--out") && err.contains(what), "{err}");
+        assert!(
+            o.stdout.is_empty(),
+            "nothing ran: {}",
+            String::from_utf8_lossy(&o.stdout)
+        );
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn a_closed_stdout_loses_no_file_and_is_not_success() {
+    let d = tmp("pipe");
+    let mut child = simnet()
+        .args(["-t", "ring3", "--duration", "2", "-q", "--out"])
+        .arg(&d)
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The reader goes away before anything is printed (as `| head -1` does once it has its line).
+    drop(child.stdout.take());
+    let status = wait_bounded(child, "ring3 with stdout closed");
+    for f in FILES {
+        assert!(d.join(f).metadata().is_ok_and(|m| m.len() > 0), "{f} missing");
+    }
+    assert_eq!(
+        status.code(),
+        Some(141),
+        "a failed write to stdout is 128 + SIGPIPE, not success"
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn ctrl_c_keeps_partial_results_and_exits_130() {
+    let d = tmp("sigint");
+    let child = simnet()
+        .args(["-t", "ring3", "--duration", "100000", "-q", "--out"])
+        .arg(&d)
+        .stdout(Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait for rows on disk (the run is under way and its signal handler installed), not for a time.
+    let tmp_trace = d.join("trace.csv.tmp");
+    let start = Instant::now();
+    while tmp_trace.metadata().map(|m| m.len()).unwrap_or(0) < 100_000 {
+        assert!(start.elapsed() < Duration::from_secs(300), "no rows streamed");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let ok = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(ok.success());
+    let status = wait_bounded(child, "interrupted ring3");
+    assert_eq!(status.code(), Some(130), "{status}");
+    let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["interrupted"], true);
+    let steps = summary["steps"].as_u64().unwrap();
+    assert!(steps > 0 && steps < 10_000_000);
+    let trace = std::fs::read_to_string(d.join("trace.csv")).unwrap();
+    let rows = trace
+        .lines()
+        .filter(|l| l.contains(",networked,") || l.contains(",independent,"))
+        .count() as u64;
+    assert_eq!(rows, steps * 3 * 2, "every step run is in trace.csv");
+    assert!(!tmp_trace.exists());
+    let _ = std::fs::remove_dir_all(&d);
+}
