@@ -1,10 +1,25 @@
 //! The docker compose file of a topology: one service per node (`node<ID>`), a private network, a results volume,
-//! and a `collect` service that prints the merged table once every node has finished. Duration, seed and loss come
-//! from the environment (SIMNET_DURATION, SIMNET_SEED, SIMNET_LOSS) with the topology's values as defaults.
+//! and a `collect` service that prints the merged table once every node has finished. The run overrides come from
+//! the environment ([`ENV`]: SIMNET_DURATION, SIMNET_LOSS, …): each is handed to the node process as it is, and an
+//! unset or empty one leaves the topology's own setting alone (the node reads them as its options' defaults).
 
 use std::fmt::Write;
 
 use crate::topology::Topology;
+
+/// The variables a compose run passes to every node: the options of `simnet node` that override the topology.
+pub const ENV: [&str; 10] = [
+    "SIMNET_DURATION",
+    "SIMNET_RATE",
+    "SIMNET_SEED",
+    "SIMNET_LOSS",
+    "SIMNET_LOSS_MODEL",
+    "SIMNET_BURST",
+    "SIMNET_DELAY",
+    "SIMNET_JITTER",
+    "SIMNET_DUPLICATE",
+    "SIMNET_CORRUPT",
+];
 
 /// The address node `index` is reached at: its `addr` in the topology, or `node<ID>:7000` (its service name).
 pub fn node_addr(topo: &Topology, index: usize) -> String {
@@ -65,6 +80,10 @@ pub fn compose_file(topo: &Topology, topology_arg: &str, builtin: bool, image: &
             writeln!(y, "    - {host}:{inside}:ro")?;
         }
         writeln!(y, "  stop_grace_period: 5s")?;
+        writeln!(y, "  environment:")?;
+        for v in ENV {
+            writeln!(y, "    {v}: ${{{v}:-}}")?;
+        }
         writeln!(y)?;
         writeln!(y, "services:")?;
         for (i, n) in topo.nodes.iter().enumerate() {
@@ -72,8 +91,8 @@ pub fn compose_file(topo: &Topology, topology_arg: &str, builtin: bool, image: &
             writeln!(y, "    <<: *node")?;
             writeln!(
                 y,
-                r#"    command: ["node", "--topology", "{in_container}", "--id", "{}", "--duration", "${{SIMNET_DURATION:-{}}}", "--seed", "${{SIMNET_SEED:-{}}}", "--loss", "${{SIMNET_LOSS:-0}}", "--out", "/results", "-q"]"#,
-                n.id, topo.sim.duration_s, topo.sim.seed
+                r#"    command: ["node", "--topology", "{in_container}", "--id", "{}", "--out", "/results", "-q"]"#,
+                n.id
             )?;
         }
         writeln!(y, "  collect:")?;

@@ -212,23 +212,33 @@ impl ImuRecording {
 /// reference. Numbers are written in their shortest exact form, so a file reads back to the same values.
 pub fn write(rows: &[ImuRow]) -> String {
     let mag = !rows.is_empty() && rows.iter().all(|r| r.mag.is_some());
-    let mut s = String::from(if mag {
+    let mut s = header(mag);
+    for r in rows {
+        push_row(&mut s, r, mag);
+    }
+    s
+}
+
+/// The header line, with the magnetometer columns when `mag`.
+pub fn header(mag: bool) -> String {
+    String::from(if mag {
         "t,ax,ay,az,gx,gy,gz,mx,my,mz,x,y,z,roll,pitch,yaw\n"
     } else {
         "t,ax,ay,az,gx,gy,gz,x,y,z,roll,pitch,yaw\n"
-    });
-    for r in rows {
-        let (a, g, p, e) = (r.sample.accel, r.sample.gyro, r.position, r.euler);
-        s.push_str(&format!(
-            "{},{},{},{},{},{},{}",
-            r.t, a[0], a[1], a[2], g[0], g[1], g[2]
-        ));
-        if let (true, Some(m)) = (mag, r.mag) {
-            s.push_str(&format!(",{},{},{}", m[0], m[1], m[2]));
-        }
-        s.push_str(&format!(",{},{},{},{},{},{}\n", p[0], p[1], p[2], e[0], e[1], e[2]));
+    })
+}
+
+/// One row, as [`header`] names the columns.
+pub fn push_row(s: &mut String, r: &ImuRow, mag: bool) {
+    let (a, g, p, e) = (r.sample.accel, r.sample.gyro, r.position, r.euler);
+    s.push_str(&format!(
+        "{},{},{},{},{},{},{}",
+        r.t, a[0], a[1], a[2], g[0], g[1], g[2]
+    ));
+    if let (true, Some(m)) = (mag, r.mag) {
+        s.push_str(&format!(",{},{},{}", m[0], m[1], m[2]));
     }
-    s
+    s.push_str(&format!(",{},{},{},{},{},{}\n", p[0], p[1], p[2], e[0], e[1], e[2]));
 }
 
 #[cfg(test)]

@@ -46,6 +46,7 @@ pub enum Command {
     Topologies,
     /// Check topology files and explain every problem.
     Validate {
+        /// Topology files (TOML) to check.
         #[arg(required = true)]
         files: Vec<PathBuf>,
     },
@@ -74,14 +75,17 @@ pub struct BoundsArgs {
     /// A as a TOML array, e.g. '[[-1.25]]' (instead of a topology).
     #[arg(long, allow_hyphen_values = true)]
     pub a: Option<String>,
+    /// C (outputs × states) as a TOML array, with --a.
     #[arg(long)]
     pub c: Option<String>,
+    /// Q, the process noise covariance, as a TOML array, with --a.
     #[arg(long)]
     pub q: Option<String>,
+    /// R, the measurement noise covariance, as a TOML array, with --a.
     #[arg(long)]
     pub r: Option<String>,
     /// Arrival rate λ at which to give S̄ and V̄ (default: 1 − the topology's link loss, or 0.5).
-    #[arg(long, value_parser = probability)]
+    #[arg(allow_hyphen_values = true, long, value_parser = probability)]
     pub lambda: Option<f64>,
     /// Also run the topology at that arrival rate and print the measured mean trace P_{k|k−1}.
     #[arg(long)]
@@ -93,13 +97,15 @@ pub struct BoundsArgs {
     #[arg(long, default_value = "out/bounds")]
     pub out: PathBuf,
     /// Simulated duration of each --measure run, s.
-    #[arg(long, value_parser = positive)]
+    #[arg(allow_hyphen_values = true, long, value_parser = positive)]
     pub duration: Option<f64>,
-    #[arg(long)]
+    /// Seed of each --measure run (default: the topology's).
+    #[arg(allow_hyphen_values = true, long)]
     pub seed: Option<u64>,
 }
 
 #[derive(Args, Debug, Clone)]
+#[command(mut_arg("out", |a| a.help("Write this node's part here: node-ID.json, trace-ID.csv, estimates-ID.csv (for `simnet collect`)").long_help(None)))]
 pub struct NodeArgs {
     /// This node's id in the topology.
     #[arg(long)]
@@ -108,10 +114,10 @@ pub struct NodeArgs {
     #[arg(long)]
     pub bind: Option<std::net::SocketAddr>,
     /// A neighbour's address, overriding the topology (`addr`, default `node<ID>:7000`). Repeatable.
-    #[arg(long = "peer", value_name = "ID=HOST:PORT", value_parser = peer)]
+    #[arg(allow_hyphen_values = true, long = "peer", value_name = "ID=HOST:PORT", value_parser = peer)]
     pub peers: Vec<(u32, String)>,
     /// Seconds to wait for every neighbour before starting alone.
-    #[arg(long, default_value_t = 30.0, value_parser = positive)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 30.0, value_parser = positive)]
     pub handshake_timeout: f64,
     #[command(flatten)]
     pub run: RunArgs,
@@ -132,6 +138,7 @@ pub struct CollectArgs {
 
 #[derive(Args, Debug, Clone)]
 pub struct ComposeArgs {
+    /// Built-in name or path of the topology to run, one container per node.
     #[arg(long, short = 't')]
     pub topology: String,
     /// Image name of the simnet image.
@@ -161,35 +168,35 @@ pub struct RunArgs {
     /// Built-in name, `./topologies/NAME.toml`, or a path.
     #[arg(long, short = 't')]
     pub topology: Option<String>,
-    /// Packet loss probability on every link (stationary loss for Gilbert–Elliott).
-    #[arg(long, value_parser = probability)]
+    /// Packet loss probability on every link (stationary loss for Gilbert–Elliott); unset: the topology's own.
+    #[arg(long, env = "SIMNET_LOSS", allow_hyphen_values = true, value_parser = probability)]
     pub loss: Option<f64>,
     /// Loss process for --loss.
-    #[arg(long, value_enum, requires = "loss")]
+    #[arg(long, env = "SIMNET_LOSS_MODEL", value_enum, requires = "loss")]
     pub loss_model: Option<LossKind>,
     /// Mean loss run in packets (Gilbert–Elliott: r = 1/B, p = L·r/(1−L)).
-    #[arg(long, value_parser = at_least_one)]
+    #[arg(long, env = "SIMNET_BURST", allow_hyphen_values = true, value_parser = at_least_one)]
     pub burst: Option<f64>,
     /// Constant one-way delay on every link, ms.
-    #[arg(long, value_parser = non_negative)]
+    #[arg(long, env = "SIMNET_DELAY", allow_hyphen_values = true, value_parser = non_negative)]
     pub delay: Option<f64>,
     /// Jitter on every link, ms (uniform ± unless the topology says normal).
-    #[arg(long, value_parser = non_negative)]
+    #[arg(long, env = "SIMNET_JITTER", allow_hyphen_values = true, value_parser = non_negative)]
     pub jitter: Option<f64>,
     /// Probability that a link delivers a datagram twice.
-    #[arg(long, value_parser = probability)]
+    #[arg(long, env = "SIMNET_DUPLICATE", allow_hyphen_values = true, value_parser = probability)]
     pub duplicate: Option<f64>,
     /// Probability that a link flips one bit of a datagram (the receiver's checksum must catch it).
-    #[arg(long, value_parser = probability)]
+    #[arg(long, env = "SIMNET_CORRUPT", allow_hyphen_values = true, value_parser = probability)]
     pub corrupt: Option<f64>,
     /// Simulated duration, s.
-    #[arg(long, value_parser = positive)]
+    #[arg(long, env = "SIMNET_DURATION", allow_hyphen_values = true, value_parser = positive)]
     pub duration: Option<f64>,
     /// Step rate, Hz.
-    #[arg(long, value_parser = positive)]
+    #[arg(long, env = "SIMNET_RATE", allow_hyphen_values = true, value_parser = positive)]
     pub rate: Option<f64>,
     /// Run seed (every random stream derives from it).
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long, env = "SIMNET_SEED")]
     pub seed: Option<u64>,
     /// Pace steps by the wall clock instead of the virtual lockstep clock.
     #[arg(long)]
@@ -296,6 +303,9 @@ impl RunArgs {
         let mut t = Topology::resolve(name)?;
         t.apply(&self.overrides()?);
         t.check_recordings()?;
+        for w in t.warnings() {
+            tracing::warn!("{}: {w}", t.name);
+        }
         if t.sim.duration_s * t.sim.rate_hz > MAX_STEPS {
             return Err(UsageError::Option(format!(
                 "--duration/--rate: {} s at {} Hz is more than {MAX_STEPS:e} steps",
@@ -319,13 +329,26 @@ fn init_tracing(verbose: u8, quiet: bool) {
         }
     };
     let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new(level));
-    let _ = tracing_subscriber::fmt()
+    use std::io::IsTerminal;
+    let fmt = tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)
-        .try_init();
+        .with_ansi(std::io::stderr().is_terminal());
+    // Without -v only warnings and errors show: a plain `WARN message` line reads best.
+    let _ = if verbose == 0 {
+        fmt.without_time().with_target(false).try_init()
+    } else {
+        fmt.try_init()
+    };
 }
 
 pub fn main() -> ExitCode {
+    // An empty override (compose passes `${SIMNET_LOSS:-}`) means unset: the topology's own setting.
+    for v in crate::compose::ENV {
+        if std::env::var_os(v).is_some_and(|x| x.is_empty()) {
+            std::env::remove_var(v);
+        }
+    }
     let cli = Cli::parse();
     init_tracing(cli.verbose, cli.quiet);
     let result = match cli.command {
@@ -343,6 +366,10 @@ pub fn main() -> ExitCode {
         Some(Command::Reproduce(paper)) => reproduce::reproduce(&paper, cli.quiet),
         Some(Command::Reconstruct(args)) => reconstruct::reconstruct(&args),
         None if cli.run.topology.is_some() => run(&cli.run, cli.quiet),
+        None if std::env::args_os().len() > 1 => Err(UsageError::Option(
+            "a run needs --topology NAME|PATH (`simnet topologies` lists the built-ins)".into(),
+        )
+        .into()),
         None => {
             use clap::CommandFactory;
             let _ = Cli::command().print_help();
@@ -381,11 +408,11 @@ fn validate(files: &[PathBuf]) -> ExitCode {
     for f in files {
         match Topology::from_path(f).and_then(|t| t.check_recordings().map(|_| t)) {
             Ok(t) => println!(
-                "{}: ok — `{}`, {} nodes, {} directed links, {} model, {} steps",
+                "{}: ok — `{}`, {}, {}, {} model, {} steps",
                 f.display(),
                 t.name,
-                t.nodes.len(),
-                t.links.len(),
+                crate::topology::count(t.nodes.len(), "node"),
+                crate::topology::count(t.links.len(), "directed link"),
                 t.model.kind(),
                 t.sim.steps()
             ),
@@ -411,7 +438,10 @@ fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let progress = (!quiet && !args.json).then(|| progress_bar(steps));
     let opts = RunOptions {
         clock: if args.realtime { Clock::Realtime } else { Clock::Virtual },
-        trace: out_dir.as_ref().map(|d| d.trace(&topo)).transpose()?,
+        trace: out_dir
+            .as_ref()
+            .map(|d| d.trace(&topo).map(|t| t.with_imu(d.imu_opener())))
+            .transpose()?,
         progress: progress
             .clone()
             .map(|pb| -> net::Progress { Arc::new(move |d, _| pb.set_position(d)) }),
@@ -426,15 +456,14 @@ fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     // Files first: a reader that closes stdout early (`| head`) loses nothing.
     let mut wrote = Vec::new();
     if let Some(d) = &out_dir {
+        // Each sensing node's IMU samples with the true pose (input for `simnet reconstruct`), streamed too.
+        let imu = out.trace.as_ref().map(|t| t.imu_nodes()).unwrap_or_default();
         let (rows, fused) = d.finish_trace(out.trace.take())?;
         wrote = write_files(&d.dir, &s, topo.sim.dt(), &rows, &fused)?;
-        // Each sensing node's IMU samples with the true pose: input for `simnet reconstruct`.
-        for r in &out.reports {
-            if !r.imu.is_empty() {
-                let name = format!("imu-{}.csv", r.id);
-                d.put(&name, crate::imu_csv::write(&r.imu).as_bytes())?;
-                wrote.push(name);
-            }
+        for id in imu {
+            let name = format!("imu-{id}.csv");
+            d.rename_tmp(&name)?;
+            wrote.push(name);
         }
     }
     print_summary(&s, args.json, None)?;
@@ -496,6 +525,22 @@ impl OutDir {
             .unwrap_or_default();
         std::fs::rename(self.dir.join(TRACE_TMP), &path).with_context(|| format!("cannot write {}", path.display()))?;
         Ok(sample)
+    }
+
+    /// Opens `imu-ID.csv.tmp` for the recorder ([`OutDir::rename_tmp`] gives it its name at the end).
+    fn imu_opener(&self) -> crate::report::trace::ImuOpener {
+        let dir = self.dir.clone();
+        Box::new(move |id| {
+            let f = std::fs::File::create(dir.join(format!("imu-{id}.csv.tmp")))?;
+            Ok(Box::new(std::io::BufWriter::new(f)) as Box<dyn Write + Send>)
+        })
+    }
+
+    fn rename_tmp(&self, name: &str) -> anyhow::Result<()> {
+        use anyhow::Context;
+        let path = self.dir.join(name);
+        std::fs::rename(self.dir.join(format!("{name}.tmp")), &path)
+            .with_context(|| format!("cannot write {}", path.display()))
     }
 
     fn put(&self, name: &str, bytes: &[u8]) -> anyhow::Result<()> {
@@ -1005,4 +1050,40 @@ fn toml_matrix(m: &nalgebra::DMatrix<f64>) -> String {
         })
         .collect();
     format!("[{}]", rows.join(", "))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    /// Every argument of every subcommand says what it is for, and `node`/`protocol` explain their own `--out`.
+    #[test]
+    fn every_argument_has_a_help_line() {
+        fn walk(cmd: &clap::Command, path: &str, missing: &mut Vec<String>, outs: &mut Vec<(String, String)>) {
+            for a in cmd.get_arguments() {
+                let id = a.get_id().as_str();
+                if id == "help" || id == "version" {
+                    continue;
+                }
+                match a.get_help() {
+                    Some(h) if !h.to_string().trim().is_empty() => {
+                        if id == "out" {
+                            outs.push((path.to_string(), h.to_string()));
+                        }
+                    }
+                    _ => missing.push(format!("{path} {id}")),
+                }
+            }
+            for sub in cmd.get_subcommands() {
+                walk(sub, &format!("{path} {}", sub.get_name()), missing, outs);
+            }
+        }
+        let (mut missing, mut outs) = (Vec::new(), Vec::new());
+        walk(&Cli::command(), "simnet", &mut missing, &mut outs);
+        assert!(missing.is_empty(), "arguments without help: {missing:?}");
+        let text = |p: &str| outs.iter().find(|(q, _)| q == p).map(|o| o.1.clone()).unwrap();
+        assert_ne!(text("simnet node"), text("simnet run"), "node reuses run's --out help");
+        assert_ne!(text("simnet protocol"), text("simnet run"));
+    }
 }

@@ -31,28 +31,31 @@ pub enum SolverArg {
 }
 
 #[derive(Args, Debug, Clone)]
+#[command(mut_arg("out", |a| a.help("Write NAME-protocol.toml, protocol.csv/json/svg here (default out/protocol-NAME)").long_help(None)))]
 pub struct ProtocolArgs {
     /// Topology, link options, duration and seed of the scoring runs; --out (default out/protocol-NAME) and --json.
     #[command(flatten)]
     pub run: RunArgs,
     /// Scoring runs per protocol (seeds SEED, SEED+1, …).
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=64))]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=64))]
     pub seeds: u64,
     /// Points of the family scored on [0, u_max].
-    #[arg(long, default_value_t = 13, value_parser = clap::value_parser!(u64).range(2..=500))]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 13, value_parser = clap::value_parser!(u64).range(2..=500))]
     pub grid: u64,
     /// Bisection steps on the feasibility boundary (when the family crosses it).
-    #[arg(long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(0..=40))]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 6, value_parser = clap::value_parser!(u64).range(0..=40))]
     pub bisect: u64,
     /// Largest row sum Σⱼ βᵢⱼ the family reaches. Up to 1 (19) holds on any data; past 1 it binds, and the search
     /// finds where.
-    #[arg(long, default_value_t = 1.0, value_parser = row_sum)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1.0, value_parser = row_sum)]
     pub max_row_sum: f64,
+    /// What the choice optimises: the lowest mean error, or the most exchange that stays feasible.
     #[arg(long, value_enum, default_value = "error")]
     pub objective: ObjectiveArg,
     /// Past row sum 1, keep the chosen u this fraction inside the boundary the scoring runs found.
-    #[arg(long, default_value_t = 0.05, value_parser = super::probability)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 0.05, value_parser = super::probability)]
     pub margin: f64,
+    /// The search: bisection along the one-parameter family, or an SDP over all β (feature `sdp`).
     #[arg(long, value_enum, default_value = "family")]
     pub solver: SolverArg,
     /// Seed of the fresh verification run (default: the run seed + 1000).

@@ -20,26 +20,31 @@ pub struct ReconstructArgs {
     /// Take the positions at both ends and the start velocity from the file's reference columns.
     #[arg(long)]
     pub from_reference: bool,
-    #[arg(long, value_name = "X,Y,Z", value_parser = vec3)]
+    /// Position at the first sample (a Dirichlet condition), m.
+    #[arg(allow_hyphen_values = true, long, value_name = "X,Y,Z", value_parser = vec3)]
     pub start_position: Option<Vector3<f64>>,
-    #[arg(long, value_name = "X,Y,Z", value_parser = vec3)]
+    /// Position at the last sample (a Dirichlet condition), m.
+    #[arg(allow_hyphen_values = true, long, value_name = "X,Y,Z", value_parser = vec3)]
     pub end_position: Option<Vector3<f64>>,
-    #[arg(long, value_name = "X,Y,Z", value_parser = vec3)]
+    /// Velocity at the first sample (a Neumann condition), m/s.
+    #[arg(allow_hyphen_values = true, long, value_name = "X,Y,Z", value_parser = vec3)]
     pub start_velocity: Option<Vector3<f64>>,
-    #[arg(long, value_name = "X,Y,Z", value_parser = vec3)]
+    /// Velocity at the last sample (a Neumann condition), m/s.
+    #[arg(allow_hyphen_values = true, long, value_name = "X,Y,Z", value_parser = vec3)]
     pub end_velocity: Option<Vector3<f64>>,
     /// A known velocity at a time (an additional constraint). Repeatable.
-    #[arg(long = "velocity-at", value_name = "T:X,Y,Z", value_parser = timed)]
+    #[arg(allow_hyphen_values = true, long = "velocity-at", value_name = "T:X,Y,Z", value_parser = timed)]
     pub velocity_at: Vec<(f64, Vector3<f64>)>,
     /// A known position at a time (an additional constraint). Repeatable.
-    #[arg(long = "position-at", value_name = "T:X,Y,Z", value_parser = timed)]
+    #[arg(allow_hyphen_values = true, long = "position-at", value_name = "T:X,Y,Z", value_parser = timed)]
     pub position_at: Vec<(f64, Vector3<f64>)>,
     /// With --from-reference: add the reference velocity at this many evenly spaced times as constraints.
-    #[arg(long, default_value_t = 0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 0)]
     pub reference_constraints: usize,
     /// Fit scale and bias per axis and a gravity correction from the additional constraints.
     #[arg(long)]
     pub error_model: bool,
+    /// Where to write reconstruction.csv and the error plot.
     #[arg(long, default_value = "out/reconstruct")]
     pub out: PathBuf,
 }

@@ -29,8 +29,10 @@ pub enum Paper {
 
 #[derive(Args, Debug, Clone)]
 pub struct NieminenArgs {
-    #[arg(long, default_value_t = 1)]
+    /// Seed of the simulated sensor errors.
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1)]
     pub seed: u64,
+    /// Where to write claims.md, claims.json and the plots.
     #[arg(long, default_value = "out/nieminen")]
     pub out: PathBuf,
 }
@@ -38,10 +40,12 @@ pub struct NieminenArgs {
 #[derive(Args, Debug, Clone)]
 pub struct RigidPairArgs {
     /// Runs per motion (the paper used 10,000).
-    #[arg(long, default_value_t = 1000, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1000, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
     pub runs: u64,
-    #[arg(long, default_value_t = 1)]
+    /// Seed of the first run (run i uses seed + i).
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1)]
     pub seed: u64,
+    /// Where to write the results table and plots.
     #[arg(long, default_value = "out/rigid-pair")]
     pub out: PathBuf,
 }
@@ -49,14 +53,15 @@ pub struct RigidPairArgs {
 #[derive(Args, Debug, Clone)]
 pub struct LesecqArgs {
     /// Seeds (1, 2, …); a claim holds when it holds on every seed. Plots show seed 1.
-    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=1000))]
     pub seeds: u64,
     /// Loss probability of each accelerometer and magnetometer sample.
-    #[arg(long, default_value_t = 0.2, value_parser = super::probability)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 0.2, value_parser = super::probability)]
     pub loss: f64,
     /// How long each reference attitude holds, s.
-    #[arg(long, default_value_t = 3.0, value_parser = super::positive)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 3.0, value_parser = super::positive)]
     pub segment: f64,
+    /// Where to write claims.md, claims.json and the plots.
     #[arg(long, default_value = "out/lesecq")]
     pub out: PathBuf,
 }
@@ -64,10 +69,10 @@ pub struct LesecqArgs {
 #[derive(Args, Debug, Clone)]
 pub struct SequeiraArgs {
     /// Seeds per experiment (1, 2, …); a claim holds when it holds on every seed.
-    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=100))]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=100))]
     pub seeds: u64,
     /// Simulated duration of every run, s (default: the topologies' 30 s).
-    #[arg(long, value_parser = super::positive)]
+    #[arg(allow_hyphen_values = true, long, value_parser = super::positive)]
     pub duration: Option<f64>,
     /// Where to write claims.md, claims.json and the plots.
     #[arg(long, default_value = "out/sequeira")]

@@ -53,6 +53,14 @@ impl FaultSchedule {
         })
     }
 
+    /// When each fault starts (to warn of faults that a run ends before).
+    pub fn starts(&self) -> impl Iterator<Item = f64> + '_ {
+        self.faults.iter().map(|f| match f {
+            ScheduledFault::LinkDown { start, .. } | ScheduledFault::Partition { start, .. } => *start,
+            ScheduledFault::Crash { at, .. } => *at,
+        })
+    }
+
     /// True when `node` restarts in (t0, t1]: it must re-initialise.
     pub fn restarts_between(&self, node: usize, t0: f64, t1: f64) -> bool {
         self.faults.iter().any(|f| match f {

@@ -17,7 +17,7 @@ use tokio::net::UdpSocket;
 use tokio::sync::{mpsc, oneshot, watch};
 use tokio::time::Instant;
 
-use crate::node::TraceRow;
+use crate::node::{ImuRow, TraceRow};
 use crate::node::{Node, NodeReport, StepEstimate};
 use crate::report::observer::Observer;
 use crate::report::trace::TraceRecorder;
@@ -154,6 +154,8 @@ enum Reply {
         estimate: Option<StepEstimate>,
         timed_out: u64,
         rows: Vec<TraceRow>,
+        /// The node's id and its IMU rows of the step.
+        imu: (u32, Vec<ImuRow>),
     },
     Report(Box<NodeReport>),
 }
@@ -231,6 +233,7 @@ async fn virtual_task(
                     estimate,
                     timed_out,
                     rows: node.take_trace(),
+                    imu: (node.id(), node.take_imu()),
                 }
             }
             Cmd::Finish => {
@@ -317,10 +320,14 @@ async fn run_virtual(
                     estimate,
                     timed_out,
                     mut rows,
+                    imu,
                 }) => {
                     socket_losses += timed_out;
                     estimates.extend(estimate);
                     step_rows.append(&mut rows);
+                    if let Some(t) = trace.as_mut() {
+                        t.imu(imu.0, &imu.1);
+                    }
                 }
                 _ => return Err(NetError::TaskLost(usize::MAX)),
             }
@@ -380,6 +387,7 @@ struct StepOut {
     step: u64,
     estimate: Option<StepEstimate>,
     rows: Vec<TraceRow>,
+    imu: (u32, Vec<ImuRow>),
 }
 
 /// Realtime: each node task runs its own timeline on the wall clock from the common start `t0`.
@@ -437,6 +445,7 @@ async fn realtime_task(
             step: k,
             estimate,
             rows: node.take_trace(),
+            imu: (node.id(), node.take_imu()),
         });
         done = k + 1;
         if node.index() == 0 {
@@ -490,6 +499,9 @@ async fn run_realtime(
         for o in outs {
             estimates.extend(o.estimate);
             rows.extend(o.rows);
+            if let Some(t) = trace.as_mut() {
+                t.imu(o.imu.0, &o.imu.1);
+            }
         }
         observer.push(estimates);
         if let Some(t) = trace.as_mut() {

@@ -1012,6 +1012,11 @@ impl Node {
         }
     }
 
+    /// The IMU rows recorded since the last call.
+    pub fn take_imu(&mut self) -> Vec<ImuRow> {
+        self.imu_log.as_mut().map(std::mem::take).unwrap_or_default()
+    }
+
     /// The trace rows recorded since the last call (a shell streams them out step by step).
     pub fn take_trace(&mut self) -> Vec<TraceRow> {
         self.trace.as_mut().map(std::mem::take).unwrap_or_default()

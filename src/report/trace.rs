@@ -52,7 +52,14 @@ pub struct TraceRecorder {
     fused: Vec<FusedRow>,
     /// The first write error; later rows are not written, and [`TraceRecorder::finish`] returns it.
     error: Option<io::Error>,
+    /// Opens a node's `imu-ID.csv` (by node id) on its first IMU row; none: IMU rows are not kept.
+    imu_files: Option<ImuOpener>,
+    /// Open IMU files by node id, and whether each has magnetometer columns.
+    imu: std::collections::BTreeMap<u32, (Box<dyn Write + Send>, bool)>,
 }
+
+/// Opens the `imu-ID.csv` of node ID.
+pub type ImuOpener = Box<dyn FnMut(u32) -> io::Result<Box<dyn Write + Send>> + Send>;
 
 impl TraceRecorder {
     /// Keep a plot sample of a run of `steps` steps; `columns` as [`crate::node::Truth::columns`], `model` the
@@ -67,6 +74,8 @@ impl TraceRecorder {
             kept: Vec::new(),
             fused: Vec::new(),
             error: None,
+            imu_files: None,
+            imu: Default::default(),
         }
     }
 
@@ -92,6 +101,49 @@ impl TraceRecorder {
         let h = header(&self.columns);
         self.write(|w| writeln!(w, "{h}"));
         self
+    }
+
+    /// Also stream each sensing node's IMU samples (with the true pose) to the file `open` gives for its id.
+    pub fn with_imu(mut self, open: ImuOpener) -> TraceRecorder {
+        self.imu_files = Some(open);
+        self
+    }
+
+    /// Whether IMU rows are wanted.
+    pub fn records_imu(&self) -> bool {
+        self.imu_files.is_some()
+    }
+
+    /// One step's IMU rows of node `id`.
+    pub fn imu(&mut self, id: u32, rows: &[crate::node::ImuRow]) {
+        let (Some(open), None, Some(first)) = (self.imu_files.as_mut(), self.error.as_ref(), rows.first()) else {
+            return;
+        };
+        if !self.imu.contains_key(&id) {
+            let mag = first.mag.is_some();
+            match open(id).and_then(|mut w| w.write_all(crate::imu_csv::header(mag).as_bytes()).map(|_| w)) {
+                Ok(w) => {
+                    self.imu.insert(id, (w, mag));
+                }
+                Err(e) => {
+                    self.error = Some(e);
+                    return;
+                }
+            }
+        }
+        let Some((w, mag)) = self.imu.get_mut(&id) else { return };
+        let mut text = String::new();
+        for r in rows {
+            crate::imu_csv::push_row(&mut text, r, *mag);
+        }
+        if let Err(e) = w.write_all(text.as_bytes()) {
+            self.error = Some(e);
+        }
+    }
+
+    /// Ids of the nodes whose IMU file was written.
+    pub fn imu_nodes(&self) -> Vec<u32> {
+        self.imu.keys().copied().collect()
     }
 
     fn write(&mut self, f: impl FnOnce(&mut dyn Write) -> io::Result<()>) {
@@ -168,6 +220,11 @@ impl TraceRecorder {
     /// Flush the file and hand back the plot sample (node rows in step order, fused rows).
     pub fn finish(mut self) -> io::Result<(Vec<TraceRow>, Vec<FusedRow>)> {
         self.write(|w| w.flush());
+        for (w, _) in self.imu.values_mut() {
+            if let Err(e) = w.flush() {
+                self.error.get_or_insert(e);
+            }
+        }
         match self.error {
             Some(e) => Err(e),
             None => Ok((self.kept, self.fused)),

@@ -34,15 +34,32 @@ impl fmt::Display for Problem {
     }
 }
 
+/// `./topologies/NAME.toml`, without doubling an extension the user gave.
+fn in_topologies(name: &str) -> String {
+    if name.ends_with(".toml") {
+        format!("./topologies/{name}")
+    } else {
+        format!("./topologies/{name}.toml")
+    }
+}
+
+/// "1 node", "3 nodes".
+pub fn count(n: usize, what: &str) -> String {
+    format!("{n} {what}{}", if n == 1 { "" } else { "s" })
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum TopologyError {
-    #[error("topology `{name}` not found: not a file, not ./topologies/{name}.toml, not a built-in (see `simnet topologies`)")]
+    #[error(
+        "topology `{name}` not found: not a file, not {}, not a built-in (see `simnet topologies`)",
+        in_topologies(name)
+    )]
     NotFound { name: String },
     #[error("{file}: cannot read: {source}")]
     Io { file: String, source: std::io::Error },
     #[error("{file}: {message}")]
     Parse { file: String, message: String },
-    #[error("{file}: {} problem(s):\n{}", problems.len(), problems.iter().map(|p| format!("  - {p}")).collect::<Vec<_>>().join("\n"))]
+    #[error("{file}: {}:\n{}", count(problems.len(), "problem"), problems.iter().map(|p| format!("  - {p}")).collect::<Vec<_>>().join("\n"))]
     Invalid { file: String, problems: Vec<Problem> },
 }
 
@@ -78,6 +95,8 @@ pub struct SimConfig {
     pub rate_hz: f64,
     pub duration_s: f64,
     pub burn_in_s: f64,
+    /// The burn-in the file asked for, where a shorter `--duration` halved it (see [`Topology::warnings`]).
+    pub burn_in_shortened_from: Option<f64>,
     pub seed: u64,
     pub trajectory: Trajectory,
     /// Measurements of step k are used only if they arrive by t_k + deadline (Sinopoli's deadline model).
@@ -326,6 +345,32 @@ fn recording_problems(sim: &SimConfig, nodes: &[NodeConfig]) -> Vec<Problem> {
 
 impl Topology {
     /// After [`Topology::apply`]: every recorded IMU covers the run.
+    /// Settings that are valid but probably not meant: a run no longer than its burn-in (no step counts in the
+    /// means), faults that start after the run has ended.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        let d = self.sim.duration_s;
+        if let Some(asked) = self.sim.burn_in_shortened_from.filter(|b| d <= *b) {
+            w.push(format!(
+                "the run ({d} s) is shorter than the burn-in sim.burn_in_s = {asked} s: the means count from {} s",
+                self.sim.burn_in_s
+            ));
+        }
+        let late: Vec<f64> = self.faults.starts().filter(|t| *t >= d).collect();
+        if !late.is_empty() {
+            w.push(format!(
+                "{} after the run ends at {d} s (at {}): never applied",
+                if late.len() == 1 {
+                    "1 fault starts".to_string()
+                } else {
+                    format!("{} faults start", late.len())
+                },
+                late.iter().map(|t| format!("{t} s")).collect::<Vec<_>>().join(", ")
+            ));
+        }
+        w
+    }
+
     pub fn check_recordings(&self) -> Result<(), TopologyError> {
         let problems = recording_problems(&self.sim, &self.nodes);
         if problems.is_empty() {
@@ -374,7 +419,11 @@ impl Topology {
         }
         if let Some(d) = o.duration_s {
             self.sim.duration_s = d;
-            self.sim.burn_in_s = self.sim.burn_in_s.min(d / 2.0);
+            if self.sim.burn_in_s > d / 2.0 {
+                let asked = self.sim.burn_in_shortened_from.unwrap_or(self.sim.burn_in_s);
+                self.sim.burn_in_shortened_from = Some(asked);
+                self.sim.burn_in_s = d / 2.0;
+            }
         }
         if let Some(r) = o.rate_hz {
             let old_dt = self.sim.dt();
@@ -647,6 +696,7 @@ impl Validator {
             rate_hz,
             duration_s,
             burn_in_s,
+            burn_in_shortened_from: None,
             seed: s.seed.unwrap_or(1),
             trajectory,
             deadline_s: deadline_ms.min(period_ms) / 1000.0,

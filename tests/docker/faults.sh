@@ -4,7 +4,8 @@
 #   0. `compose up` runs ring3 to completion and the collect service prints the merged table (exit 0);
 #   1. kill a node mid-run and start it again;
 #   2. cut a node off the network (`docker network disconnect`) and reconnect it;
-#   3. the link layer's own loss (--loss 0.2) on top of the real network.
+#   3. the link layer's own loss (--loss 0.2) on top of the real network;
+#   4. a compose file of attitude3 with no override set: its nodes see the topology's own 20 % loss.
 #
 # For 1 and 2: the survivors never stop stepping, no networked covariance diverges, the loss the survivors record on
 # the faulty node's links matches the time it was away, and that node's trace P returns to within 10 % of the
@@ -107,4 +108,27 @@ wait_nodes
 collect_into "$WORK/loss"
 python3 tests/docker/check.py loss "$WORK/loss" 0.2
 
-echo "3 passed, 0 failed"
+echo "== attitude3's compose file, no override set: the topology's own 20 % loss"
+dc down -v --remove-orphans >/dev/null 2>&1 || true
+ATT=.attitude3-compose-$$.yml
+"$BIN" compose -t attitude3 > "$ATT"
+datt() { "${COMPOSE[@]}" -p "${PROJECT}att" -f "$ATT" "$@"; }
+trap 'datt down -v --remove-orphans >/dev/null 2>&1 || true; rm -f "$ATT"; cleanup' EXIT
+# Only the duration is set; SIMNET_LOSS stays unset (also if the caller's shell had it).
+env -u SIMNET_LOSS SIMNET_DURATION=10 "${COMPOSE[@]}" -p "${PROJECT}att" -f "$ATT" up -d node0 node1 node2 >/dev/null 2>&1
+for _ in $(seq 1 240); do
+  running=0
+  for s in node0 node1 node2; do
+    id=$(datt ps -q "$s")
+    [ -n "$id" ] && [ "$(docker inspect -f '{{.State.Running}}' "$id")" = true ] && running=1
+  done
+  [ $running = 0 ] && break
+  sleep 0.5
+done
+mkdir -p "$WORK/att"
+datt run --rm --no-deps collect collect /results --json > "$WORK/att/merged.json"
+python3 tests/docker/check.py loss "$WORK/att" 0.2
+datt down -v --remove-orphans >/dev/null 2>&1 || true
+rm -f "$ATT"
+
+echo "4 passed, 0 failed"
