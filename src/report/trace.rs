@@ -119,11 +119,11 @@ impl TraceRecorder {
         let (Some(open), None, Some(first)) = (self.imu_files.as_mut(), self.error.as_ref(), rows.first()) else {
             return;
         };
-        if !self.imu.contains_key(&id) {
+        if let std::collections::btree_map::Entry::Vacant(slot) = self.imu.entry(id) {
             let mag = first.mag.is_some();
             match open(id).and_then(|mut w| w.write_all(crate::imu_csv::header(mag).as_bytes()).map(|_| w)) {
                 Ok(w) => {
-                    self.imu.insert(id, (w, mag));
+                    slot.insert((w, mag));
                 }
                 Err(e) => {
                     self.error = Some(e);
