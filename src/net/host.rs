@@ -250,6 +250,7 @@ pub async fn run_node(
                 estimates.push(e);
             }
         }
+        tracing::trace!(step = k, "step closed");
         if !offsets.is_empty() {
             let mean = offsets.iter().sum::<f64>() / offsets.len() as f64;
             // Negative: the neighbours' step began before ours; move our schedule earlier (and vice versa).

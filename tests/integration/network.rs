@@ -1,8 +1,6 @@
 //! Whole runs over real UDP sockets: the seed's claim (f), delivered fraction (h), determinism (i), robustness (j),
 //! faults.
 
-use std::time::Duration;
-
 use simnet::net::RunOptions;
 use simnet::topology::Overrides;
 
@@ -95,7 +93,12 @@ fn garbage_and_corruption_are_caught() {
     };
     let clean = common::run(common::topology("ring3", o()));
 
+    // The garbage goes out in 25 bursts, each while the run waits between two steps (its progress callback blocks
+    // until the burst is in node 0's socket buffer), so every datagram is read in the next step whatever the load:
+    // the count is exact by construction, not by timing.
     let (tx, rx) = tokio::sync::oneshot::channel();
+    let (go_tx, go_rx) = std::sync::mpsc::channel::<()>();
+    let (ack_tx, ack_rx) = std::sync::mpsc::channel::<()>();
     let sender = std::thread::spawn(move || {
         let addrs: Vec<std::net::SocketAddr> = tokio::runtime::Builder::new_current_thread()
             .build()
@@ -107,6 +110,7 @@ fn garbage_and_corruption_are_caught() {
         let mut sent = 0;
         let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
         for burst in 0..25 {
+            go_rx.recv().unwrap();
             for i in 0..20 {
                 let len = [0usize, 1, 7, 40, 300, 1199, 1200, 1400][(burst + i) % 8];
                 let bytes: Vec<u8> = (0..len)
@@ -120,12 +124,20 @@ fn garbage_and_corruption_are_caught() {
                 sock.send_to(&bytes, target).unwrap();
                 sent += 1;
             }
-            std::thread::sleep(Duration::from_millis(2));
+            ack_tx.send(()).unwrap();
         }
         sent
     });
+    let ack_rx = std::sync::Mutex::new(ack_rx);
+    let progress: simnet::net::Progress = std::sync::Arc::new(move |done, _| {
+        if done % 10 == 0 && done / 10 <= 25 {
+            go_tx.send(()).unwrap();
+            ack_rx.lock().unwrap().recv().unwrap();
+        }
+    });
     let opts = RunOptions {
         on_bound: Some(tx),
+        progress: Some(progress),
         ..Default::default()
     };
     let (noisy, _) = common::run_with(common::topology("ring3", o()), opts);
