@@ -7,7 +7,8 @@ use std::str::FromStr;
 
 use crate::geom::body_rates;
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Trajectory {
     /// Helix: radius 2 m, one turn per 10 s, climbing 0.1 m/s (the seed's spiral).
     Spiral,

@@ -14,7 +14,8 @@ use rand_distr::StandardNormal;
 
 use crate::rng::Rng;
 
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "model", rename_all = "kebab-case")]
 pub enum LossModel {
     Bernoulli {
         p: f64,
@@ -66,7 +67,8 @@ impl LossModel {
     }
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Jitter {
     /// Uniform on ±jitter.
     Uniform,
@@ -74,7 +76,7 @@ pub enum Jitter {
     Normal,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LinkConfig {
     pub loss: LossModel,
     pub delay_ms: f64,

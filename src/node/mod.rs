@@ -789,6 +789,7 @@ impl Node {
         self.open = None;
         let inbox = std::mem::take(&mut self.inbox);
         for &j in &self.in_sources {
+            self.rx[j].steps += 1;
             if !inbox.contains_key(&j) {
                 self.rx[j].missing_steps += 1;
             }

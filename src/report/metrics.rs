@@ -134,4 +134,7 @@ pub struct RxCounters {
     pub while_down: u64,
     /// Steps this node closed without any measurement from this source (loss as the receiver sees it).
     pub missing_steps: u64,
+    /// Steps this node closed with this source as a neighbour (the denominator of the arrival rate).
+    #[serde(default)]
+    pub steps: u64,
 }

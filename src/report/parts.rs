@@ -222,6 +222,7 @@ pub fn merge(
     }
     observer.finish();
     let merged = Summary {
+        simnet_version: first.simnet_version.clone(),
         topology: first.topology.clone(),
         source: first.source.clone(),
         model: first.model.clone(),
@@ -236,6 +237,7 @@ pub fn merge(
         nodes,
         links,
         fused: observer.summary(),
+        settings: first.settings.clone(),
         part: None,
     };
     Ok((merged, observer))

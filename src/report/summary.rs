@@ -39,6 +39,9 @@ pub struct LinkSummary {
     pub corrupted: u64,
     pub loss_rate: Option<f64>,
     pub delivered_fraction: Option<f64>,
+    /// γ: the fraction of the receiver's steps in which a measurement from the sender arrived in time (Sinopoli's
+    /// arrival rate).
+    pub arrival_rate: Option<f64>,
     pub mean_loss_run: f64,
     pub longest_loss_run: u64,
 }
@@ -63,14 +66,62 @@ impl LinkSummary {
             corrupted: rx.corrupted,
             loss_rate: frac(lost + rx.while_down),
             delivered_fraction: frac(rx.delivered),
+            arrival_rate: (rx.steps > 0).then(|| 1.0 - rx.missing_steps as f64 / rx.steps as f64),
             mean_loss_run: tx.mean_loss_run(),
             longest_loss_run: tx.longest_loss_run.max(tx.current_run),
         }
     }
 }
 
+/// How a run was set up, so that a result file says how it was made.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Settings {
+    pub duration_s: f64,
+    pub burn_in_s: f64,
+    pub deadline_s: f64,
+    pub trajectory: crate::motion::Trajectory,
+    pub split_channels: bool,
+    /// The command-line (or environment) overrides applied to the file.
+    pub overrides: crate::topology::Overrides,
+    /// Every directed link's resolved settings (loss model, delay, jitter, duplication, corruption).
+    pub links: Vec<LinkSetting>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct LinkSetting {
+    pub from: u32,
+    pub to: u32,
+    #[serde(flatten)]
+    pub config: crate::link::LinkConfig,
+}
+
+impl Settings {
+    pub fn of(topo: &Topology) -> Settings {
+        Settings {
+            duration_s: topo.sim.duration_s,
+            burn_in_s: topo.sim.burn_in_s,
+            deadline_s: topo.sim.deadline_s,
+            trajectory: topo.sim.trajectory,
+            split_channels: topo.sim.split_channels,
+            overrides: topo.applied.clone(),
+            links: topo
+                .links
+                .iter()
+                .map(|l| LinkSetting {
+                    from: topo.nodes[l.from].id,
+                    to: topo.nodes[l.to].id,
+                    config: l.config,
+                })
+                .collect(),
+        }
+    }
+}
+
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Summary {
+    /// The simnet version that made this file.
+    #[serde(default)]
+    pub simnet_version: String,
     pub topology: String,
     pub source: String,
     pub model: String,
@@ -85,6 +136,8 @@ pub struct Summary {
     pub nodes: Vec<NodeSummary>,
     pub links: Vec<LinkSummary>,
     pub fused: Option<FusedSummary>,
+    #[serde(default)]
+    pub settings: Option<Settings>,
     /// Set in the part a `simnet node` writes; absent from whole-run summaries.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub part: Option<super::parts::PartInfo>,
@@ -153,6 +206,7 @@ impl Summary {
             }
         }
         Summary {
+            simnet_version: env!("CARGO_PKG_VERSION").to_string(),
             topology: topo.name.clone(),
             source: topo.source.clone(),
             model: topo.model.kind().to_string(),
@@ -167,6 +221,7 @@ impl Summary {
             nodes,
             links,
             fused,
+            settings: Some(Settings::of(topo)),
             part: None,
         }
     }
@@ -256,24 +311,31 @@ impl Summary {
             )?;
         }
         writeln!(w)?;
-        writeln!(
-            w,
-            "{:>9} │ {:>7} {:>9} {:>7} {:>6} {:>6} {:>6} │ {:>8} {:>9}",
-            "link", "sent", "delivered", "lost", "late", "dup", "corr", "loss", "mean run"
-        )?;
-        writeln!(w, "{}", "─".repeat(86))?;
+        if !self.links.is_empty() {
+            writeln!(
+                w,
+                "links: sent = delivered + late + corrupted + lost; dup = extra copies (not in sent); γ = steps in which a measurement arrived in time"
+            )?;
+            writeln!(
+                w,
+                "{:>9} │ {:>7} {:>9} {:>6} {:>6} {:>7} │ {:>6} │ {:>8} {:>8} {:>9}",
+                "link", "sent", "delivered", "late", "corr", "lost", "dup", "loss", "γ", "mean run"
+            )?;
+            writeln!(w, "{}", "─".repeat(98))?;
+        }
         for l in &self.links {
             writeln!(
                 w,
-                "{:>9} │ {:>7} {:>9} {:>7} {:>6} {:>6} {:>6} │ {:>8} {:>9.2}",
+                "{:>9} │ {:>7} {:>9} {:>6} {:>6} {:>7} │ {:>6} │ {:>8} {:>8} {:>9.2}",
                 format!("{} → {}", l.from, l.to),
                 l.sent,
                 l.delivered,
-                l.lost,
                 l.late,
-                l.duplicated,
                 l.corrupted,
+                l.lost,
+                l.duplicated,
                 pct(l.loss_rate),
+                pct(l.arrival_rate),
                 l.mean_loss_run
             )?;
         }
@@ -303,23 +365,26 @@ impl Summary {
 
 /// `links.csv`: the per-link counters.
 pub fn write_links(w: &mut impl Write, links: &[LinkSummary]) -> io::Result<()> {
-    writeln!(w, "from,to,sent,delivered,lost,lost_random,lost_down,late,duplicated,corrupted,loss_rate,mean_loss_run,longest_loss_run")?;
+    use super::trace::num;
+    let opt = |v: Option<f64>| v.map_or(String::new(), num);
+    writeln!(w, "from,to,sent,delivered,late,corrupted,lost,lost_random,lost_down,duplicated,loss_rate,arrival_rate,mean_loss_run,longest_loss_run")?;
     for l in links {
         writeln!(
             w,
-            "{},{},{},{},{},{},{},{},{},{},{},{:.4},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             l.from,
             l.to,
             l.sent,
             l.delivered,
+            l.late,
+            l.corrupted,
             l.lost,
             l.lost_random,
             l.lost_down,
-            l.late,
             l.duplicated,
-            l.corrupted,
-            l.loss_rate.map_or(String::new(), |x| format!("{x:.6}")),
-            l.mean_loss_run,
+            opt(l.loss_rate),
+            opt(l.arrival_rate),
+            num(l.mean_loss_run),
             l.longest_loss_run
         )?;
     }

@@ -250,6 +250,8 @@ pub struct Topology {
     pub nodes: Vec<NodeConfig>,
     pub links: Vec<DirectedLink>,
     pub faults: FaultSchedule,
+    /// The overrides applied since the file was read (the last value of each wins).
+    pub applied: Overrides,
 }
 
 impl Topology {
@@ -384,22 +386,36 @@ impl Topology {
     }
 }
 
-/// Command-line overrides applied on top of a file.
-#[derive(Debug, Clone, Default)]
+/// Command-line overrides applied on top of a file (as `summary.json` records them: unset ones left out).
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct Overrides {
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub loss: Option<LossModel>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub delay_ms: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub jitter_ms: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub duplicate: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub corrupt: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub duration_s: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub rate_hz: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub seed: Option<u64>,
 }
 
 impl Topology {
     /// CLI link options replace the value on every link (file defaults and per-edge overrides alike).
     pub fn apply(&mut self, o: &Overrides) {
+        let a = &mut self.applied;
+        macro_rules! keep {
+            ($($f:ident),*) => { $( if o.$f.is_some() { a.$f = o.$f; } )* };
+        }
+        keep!(loss, delay_ms, jitter_ms, duplicate, corrupt, duration_s, rate_hz, seed);
         for l in &mut self.links {
             if let Some(loss) = o.loss {
                 l.config.loss = loss;
@@ -657,6 +673,7 @@ impl Validator {
             sim,
             model,
             consensus,
+            applied: Overrides::default(),
             nodes,
             links,
             faults,

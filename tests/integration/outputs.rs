@@ -189,3 +189,90 @@ fn ctrl_c_keeps_partial_results_and_exits_130() {
     assert!(!tmp_trace.exists());
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn result_files_say_how_they_were_made_and_their_counts_add_up() {
+    let d = tmp("provenance");
+    let o = simnet()
+        .args([
+            "-t",
+            "ring3",
+            "--loss",
+            "0.3",
+            "--duplicate",
+            "0.05",
+            "--duration",
+            "6",
+            "--seed",
+            "7",
+            "-q",
+            "--out",
+        ])
+        .arg(&d)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["simnet_version"], env!("CARGO_PKG_VERSION"));
+    let set = &s["settings"];
+    assert_eq!(set["overrides"]["duration_s"], 6.0);
+    assert_eq!(set["overrides"]["seed"], 7);
+    assert_eq!(set["overrides"]["loss"]["p"], 0.3);
+    assert!(
+        set["overrides"].get("delay_ms").is_none(),
+        "unset overrides are left out"
+    );
+    assert_eq!(set["duration_s"], 6.0);
+    assert_eq!(set["links"].as_array().unwrap().len(), 6);
+    assert_eq!(set["links"][0]["loss"]["model"], "bernoulli");
+    assert_eq!(set["links"][0]["duplicate"], 0.05);
+    let steps = s["steps"].as_u64().unwrap();
+    for l in s["links"].as_array().unwrap() {
+        let n = |k: &str| l[k].as_u64().unwrap();
+        assert_eq!(
+            n("sent"),
+            n("delivered") + n("late") + n("corrupted") + n("lost"),
+            "{l}"
+        );
+        assert!(n("duplicated") > 0);
+        // One datagram per step (no split channels): γ is the delivered fraction, 1 − 0.3 within 3σ.
+        let gamma = l["arrival_rate"].as_f64().unwrap();
+        let sigma = (0.3f64 * 0.7 / steps as f64).sqrt();
+        assert!((gamma - 0.7).abs() < 3.0 * sigma, "γ = {gamma}");
+        assert!((gamma - n("delivered") as f64 / n("sent") as f64).abs() < 1e-9, "{l}");
+    }
+    let links = std::fs::read_to_string(d.join("links.csv")).unwrap();
+    assert!(links.lines().next().unwrap().contains(",arrival_rate,"));
+    let trace = std::fs::read_to_string(d.join("trace.csv")).unwrap();
+    let header: Vec<&str> = trace.lines().next().unwrap().split(',').collect();
+    for c in ["estimator", "var_x", "var_yaw", "error", "diverged"] {
+        assert!(header.contains(&c), "{c} missing from {header:?}");
+    }
+    assert!(!header.contains(&"filter"), "`filter` shadows DataFrame.filter");
+    // The error column is the distance the node scored (position error for pose).
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    for line in trace.lines().skip(1).filter(|l| l.contains(",networked,")).take(50) {
+        let f: Vec<&str> = line.split(',').collect();
+        let v = |name: &str| f[col(name)].parse::<f64>().unwrap();
+        let e = ((v("true_x") - v("est_x")).powi(2)
+            + (v("true_y") - v("est_y")).powi(2)
+            + (v("true_z") - v("est_z")).powi(2))
+        .sqrt();
+        assert!((e - v("error")).abs() <= 1e-12 * e.max(1.0), "{line}");
+        assert!(v("var_x") > 0.0);
+    }
+    let _ = std::fs::remove_dir_all(&d);
+
+    // A linear model's huge states in shortest round-trip form, not 94 fixed-point digits.
+    let d = tmp("linear-numbers");
+    let o = simnet()
+        .args(["-t", "sinopoli-scalar", "--duration", "20", "-q", "--out"])
+        .arg(&d)
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let trace = std::fs::read_to_string(d.join("trace.csv")).unwrap();
+    let longest = trace.lines().flat_map(|l| l.split(',')).map(str::len).max().unwrap();
+    assert!(longest <= 24, "a cell of {longest} characters");
+    let _ = std::fs::remove_dir_all(&d);
+}
