@@ -914,15 +914,24 @@ fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
         .unwrap_or_else(|| link_loss.map_or(0.5, |l| 1.0 - l.stationary_loss()));
     let rho = spectral_radius(&A).ok_or_else(|| anyhow::anyhow!("the eigenvalues of A did not converge"))?;
     let lmin = lambda_min(&A).unwrap_or(f64::NAN);
-    let lbar = critical_upper(&A, &C, &Q, &R, 1e-6)?;
+    let crit = critical_upper(&A, &C, &Q, &R, 1e-6)?;
+    let lbar = crit.value();
     println!("system: {} states, {} outputs; ρ(A) = {rho:.6}", A.nrows(), C.nrows());
     println!("λ_min = {lmin:.6}   (1 − 1/ρ(A)²: below it the expected covariance diverges)");
-    if lbar.is_finite() {
+    if !lbar.is_finite() {
+        println!("λ̄     = ∞   (even without loss the filter is unstable: an undetectable unstable mode)");
+    } else if crit.lo == crit.hi {
+        println!("λ̄     = {lbar:.6}   (C is invertible: λ̄ = λ_min exactly, Sinopoli et al. Thm. 6)");
+    } else if crit.to_tolerance {
         println!(
-            "λ̄     = {lbar:.6}   (the MARE has a fixed point above it: bisection on the iteration from 0, to 1e-6)"
+            "λ̄     ∈ ({:.7}, {:.7}]   (bisection: the MARE iteration from 0 diverges at the left end, converges at the right)",
+            crit.lo, crit.hi
         );
     } else {
-        println!("λ̄     = ∞   (even without loss the filter is unstable: an undetectable unstable mode)");
+        println!(
+            "λ̄     ∈ ({:.7}, {:.7}]   (bisection stopped where the MARE iteration neither converged nor diverged in {:.0e} steps: this is the precision reached)",
+            crit.lo, crit.hi, crate::estimate::bounds::MAX_ITER as f64
+        );
     }
     let measure = |l: f64| -> anyhow::Result<Option<f64>> {
         let Some(t) = &topo else { return Ok(None) };
@@ -956,18 +965,34 @@ fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
             .collect();
         Ok((!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64))
     };
-    let at = |l: f64| -> anyhow::Result<(Option<f64>, Option<f64>)> {
-        let s = lower_bound(&A, &Q, l)?.matrix().map(|m| m.trace());
-        let v = upper_bound(&A, &C, &Q, &R, l)?.matrix().map(|m| m.trace());
-        Ok((s, v))
+    use crate::estimate::bounds::FixedPoint;
+    let at = |l: f64| -> anyhow::Result<(FixedPoint, FixedPoint)> {
+        Ok((lower_bound(&A, &Q, l)?, upper_bound(&A, &C, &Q, &R, l)?))
     };
-    let fmt = |v: Option<f64>| v.map_or("∞ (no fixed point)".to_string(), |x| format!("{x:.4}"));
-    let (s, v) = at(lambda)?;
-    print!("λ = {lambda}: trace S̄ = {}, trace V̄ = {}", fmt(s), fmt(v));
+    let fmt = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{x:.4}"));
+    let fmt_fp = |v: &FixedPoint| match v {
+        FixedPoint::Converged(m) => format!("{:.4}", m.trace()),
+        FixedPoint::Diverged => "∞ (no fixed point)".into(),
+        FixedPoint::Undecided => "not reached (the iteration still creeps: at the edge of stability)".into(),
+    };
+    let trace_of = |v: &FixedPoint| v.matrix().map(|m| m.trace());
+    let (sf, vf) = at(lambda)?;
+    let (s, v) = (trace_of(&sf), trace_of(&vf));
+    let bursty = matches!(link_loss, Some(LossModel::GilbertElliott { .. }));
+    print!(
+        "λ = {lambda}{}: trace S̄ = {}, trace V̄ = {}",
+        if bursty {
+            " (i.i.d. arrivals at the link's mean rate: NOT bounds for its bursty loss)"
+        } else {
+            ""
+        },
+        fmt_fp(&sf),
+        fmt_fp(&vf)
+    );
     if args.measure && !args.sweep {
         let m = measure(lambda)?;
         print!(", measured mean trace P_(k|k−1) = {}", fmt(m));
-        if let (Some(s), Some(v), Some(m)) = (s, v, m) {
+        if let (Some(s), Some(v), Some(m), false) = (s, v, m, bursty) {
             print!(
                 " ({})",
                 if s <= m && m <= v {
@@ -980,17 +1005,22 @@ fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
     }
     println!();
     if let Some(LossModel::GilbertElliott {
+        p,
         r,
         one_minus_h,
         one_minus_k,
-        ..
     }) = link_loss
     {
-        if let Some((lhs, ok)) = markov_condition(&A, r, one_minus_h) {
+        if let Some((lhs, decay, ok)) = markov_condition(&A, p, r, one_minus_h, one_minus_k) {
+            let exact = A.nrows() == 1 || (C.is_square() && C.clone().try_inverse().is_some());
             println!(
-                "Gilbert–Elliott link (r = {r}, 1−h = {one_minus_h}, 1−k = {one_minus_k}): burst condition (1−r)(1−h)ρ(A)² = {lhs:.4} {} 1 → {}",
+                "Gilbert–Elliott link (p = {p}, r = {r}, 1−h = {one_minus_h}, 1−k = {one_minus_k}): loss runs decay at ρ(T·diag(1−k, 1−h)) = {decay:.4} per step; ρ(A)²·{decay:.4} = {lhs:.4} {} 1 → {}",
                 if ok { "<" } else { "≥" },
-                if ok { "satisfied: the peak covariance stays bounded (Huang & Dey 2007)" } else { "NOT satisfied: bursts outgrow the recoveries" }
+                match (ok, exact) {
+                    (true, true) => "satisfied: the expected covariance stays bounded (necessary and sufficient here: scalar or C invertible; You, Fu & Xie 2011)",
+                    (true, false) => "satisfied, but only necessary for this system (Huang & Dey 2007): boundedness is not shown",
+                    (false, _) => "NOT satisfied: the expected covariance diverges (Huang & Dey 2007)",
+                }
             );
         }
     }
@@ -1004,13 +1034,19 @@ fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
         let mut rows = Vec::new();
         println!("\n{:>8} {:>12} {:>12} {:>12}", "λ", "trace S̄", "trace V̄", "measured");
         for l in grid {
-            let (s, v) = at(l)?;
+            let (sf, vf) = at(l)?;
+            let (s, v) = (trace_of(&sf), trace_of(&vf));
             let m = if args.measure { measure(l)? } else { None };
+            let cell = |f: &FixedPoint| match f {
+                FixedPoint::Converged(m) => format!("{:.4}", m.trace()),
+                FixedPoint::Diverged => "∞".into(),
+                FixedPoint::Undecided => "not reached".into(),
+            };
             println!(
                 "{:>8.4} {:>12} {:>12} {:>12}",
                 l,
-                fmt(s),
-                fmt(v),
+                cell(&sf),
+                cell(&vf),
                 m.map_or("—".into(), |x| format!("{x:.4}"))
             );
             rows.push((l, s, v, m));
