@@ -1,5 +1,5 @@
 //! Euler ZYX attitude: rotation matrix, its partial derivatives and the angle-rate kinematics of eq. (3) of the
-//! consensus seed. Angles are stored as [roll φ, pitch θ, yaw ψ] with R = Rz(ψ) Ry(θ) Rx(φ) (body to navigation).
+//! Sequeira (2023). Angles are stored as [roll φ, pitch θ, yaw ψ] with R = Rz(ψ) Ry(θ) Rx(φ) (body to navigation).
 
 use nalgebra::{Matrix3, Vector3};
 use std::f64::consts::PI;
@@ -53,7 +53,7 @@ pub fn body_rates(e: &Vector3<f64>, de: &Vector3<f64>) -> Vector3<f64> {
     )
 }
 
-/// Euler-angle rates from body rates ω = (p, q, r): eq. (3) of the consensus seed.
+/// Euler-angle rates from body rates ω = (p, q, r): eq. (3) of Sequeira (2023).
 pub fn euler_rates(e: &Vector3<f64>, w: &Vector3<f64>) -> Vector3<f64> {
     let (sf, cf) = e[0].sin_cos();
     let (st, ct) = e[1].sin_cos();

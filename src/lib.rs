@@ -4,7 +4,7 @@
 //!
 //! # Layout
 //!
-//! The modules follow one step of data (DESIGN §1). Everything except `net` and `cli` is pure: no sockets, no
+//! The modules follow one step of data. Everything except `net` and `cli` is pure: no sockets, no
 //! clocks, randomness from seeded streams.
 //!
 //! | module | owns |
@@ -16,7 +16,7 @@
 //! | [`wire`] | the datagram format: postcard + CRC-32, checked decode |
 //! | [`link`] | per-datagram verdicts: Bernoulli / Gilbert–Elliott loss, delay, jitter, duplication, corruption, fault schedules |
 //! | [`node`] | one node's sans-IO state machine: `handle_step`, `handle_datagram`, `handle_deadline`, `poll_transmit`; pose, attitude (linearised about each prior) and linear models; simulated or recorded IMU |
-//! | [`protocol`] | β protocol search over whole in-memory runs: the seed's family by bisection on (17)/(19); all β by SDP (feature `sdp`) |
+//! | [`protocol`] | β protocol search over whole in-memory runs: the paper's family by bisection on (17)/(19); all β by SDP (feature `sdp`) |
 //! | [`reconstruct`] | position from a recorded IMU file as a boundary value problem (FEM), trapezoid for comparison, sensor-error model |
 //! | [`reproduce`] | the source documents' experiments rerun: claims tables with simnet's figures, and plots |
 //! | [`report`] | metrics, `summary.json`, the table, `trace.csv`, `links.csv`, SVG plots |

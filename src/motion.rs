@@ -10,7 +10,7 @@ use crate::geom::body_rates;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Trajectory {
-    /// Helix: radius 2 m, one turn per 10 s, climbing 0.1 m/s (the seed's spiral).
+    /// Helix: radius 2 m, one turn per 10 s, climbing 0.1 m/s (the paper's spiral).
     Spiral,
     /// The helix without the climb.
     Circle,
@@ -18,7 +18,7 @@ pub enum Trajectory {
     Line,
     /// Still.
     Rest,
-    /// Two straight trunks joined by a 2 s blend (the seed's piecewise-linear trajectory, §6).
+    /// Two straight trunks joined by a 2 s blend (the paper's piecewise-linear trajectory, §6).
     Piecewise,
     /// Lissajous figure-8, 6 m × 3 m, 20 s per lap.
     Figure8,

@@ -1,4 +1,4 @@
-//! Position from a recorded IMU file as a boundary value problem (Nieminen et al., `seeds/002` §4–5): the specific
+//! Position from a recorded IMU file as a boundary value problem (Nieminen et al., Nieminen et al. (2010) §4–5): the specific
 //! force is rotated into the navigation frame (with the file's reference attitude when it has one, as the paper
 //! assumes; otherwise by integrating the gyro), gravity is added, and each axis is solved by FEM with the given ends.
 //! The trapezoid rule from the start is the comparison. The optional error model fits a scale and a bias per body

@@ -19,10 +19,10 @@ pub struct SensorProfile {
     /// Constant offsets, m/s² and rad/s.
     pub accel_bias: [f64; 3],
     pub gyro_bias: [f64; 3],
-    /// Wiener drift per step: a_offset_k = a_offset_k−1 + drift·randn (the seed's §2.1 uses 0.05 on x).
+    /// Wiener drift per step: a_offset_k = a_offset_k−1 + drift·randn (the paper's §2.1 uses 0.05 on x).
     pub accel_drift: [f64; 3],
     pub gyro_drift: [f64; 3],
-    /// Pose-fix noise variances (seed §2.2: N(0, 0.01) position, N(0, 0.001) orientation).
+    /// Pose-fix noise variances (paper §2.2: N(0, 0.01) position, N(0, 0.001) orientation).
     pub pos_noise: f64,
     pub att_noise: f64,
     /// Magnetometer noise variance per sample, in the squared unit of `model.mag_field` (attitude model).

@@ -58,7 +58,7 @@ pub enum Command {
     Compose(ComposeArgs),
     /// Covariance bounds of a linear model under intermittent observations (Sinopoli et al.): λ_min, λ̄, S̄, V̄.
     Bounds(BoundsArgs),
-    /// Find β weights that keep (17) and (19) feasible along a run with the most useful exchange (consensus seed §5).
+    /// Find β weights that keep (17) and (19) feasible along a run with the most useful exchange (Sequeira (2023) §5).
     Protocol(protocol::ProtocolArgs),
     /// Rerun a source document's experiments: a table of its claims with simnet's figures, and the plots.
     #[command(subcommand)]

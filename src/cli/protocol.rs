@@ -24,7 +24,7 @@ pub enum ObjectiveArg {
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum SolverArg {
-    /// The seed's one-parameter family, bisection with the direct checks (pure Rust).
+    /// The paper's one-parameter family, bisection with the direct checks (pure Rust).
     Family,
     /// All β by Clarabel's PSD cones, most exchanged weight (needs a build with `--features sdp`).
     Sdp,

@@ -15,14 +15,14 @@ use crate::topology::Topology;
 
 #[derive(Subcommand, Debug, Clone)]
 pub enum Paper {
-    /// The consensus IMU network (seeds/000): dead reckoning, independent nodes, both protocols, feasibility, drift,
+    /// The consensus IMU network (Sequeira 2023): dead reckoning, independent nodes, both protocols, feasibility, drift,
     /// fusion.
     Sequeira(SequeiraArgs),
-    /// Attitude with data loss (seeds/004): the quaternion EKF, standard and square-root, in the slides' scenario.
+    /// Attitude with data loss (Lesecq 2009): the quaternion EKF, standard and square-root, in the slides' scenario.
     Lesecq(LesecqArgs),
-    /// Two IMUs on one rigid body (seeds/001): the Monte Carlo of dead reckoning, averaged pair and constrained EKF.
+    /// Two IMUs on one rigid body (the rigid-pair paper): the Monte Carlo of dead reckoning, averaged pair and constrained EKF.
     RigidPair(RigidPairArgs),
-    /// Boundary-value reconstruction (seeds/002): the rate-table example, trapezoid against FEM against FEM with the
+    /// Boundary-value reconstruction (Nieminen et al. 2010): the rate-table example, trapezoid against FEM against FEM with the
     /// sensor-error model.
     Nieminen(NieminenArgs),
 }
@@ -130,7 +130,7 @@ pub fn reproduce(paper: &Paper, quiet: bool) -> anyhow::Result<ExitCode> {
         pb.finish_and_clear();
     }
     let title = format!(
-        "Sequeira et al., networks of IMUs (seeds/000): claims and simnet's figures ({} seeds)",
+        "Sequeira et al., networks of IMUs (Sequeira 2023): claims and simnet's figures ({} seeds)",
         cfg.seeds.len()
     );
     finish(&args.out, &title, &out.claims, &out.plots)
@@ -148,7 +148,7 @@ fn lesecq(args: &LesecqArgs) -> anyhow::Result<ExitCode> {
     let seeds: Vec<u64> = (1..=args.seeds).collect();
     let out = lesecq::run(&cfg, &seeds)?;
     let title = format!(
-        "Lesecq, sensor fusion with intermittent data (seeds/004): attitude with {:.0} % loss ({} seeds)",
+        "Lesecq, sensor fusion with intermittent data (Lesecq 2009): attitude with {:.0} % loss ({} seeds)",
         args.loss * 100.0,
         seeds.len()
     );
@@ -218,7 +218,7 @@ fn rigid_pair(args: &RigidPairArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         &args.out.join("results.json"),
         serde_json::to_string_pretty(&results)?.as_bytes(),
     )?;
-    let title = "Two IMUs on a rigid body (seeds/001): claims and simnet's figures";
+    let title = "Two IMUs on a rigid body (the rigid-pair paper): claims and simnet's figures";
     finish(&args.out, title, &rigid_pair::claims(&results), &[])
 }
 
@@ -242,6 +242,6 @@ fn nieminen(args: &NieminenArgs) -> anyhow::Result<ExitCode> {
         &args.out.join("results.json"),
         serde_json::to_string_pretty(&out.results)?.as_bytes(),
     )?;
-    let title = "Nieminen et al., boundary conditions for inertial navigation (seeds/002): claims and simnet's figures";
+    let title = "Nieminen et al., boundary conditions for inertial navigation (Nieminen et al. 2010): claims and simnet's figures";
     finish(&args.out, title, &out.claims, &out.plots)
 }

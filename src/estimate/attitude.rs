@@ -1,4 +1,4 @@
-//! Quaternion attitude EKF of Lesecq's slides (`seeds/004`): prediction from the gyro with A_t = exp(½ Ω(ω) Tₑ) and
+//! Quaternion attitude EKF of Lesecq's slides (Lesecq 2009): prediction from the gyro with A_t = exp(½ Ω(ω) Tₑ) and
 //! Q_t = (Tₑ²/4) Ξ(q̂) R_g Ξ(q̂)ᵀ + (Tₑ²/4) Y [R_g ⊗ P] Yᵀ; correction from the accelerometer b_a = C(q)(a − g) and
 //! magnetometer b_m = C(q) h, with per-channel loss R̄ = M R M (M(i,i) = λ for a missing channel), in the standard
 //! form and in the factorised (square-root, QR) form of the slides.

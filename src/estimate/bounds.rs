@@ -214,7 +214,7 @@ mod tests {
         [-1.25, 1.0, 1.0, 2.5].map(|v| DMatrix::from_element(1, 1, v))
     }
 
-    /// Sinopoli et al.'s scalar example (`../shared/REFERENCE.md`).
+    /// Sinopoli et al.'s scalar example (Sinopoli et al. 2004, §VI).
     #[test]
     fn scalar_example_matches_the_published_values() {
         let [A, C, Q, R] = scalar();

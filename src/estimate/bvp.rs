@@ -1,4 +1,4 @@
-//! Position as a boundary value problem (Nieminen et al., `seeds/002`): x'' = a on [t₀, t_N] with hat functions on
+//! Position as a boundary value problem (Nieminen et al., Nieminen et al. (2010)): x'' = a on [t₀, t_N] with hat functions on
 //! the sample times (Galerkin). The weak form ∫x'φ' = −∫aφ + [x'φ] gives K x = −M a + e_N v(t_N) − e₀ v(t₀), K
 //! tridiagonal SPD (eq. 16), solved in linear time; a Dirichlet end (known position) is moved to the right-hand side
 //! and a Neumann end (known velocity) adds its term (§3). §5's sensor-error model writes the corrected acceleration

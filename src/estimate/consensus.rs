@@ -1,4 +1,4 @@
-//! The β-weighted consensus update of the consensus seed, eqs. (5)–(10), and its feasibility conditions (17), (19).
+//! The β-weighted consensus update of Sequeira (2023), eqs. (5)–(10), and its feasibility conditions (17), (19).
 //!
 //! With β₀ = 0 and one measurement of weight 1 it is exactly the Kalman update: z̃ = z − ẑ, P̄ = 0 and
 //! P = P − K S Kᵀ.
@@ -179,7 +179,7 @@ pub fn consensus_update(
 }
 
 /// The LMI guard around [`consensus_update`]: when (17) or (19) fails, or the update itself fails, the node uses the
-/// independent update this step — the seed's practical rule (§5) — a Joseph-form Kalman update with `fallback` (the
+/// independent update this step — the paper's practical rule (§5) — a Joseph-form Kalman update with `fallback` (the
 /// node's own measurement, or, for a node without one, its highest-weight source). Returns the posterior and whether
 /// the consensus update was used.
 #[allow(clippy::too_many_arguments)]

@@ -1,6 +1,6 @@
 //! Covariance intersection (Julier–Uhlmann): P⁻¹ = ω P₁⁻¹ + (1 − ω) P₂⁻¹, x = P (ω P₁⁻¹ x₁ + (1 − ω) P₂⁻¹ x₂),
-//! cascaded over nodes as in §7 of the consensus seed, with a fixed ω or the ω that minimises trace P; and the
-//! sliding median filter the seed applies to the fused trajectory.
+//! cascaded over nodes as in §7 of Sequeira (2023), with a fixed ω or the ω that minimises trace P; and the
+//! sliding median filter Sequeira (2023, §7) applies to the fused trajectory.
 
 use super::{cholesky, symmetrize, wrap_rows, EstimateError, Gaussian};
 

@@ -1,5 +1,5 @@
 //! The Kalman update in Joseph form, with the intermittent and per-channel treatment of missing data
-//! (Lesecq's slides, `seeds/004`): nothing arrived → prediction only; a channel missing from every source →
+//! (Lesecq's slides, Lesecq (2009)): nothing arrived → prediction only; a channel missing from every source →
 //! R̄ᵢᵢ = λ² Rᵢᵢ (equal to dropping the row when R is diagonal), or its row dropped when R is correlated.
 
 use nalgebra::{DMatrix, DVector};
@@ -85,7 +85,7 @@ pub fn effective_observation(
     }
 }
 
-/// Standard Kalman update (Joseph form, eq. (11) of the consensus seed) with the rows flagged in `present`;
+/// Standard Kalman update (Joseph form, eq. (11) of Sequeira (2023)) with the rows flagged in `present`;
 /// with no row present it returns the prior (intermittent observation, γ = 0).
 pub fn kalman_update(
     prior: &Gaussian,

@@ -1,5 +1,5 @@
 //! Estimation, pure and allocation-light: Kalman prediction and update (Joseph form), intermittent and per-channel
-//! handling, the β-weighted consensus update of the consensus seed (eqs. 5–10) with its LMI conditions (17) and (19),
+//! handling, the β-weighted consensus update of Sequeira (2023) (eqs. 5–10) with its LMI conditions (17) and (19),
 //! covariance intersection, NEES; the quaternion attitude EKF of Lesecq's slides in standard and square-root form.
 #![allow(non_snake_case)]
 

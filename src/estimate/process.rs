@@ -1,4 +1,4 @@
-//! Prediction (eq. (4) of the consensus seed): x_{k|k−1} = f(x_{k−1|k−1}), P_{k|k−1} = F P Fᵀ + Q.
+//! Prediction (eq. (4) of Sequeira (2023)): x_{k|k−1} = f(x_{k−1|k−1}), P_{k|k−1} = F P Fᵀ + Q.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector4};
 

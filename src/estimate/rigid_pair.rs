@@ -1,4 +1,4 @@
-//! Two IMUs on one rigid body (`seeds/001`): stage one estimates the body's orientation (gyro integration, corrected
+//! Two IMUs on one rigid body (the rigid-pair paper, IEEE Sensors 2011): stage one estimates the body's orientation (gyro integration, corrected
 //! toward the accelerometer's tilt when quasi-static); stage two is an EKF over both sensors' positions and
 //! velocities, driven by their accelerometers, whose observation is the known body-frame separation rotated into the
 //! global frame, z = [R d; ‖d‖] = [p₂ − p₁; ‖p₂ − p₁‖], with the Jacobian of the norm.

@@ -30,7 +30,7 @@ pub enum LossModel {
 }
 
 impl LossModel {
-    /// Target loss L and mean burst B: r = 1/B, p = L·r/(1−L), 1−h = 1, 1−k = 0 (DESIGN §5).
+    /// Target loss L and mean burst B: r = 1/B, p = L·r/(1−L), 1−h = 1, 1−k = 0.
     pub fn gilbert_elliott_from(loss: f64, burst: f64) -> Result<LossModel, String> {
         if !(0.0..1.0).contains(&loss) {
             return Err(format!("loss must be in [0, 1) for gilbert-elliott, got {loss}"));

@@ -88,7 +88,7 @@ pub struct RunOutput {
 }
 
 impl RunOutput {
-    /// The run's summary (DESIGN §7).
+    /// The run's summary.
     pub fn summary(&self, topo: &Topology, clock: Clock) -> crate::report::summary::Summary {
         crate::report::summary::Summary::build(
             topo,

@@ -3,7 +3,7 @@
 //! Output: `poll_transmit(now)` hands out datagrams whose simulated delivery time has come.
 //!
 //! A node holds two filters fed by the same IMU: the networked one (consensus over whatever arrived, LMI-guarded)
-//! and the independent twin that uses only the node's own measurement — the baseline of the consensus seed.
+//! and the independent twin that uses only the node's own measurement — the baseline of Sequeira (2023).
 #![allow(non_snake_case)]
 
 mod truth;
@@ -437,7 +437,7 @@ impl Node {
     }
 
     /// The prior a (re)started filter begins from. Pose: the truth perturbed by N(0, P₀) from the node's own stream
-    /// (the seed's "initial unfiltered estimate"); attitude: the true Euler angles perturbed likewise; linear: the
+    /// (the paper's "initial unfiltered estimate"); attitude: the true Euler angles perturbed likewise; linear: the
     /// model's x₀, P₀, from which the truth itself is drawn. Where a recording has no reference: the origin at rest,
     /// and the attitude levelled from the accelerometer and magnetometer.
     fn initial_estimate(&self, restart: u64, k: u64) -> Gaussian {

@@ -1,4 +1,4 @@
-//! The β protocol search of the consensus seed §5: start from independent nodes, increase the weight each node gives
+//! The β protocol search of Sequeira (2023) §5: start from independent nodes, increase the weight each node gives
 //! its neighbours' measurements, and keep (17) and (19) feasible at every step of a run.
 //!
 //! The family (default build): node i with d in-neighbours gets βᵢⱼ = u per neighbour and βᵢᵢ = 1 − d·u until the
@@ -10,7 +10,7 @@
 //! machines the sockets drive), on several seeds: a protocol is feasible when no node's guard rejected a single
 //! update on any seed. The feasibility boundary along the family is found by bisection between the grid points that
 //! bracket it. Among feasible protocols the search returns the one with the most exchanged weight
-//! whose mean error (over nodes and seeds) is within [`ERROR_TIE`] of the lowest ([`Objective::Error`]: the seed's "optimization
+//! whose mean error (over nodes and seeds) is within [`ERROR_TIE`] of the lowest ([`Objective::Error`]: the paper's "optimization
 //! problem on the space of the feasible β", with its Figs. 9b/11b as the objective), or simply the one with the most
 //! exchanged weight ([`Objective::Exchange`]). With the `sdp` feature,
 //! the `sdp` module searches all β, not only the family, for the most exchanged weight.

@@ -6,11 +6,11 @@
 //!   [[D + Σ βⱼ Fⱼ, Σ βⱼ K z̃ⱼ], [·ᵀ, 1]] ≻ 0 — exact and convex in β;
 //! - (17) −I ≺ Z ≺ I with Z = e^{γk}/α (−A − C + Σ βⱼ Fⱼ): the lower side is the same Schur form with P replaced by
 //!   I·α e^{−γk}; the upper side I·α e^{−γk} + A − Σ βⱼ Fⱼ + C ≻ 0 is not convex in β, and dropping C ⪰ 0 gives the
-//!   convex inner approximation I·α e^{−γk} + A − Σ βⱼ Fⱼ ⪰ 0 (the seed's "relaxation by scaling terms", §3).
+//!   convex inner approximation I·α e^{−γk} + A − Σ βⱼ Fⱼ ⪰ 0 (the paper's "relaxation by scaling terms", §3).
 //!
 //! Every solution therefore satisfies the exact conditions. Steps enter by constraint generation: solve, check every
 //! recorded step directly ([`crate::estimate::LmiTerms::check`]), add the worst violated steps, solve again.
-//! Linear constraints: 0 ≤ βᵢⱼ ≤ βᵢᵢ ≤ 1 (each node privileges its own measurement, as the seed's protocols do)
+//! Linear constraints: 0 ≤ βᵢⱼ ≤ βᵢᵢ ≤ 1 (each node privileges its own measurement, as the paper's protocols do)
 //! and Σⱼ βᵢⱼ ≤ σ.
 
 #![allow(non_snake_case)]

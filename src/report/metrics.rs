@@ -1,4 +1,4 @@
-//! Running statistics of one filter, and the per-link figures, as written to `summary.json` (DESIGN §7).
+//! Running statistics of one filter, and the per-link figures, as written to `summary.json`.
 
 use serde::{Deserialize, Serialize};
 

@@ -1,6 +1,6 @@
 //! The observer side of a run: covariance-intersection fusion of the nodes' networked estimates each step
-//! (cascaded, ω = 0.5 as §7 of the consensus seed, and the trace-optimal ω), a 20-sample median filter on the
-//! fused trajectory, and their figures. The median is centred (samples k−10 … k+9), as the seed smooths an offline
+//! (cascaded, ω = 0.5 as §7 of Sequeira (2023), and the trace-optimal ω), a 20-sample median filter on the
+//! fused trajectory, and their figures. The median is centred (samples k−10 … k+9), as Sequeira (2023, §7) smooths an offline
 //! reconstruction: a causal median would trail a moving package by half its window.
 
 use nalgebra::DVector;

@@ -660,7 +660,7 @@ pub fn covariance_bounds(
 /// One protocol on the exchange plot: (exchanged weight, mean error, worst-seed error, feasible).
 pub type ProtocolPoint = (f64, f64, f64, bool);
 
-/// Mean error against exchanged weight (the consensus seed's Figs. 9b/11b), with the independent filters' error,
+/// Mean error against exchanged weight (Sequeira's Figs. 9b/11b), with the independent filters' error,
 /// the topology's own protocol, the chosen one and the LMI boundary.
 pub fn protocol_curve(
     curve: &[ProtocolPoint],

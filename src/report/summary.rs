@@ -1,4 +1,4 @@
-//! `summary.json` (DESIGN §7), the stdout table, `trace.csv` and `links.csv`.
+//! `summary.json`, the stdout table, `trace.csv` and `links.csv`.
 
 use std::io::{self, Write};
 

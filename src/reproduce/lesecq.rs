@@ -1,4 +1,4 @@
-//! `simnet reproduce lesecq`: the attitude scenario of Lesecq's slides (`seeds/004`, "Estimation over a network:
+//! `simnet reproduce lesecq`: the attitude scenario of Lesecq's slides (Lesecq (2009), "Estimation over a network:
 //! application"): 20 % loss on the accelerometer and magnetometer, the reference going from [−25, −30, −10]° through
 //! [0, 0, 0] (at t = 3 s) to [10, 4, 15]°, the filter started at [−9.7, 5.4, 57.6]°. The slides give the sequence,
 //! not the timing: here each attitude holds for `segment_s` (3 s) and the moves between them take 0.3 s (a

@@ -1,4 +1,4 @@
-//! `simnet reproduce nieminen`: the rate-table example of the boundary-value paper (`seeds/002`, §6, Table 1). An
+//! `simnet reproduce nieminen`: the rate-table example of the boundary-value paper (Nieminen et al. (2010), §6, Table 1). An
 //! accelerometer on a turntable measures the tangential acceleration r·α(t); the table spins `spins` times with the
 //! rate profile ω = ω_max sin²(π τ/T_s), at rest before and after. Three methods give velocity and position along the
 //! arc: I, double integration by the trapezoid rule (known start); II, FEM with Dirichlet conditions (known positions

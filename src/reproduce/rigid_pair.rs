@@ -1,4 +1,4 @@
-//! `simnet reproduce rigid-pair`: the Monte Carlo of the two-IMU paper (`seeds/001`): 30 s at 2 m/s sampled at
+//! `simnet reproduce rigid-pair`: the Monte Carlo of the two-IMU paper (the rigid-pair paper, IEEE Sensors 2011): 30 s at 2 m/s sampled at
 //! 50 Hz, circular, linear and rest motions; each run compares dead reckoning of each sensor, the averaged pair
 //! (each sensor's track and the other's shifted by the rotated separation, averaged) and the constrained EKF.
 //!

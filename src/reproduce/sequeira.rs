@@ -1,4 +1,4 @@
-//! `simnet reproduce sequeira`: the experiments of the consensus seed (`seeds/000`), claim by claim.
+//! `simnet reproduce sequeira`: the experiments of Sequeira (2023) (Sequeira 2023), claim by claim.
 //!
 //! - §2.1 (Figs. 2–3): dead reckoning of the spiral from the IMU alone, without drift and with the Wiener drift
 //!   a_offset_k = a_offset_k−1 + 0.05·randn on x, then on every axis;
@@ -24,7 +24,7 @@ use crate::rng;
 use crate::sensor::{Sensor, SensorProfile};
 use crate::topology::Topology;
 
-/// The seed's drift: 0.05·randn per step on the acceleration.
+/// The paper's drift: 0.05·randn per step on the acceleration.
 pub const DRIFT: f64 = 0.05;
 
 pub struct Config {

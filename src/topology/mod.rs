@@ -119,7 +119,7 @@ impl SimConfig {
     }
 }
 
-/// Process and observation noise of the pose EKF (variances per step), §2.2 of the consensus seed.
+/// Process and observation noise of the pose EKF (variances per step), §2.2 of Sequeira (2023).
 #[derive(Debug, Clone)]
 pub struct PoseModel {
     /// Extra process noise on top of what the IMU noise densities imply (unmodelled effects).
@@ -145,7 +145,7 @@ pub struct LinearModel {
     pub P0: DMatrix<f64>,
 }
 
-/// The quaternion attitude EKF of Lesecq's slides (`seeds/004`): the gyro drives the prediction, the accelerometer
+/// The quaternion attitude EKF of Lesecq's slides (Lesecq 2009): the gyro drives the prediction, the accelerometer
 /// (channel 0) and the magnetometer (channel 1) are the measurements that travel over the network.
 #[derive(Debug, Clone)]
 pub struct AttitudeConfig {

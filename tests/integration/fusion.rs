@@ -1,5 +1,5 @@
 //! Covariance intersection: consistent whatever the (unknown) correlation between the estimates, and the
-//! trace-optimal ω never does worse on the trace than the seed's ω = 0.5.
+//! trace-optimal ω never does worse on the trace than the paper's ω = 0.5.
 #![allow(non_snake_case)]
 
 use nalgebra::{DMatrix, DVector};

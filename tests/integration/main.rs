@@ -1,4 +1,4 @@
-//! simnet's integration tests, one binary (DESIGN/STYLE: keep builds lean). Fixed seeds throughout.
+//! simnet's integration tests, one binary (keeps builds lean). Fixed seeds throughout.
 
 mod attitude;
 mod cli;

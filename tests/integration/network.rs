@@ -1,4 +1,4 @@
-//! Whole runs over real UDP sockets: the seed's claim (f), delivered fraction (h), determinism (i), robustness (j),
+//! Whole runs over real UDP sockets: the paper's claim (f), delivered fraction (h), determinism (i), robustness (j),
 //! faults.
 
 use simnet::net::RunOptions;
@@ -7,7 +7,7 @@ use simnet::topology::Overrides;
 use crate::common;
 
 /// (f) At 20 % loss every node's networked mean error is below its independent mean error, for the two-node protocol,
-/// the alternative three-node protocol and ring3, over 5 seeds (the claim of the consensus seed's §5). For the
+/// the alternative three-node protocol and ring3, over 5 seeds (the claim of Sequeira's §5). For the
 /// 0.7/0.01/0.01 protocol the ratio is reported, not forced.
 #[test]
 fn networked_beats_independent_at_20_percent_loss() {

@@ -1,4 +1,4 @@
-//! `simnet protocol`: the protocol it writes is feasible at every step of fresh runs and no worse than the seed's
+//! `simnet protocol`: the protocol it writes is feasible at every step of fresh runs and no worse than the paper's
 //! hand-picked one; the family's feasibility boundary lies at or past row sum 1, where P̄ ⪰ 0 guarantees (19);
 //! with the `sdp` feature, the SDP over all β is feasible on its data, reaches at least the family's exchange, and
 //! is tight.

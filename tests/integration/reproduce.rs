@@ -1,4 +1,4 @@
-//! `simnet reproduce sequeira`: every claim of the consensus seed is reported with simnet's figures, and those that
+//! `simnet reproduce sequeira`: every claim of Sequeira (2023) is reported with simnet's figures, and those that
 //! hold by a wide margin on every seed (see README: claims 1–4, 6–10) are asserted. Claims 5 (β 0.7/0.01/0.01,
 //! ratios 0.94–1.02), 11 and 12 (median filter, three against two fused nodes) are reported, not asserted: they do
 //! not hold on every seed, and that is the finding.
