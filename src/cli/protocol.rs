@@ -319,9 +319,9 @@ fn print_table(
     let mut o = std::io::stdout().lock();
     writeln!(
         o,
-        "protocol search on {} ({} nodes; α = {}, γ = {}; σ = {}; seeds {}..{}; objective {:?})",
+        "protocol search on {} ({}; α = {}, γ = {}; σ = {}; seeds {}..{}; objective {:?})",
         topo.name,
-        topo.nodes.len(),
+        crate::topology::count(topo.nodes.len(), "node"),
         topo.consensus.lmi.alpha,
         topo.consensus.lmi.gamma,
         cfg.max_row_sum,

@@ -214,7 +214,8 @@ async fn virtual_task(
                             tracing::warn!(
                                 node = node.id(),
                                 step = k,
-                                "{timed_out} datagram(s) did not arrive within {recv_timeout:?}"
+                                "{} did not arrive within {recv_timeout:?}",
+                                crate::topology::count(timed_out as usize, "datagram")
                             );
                             from_peers = expect;
                         }

@@ -489,8 +489,8 @@ fn over_time(
                         for (i, s) in off.iter().enumerate() {
                             let label = (i == 0).then(|| {
                                 format!(
-                                    "{what}: {} node(s) diverged or prediction only (clipped, not in scale)",
-                                    off.len()
+                                    "{what}: {} diverged or prediction only (clipped, not in scale)",
+                                    crate::topology::count(off.len(), "node")
                                 )
                             });
                             draw_runs(&mut chart, pts(s), c.mix(0.5).stroke_width(1), label, name)?;

@@ -343,8 +343,8 @@ impl Summary {
             writeln!(w)?;
             writeln!(
                 w,
-                "fused ({} nodes, covariance intersection): ω = 0.5 error {} (median-filtered {}), trace P {}; trace-optimal ω error {}, trace P {}",
-                fu.nodes,
+                "fused ({}, covariance intersection): ω = 0.5 error {} (median-filtered {}), trace P {}; trace-optimal ω error {}, trace P {}",
+                crate::topology::count(fu.nodes, "node"),
                 f(fu.mean_error),
                 f(fu.median_mean_error),
                 e(fu.mean_trace_p),
@@ -355,8 +355,8 @@ impl Summary {
         if self.socket_losses > 0 {
             writeln!(
                 w,
-                "note: {} datagram(s) delivered by the link layer were lost in the socket layer",
-                self.socket_losses
+                "note: {} delivered by the link layer lost in the socket layer",
+                crate::topology::count(self.socket_losses as usize, "datagram")
             )?;
         }
         Ok(())
