@@ -265,7 +265,10 @@ pub fn run(s: &Sensor, seeds: u64) -> anyhow::Result<Output> {
     let verdict = |k: usize| (k as f64 >= HOLDS_ON * n as f64, format!("holds on {k}/{n} seeds"));
     let med = |f: &dyn Fn(&[TestResult]) -> f64| median(per_seed.iter().map(|r| f(r)).collect());
 
-    let grows = |r: &[TestResult]| r.iter().all(|t| t.methods[0].position[2].abs() > t.methods[0].position[0].abs());
+    let grows = |r: &[TestResult]| {
+        r.iter()
+            .all(|t| t.methods[0].position[2].abs() > t.methods[0].position[0].abs())
+    };
     let fem_beats = |r: &[TestResult]| {
         let long = &r[1];
         abs_max(&long.methods[1].position) < abs_max(&long.methods[0].position)
