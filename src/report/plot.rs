@@ -502,7 +502,7 @@ fn over_time(
                         let style = if s.networked {
                             c.stroke_width(1)
                         } else {
-                            c.mix(0.3).stroke_width(1)
+                            c.mix(0.5).stroke_width(1)
                         };
                         draw_runs(&mut chart, pts(s), style, Some(s.label()), name)?;
                     }
