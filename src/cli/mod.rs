@@ -490,6 +490,11 @@ struct OutDir {
 
 const TRACE_TMP: &str = "trace.csv.tmp";
 
+/// A bad output directory is a usage error found before any work (exit 2), for every command that writes one.
+pub(crate) fn check_out(dir: &Path) -> Result<(), UsageError> {
+    OutDir::prepare(dir).map(|_| ())
+}
+
 impl OutDir {
     fn prepare(dir: &Path) -> Result<OutDir, UsageError> {
         let bad = |what: String| UsageError::Option(format!("--out {}: {what}", dir.display()));
@@ -905,6 +910,9 @@ fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
         toml_matrix(&R)
     );
     Topology::from_toml(&text, "--a/--c/--q/--r").map_err(UsageError::from)?;
+    if args.sweep {
+        check_out(&args.out)?;
+    }
     if args.measure && topo.is_none() {
         return Err(UsageError::Option("--measure runs a topology: give --topology".into()).into());
     }

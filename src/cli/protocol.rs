@@ -100,6 +100,12 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         },
         margin: args.margin,
     };
+    let out_dir = args
+        .run
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("out/protocol-{}", topo.name)));
+    super::check_out(&out_dir)?;
     let pb = (!quiet && !args.run.json).then(|| {
         progress_bar_of(
             protocol::planned_evaluations(&cfg),
@@ -118,11 +124,6 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     }
     let (beta, found, sdp_note) = choose(&topo, &cfg, &result, args.solver)?;
 
-    let out_dir = args
-        .run
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("out/protocol-{}", topo.name)));
     let found_name = format!("{}-protocol", topo.name);
     let description = format!(
         "β found by `simnet protocol` on {} ({}, σ = {}, {} seeds): exchange {:.3}",

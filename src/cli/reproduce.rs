@@ -103,6 +103,12 @@ fn run_over_udp(rt: &tokio::runtime::Runtime, topo: &Topology, record: bool) -> 
 }
 
 pub fn reproduce(paper: &Paper, quiet: bool) -> anyhow::Result<ExitCode> {
+    super::check_out(match paper {
+        Paper::Sequeira(a) => &a.out,
+        Paper::Lesecq(a) => &a.out,
+        Paper::RigidPair(a) => &a.out,
+        Paper::Nieminen(a) => &a.out,
+    })?;
     let args = match paper {
         Paper::Sequeira(a) => a,
         Paper::Lesecq(a) => return lesecq(a),

@@ -127,6 +127,18 @@ fn a_bad_out_fails_before_the_run_with_exit_2() {
             String::from_utf8_lossy(&o.stdout)
         );
     }
+    // The same check for every command that writes a directory.
+    let f = file.to_str().unwrap();
+    for args in [
+        vec!["reproduce", "nieminen", "--out", f],
+        vec!["protocol", "-t", "tri3-paper", "--out", f],
+        vec!["bounds", "-t", "sinopoli-scalar", "--sweep", "--out", f],
+    ] {
+        let o = simnet().args(&args).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains("is not a directory"), "{args:?}: {err}");
+    }
     let _ = std::fs::remove_dir_all(&d);
 }
 
