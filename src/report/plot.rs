@@ -170,6 +170,20 @@ fn runs(pts: impl Iterator<Item = (u64, f64, f64)>, lo: f64, hi: f64) -> Vec<Vec
     out
 }
 
+/// The legend box, upper right, as every plot draws it.
+fn legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    name: &'static str,
+) -> Result<(), PlotError> {
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(err(name))
+}
+
 fn legend_line(style: ShapeStyle) -> impl Fn((i32, i32)) -> PathElement<(i32, i32)> {
     move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style)
 }
@@ -334,13 +348,7 @@ pub fn trajectory(rows: &[TraceRow], fused: &[FusedRow], model: &str, title: &st
             );
             draw_runs(&mut chart, r, style, Some("fused (CI, median 20)".into()), name)?;
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(err(name))?;
+        legend(&mut chart, name)?;
         root.present().map_err(err(name))?;
     }
     Ok(out)
@@ -398,13 +406,7 @@ fn attitude_trajectory(rows: &[TraceRow], title: &str) -> Result<String, PlotErr
                 draw_runs(&mut chart, r, style, label, name)?;
             }
             if c == 0 {
-                chart
-                    .configure_series_labels()
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(BLACK)
-                    .position(SeriesLabelPosition::UpperRight)
-                    .draw()
-                    .map_err(err(name))?;
+                legend(&mut chart, name)?;
             }
         }
         root.present().map_err(err(name))?;
@@ -520,13 +522,7 @@ fn over_time(
                     );
                     draw_runs(&mut chart, r, BLACK.stroke_width(2), Some(label.into()), name)?;
                 }
-                chart
-                    .configure_series_labels()
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(BLACK)
-                    .position(SeriesLabelPosition::UpperRight)
-                    .draw()
-                    .map_err(err(name))?;
+                legend(&mut chart, name)?;
             }};
         }
         if log {
@@ -645,13 +641,7 @@ pub fn covariance_bounds(
                 .label(format!("λ̄ = {lambda_bar:.4}"))
                 .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.mix(0.5)));
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(err(name))?;
+        legend(&mut chart, name)?;
         root.present().map_err(err(name))?;
     }
     Ok(out)
@@ -756,13 +746,7 @@ pub fn protocol_curve(
                 .label(format!("(17)/(19) boundary, exchange {b:.3}"))
                 .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.mix(0.5)));
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(err(name))?;
+        legend(&mut chart, name)?;
         root.present().map_err(err(name))?;
     }
     Ok(out)
@@ -820,13 +804,7 @@ pub fn lines(
                         .label(label.as_str())
                         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
                 }
-                chart
-                    .configure_series_labels()
-                    .background_style(WHITE.mix(0.85))
-                    .border_style(BLACK)
-                    .position(SeriesLabelPosition::UpperRight)
-                    .draw()
-                    .map_err(err(name))?;
+                legend(&mut chart, name)?;
             }};
         }
         if log {
