@@ -288,3 +288,58 @@ fn result_files_say_how_they_were_made_and_their_counts_add_up() {
     assert!(longest <= 24, "a cell of {longest} characters");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// What the command line says: range errors for negative values, what is missing, warnings, counted nouns.
+#[test]
+fn the_command_line_says_what_is_wrong() {
+    let run = |args: &[&str]| {
+        let o = simnet().args(args).output().unwrap();
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stderr).to_string(),
+            String::from_utf8_lossy(&o.stdout).to_string(),
+        )
+    };
+    let (code, err, _) = run(&["-t", "ring3", "--loss", "-0.1"]);
+    assert_eq!(code, Some(2));
+    assert!(err.contains("must be a probability in [0, 1], got -0.1"), "{err}");
+    let (code, err, _) = run(&["--loss", "0.2"]);
+    assert_eq!(code, Some(2));
+    assert!(err.contains("--topology"), "{err}");
+    let (_, err, _) = run(&["-t", "nosuch.toml"]);
+    assert!(
+        err.contains("./topologies/nosuch.toml,") && !err.contains(".toml.toml"),
+        "{err}"
+    );
+
+    let d = tmp("messages");
+    std::fs::create_dir_all(&d).unwrap();
+    let one = d.join("one.toml");
+    std::fs::write(&one, "name = \"one\"\n[[node]]\nid = 0\n").unwrap();
+    let (code, _, out) = run(&["validate", one.to_str().unwrap()]);
+    assert_eq!(code, Some(0));
+    assert!(out.contains("1 node,") && out.contains("0 directed links"), "{out}");
+    let bad = d.join("bad.toml");
+    std::fs::write(&bad, "[sim]\nrate_hz = -5\n[[node]]\nid = 0\n").unwrap();
+    let (_, err, _) = run(&["validate", bad.to_str().unwrap()]);
+    assert!(err.contains("1 problem:"), "{err}");
+
+    let late = d.join("late.toml");
+    std::fs::write(
+        &late,
+        "name = \"late\"\n[sim]\nduration_s = 2.0\nburn_in_s = 0.5\n[[node]]\nid = 0\n[[node]]\nid = 1\n[[edge]]\nnodes = [0, 1]\n\
+         [[fault]]\nkind = \"crash\"\nnode = 1\nat_s = 5.0\n",
+    )
+    .unwrap();
+    let (code, err, _) = run(&["-t", late.to_str().unwrap()]);
+    assert_eq!(code, Some(0));
+    assert!(
+        err.contains("1 fault starts after the run ends at 2 s (at 5 s)"),
+        "{err}"
+    );
+    let (_, err, _) = run(&["-t", "ring3", "--duration", "1"]);
+    assert!(err.contains("shorter than the burn-in"), "{err}");
+    let (_, err, _) = run(&["-t", "ring3", "--duration", "1", "-q"]);
+    assert!(err.is_empty(), "-q keeps warnings quiet: {err}");
+    let _ = std::fs::remove_dir_all(&d);
+}
