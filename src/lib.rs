@@ -19,7 +19,7 @@
 //! | [`protocol`] | β protocol search over whole in-memory runs: the paper's family by bisection on (17)/(19); all β by SDP (feature `sdp`) |
 //! | [`reconstruct`] | position from a recorded IMU file as a boundary value problem (FEM), trapezoid for comparison, sensor-error model |
 //! | [`reproduce`] | the source documents' experiments rerun: claims tables with simnet's figures, and plots |
-//! | [`report`] | metrics, `summary.json`, the table, `trace.csv`, `links.csv`, SVG plots |
+//! | [`report`] | metrics, `summary.json` (with the settings that made it), the table, `trace.csv` and IMU files streamed as a run goes (`report::trace`), `links.csv`, SVG plots |
 //! | [`net`] | the only I/O: one tokio task and UDP socket per node, virtual and realtime clocks, shutdown; `net::host` runs one node per process (`simnet node`) |
 //! | [`cli`] | clap definitions, exit codes, tracing setup |
 //! | [`compose`] | the docker compose file of a topology (one container per node) |
