@@ -175,6 +175,7 @@ pub async fn run_node(
     };
 
     // Running: step k starts at base + k·Δt on this host's clock.
+    tracing::info!(step = first_step, "stepping");
     let mut k = first_step.min(steps);
     let mut base = Instant::now().checked_sub(dt * k as u32).unwrap_or_else(Instant::now);
     let mut estimates = Vec::new();
