@@ -511,10 +511,26 @@ async fn run_realtime(
             t.fused(observer.drain_rows());
         }
     };
+    // The newest step already fused: the observer takes steps in order only (its median streams).
+    let mut fused_up_to: Option<u64> = None;
     while let Some(o) = est_rx.recv().await {
+        if fused_up_to.is_some_and(|f| o.step <= f) {
+            // A task stalled for longer than the lag: its rows still go to the trace, its estimate misses the
+            // fusion of a step already closed.
+            tracing::warn!(
+                step = o.step,
+                "estimate arrived after its step was fused: left out of the fusion"
+            );
+            if let Some(t) = trace.as_mut() {
+                t.rows(o.rows);
+                t.imu(o.imu.0, &o.imu.1);
+            }
+            continue;
+        }
         by_step.entry(o.step).or_default().push(o);
         while by_step.len() > lag {
-            let Some((_, outs)) = by_step.pop_first() else { break };
+            let Some((step, outs)) = by_step.pop_first() else { break };
+            fused_up_to = Some(step);
             close(outs, &mut observer, &mut trace);
         }
     }
