@@ -5,6 +5,7 @@ mod cli;
 mod common;
 mod estimation;
 mod fusion;
+mod golden;
 mod loss;
 mod network;
 mod outputs;
