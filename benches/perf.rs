@@ -9,15 +9,16 @@ use std::hint::black_box;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector4};
+use nalgebra::{DMatrix, DVector, Vector3};
 use simnet::estimate::attitude::{from_euler, measurement};
 use simnet::estimate::bvp::End;
 use simnet::estimate::{
-    consensus_update, kalman_update, Gaussian, ImuInterval, MissingChannels, Observation, Process, Source,
+    consensus_update, kalman_update, Gaussian, MissingChannels, Observation, Source,
 };
 use simnet::link::{FaultSchedule, Link, LinkConfig, LossModel};
 use simnet::net::{self, RunOptions};
-use simnet::sensor::ImuSample;
+use simnet::model::{Attitude, Model, Pose};
+use simnet::sensor::{ImuInterval, ImuSample};
 use simnet::topology::{Overrides, Topology};
 use simnet::wire::{Datagram, Header, Payload};
 
@@ -43,25 +44,15 @@ fn time_per_call(mut f: impl FnMut()) -> f64 {
     samples[2]
 }
 
-fn pose_filter() -> (Process, Observation, Gaussian) {
-    let process = Process::pose(0.01, 3.92e-3, 8.73e-5, 0.0, 0.0, 0.0);
-    let mut H = DMatrix::zeros(6, 9);
-    for i in 0..3 {
-        H[(i, i)] = 1.0;
-        H[(3 + i, 6 + i)] = 1.0;
-    }
-    let R = DMatrix::from_diagonal(&DVector::from_vec(vec![0.01, 0.01, 0.01, 0.001, 0.001, 0.001]));
-    let obs = Observation {
-        H,
-        R,
-        angle_rows: (0..6).map(|i| i >= 3).collect(),
-        channel_of_row: (0..6).map(|i| i / 3).collect(),
-    };
+fn pose_filter() -> (Pose, DMatrix<f64>, Observation, Gaussian) {
+    let model = Pose::default();
+    let Q = Pose::noise(0.01, 3.92e-3, 8.73e-5, 0.0, 0.0, 0.0);
+    let obs = model.observation();
     let g = Gaussian {
         x: DVector::from_element(9, 0.1),
         P: DMatrix::identity(9, 9) * 0.01,
     };
-    (process, obs, g)
+    (model, Q, obs, g)
 }
 
 fn raw_udp_pair(n: usize) -> f64 {
@@ -111,7 +102,7 @@ fn end_to_end(name: &str, duration: f64) -> (f64, f64, f64) {
 
 fn main() {
     // `cargo bench` passes `--bench`; nothing to filter.
-    let (process, obs, g) = pose_filter();
+    let (pose, Q, obs, g) = pose_filter();
     let imu = ImuSample {
         accel: Vector3::new(0.1, -0.2, 9.8),
         gyro: Vector3::new(0.01, 0.02, 0.6),
@@ -123,7 +114,7 @@ fn main() {
     println!("| benchmark | figure |");
     println!("|---|---|");
     let kf = time_per_call(|| {
-        let p = process.predict(black_box(&g), Some(&interval));
+        let p = pose.predict(black_box(&g), Some(&interval), &Q, 0.01);
         black_box(kalman_update(&p, &obs, &z, &present, MissingChannels::Drop).unwrap());
     });
     println!(
@@ -132,10 +123,8 @@ fn main() {
     );
     // The attitude node's step: quaternion prediction (A_t, Q_t from Ξ(q̂)), the measurement linearised about the
     // prior, the Joseph update.
-    let att = Process::Attitude {
-        dt: 0.01,
-        Rg: Matrix3::identity() * 2.8e-4,
-    };
+    let att = Attitude::default();
+    let Rg = DMatrix::identity(3, 3) * 2.8e-4;
     let q0 = from_euler(&Vector3::new(0.2, -0.1, 0.7));
     let ga = Gaussian {
         x: DVector::from_column_slice(q0.as_slice()),
@@ -143,21 +132,11 @@ fn main() {
     };
     let (g_nav, h_nav) = (Vector3::new(0.0, 0.0, -9.81), Vector3::new(0.25, 0.0, -0.433));
     let (y, _) = measurement(&q0, &g_nav, &h_nav);
-    let att_obs = Observation {
-        H: DMatrix::zeros(6, 4),
-        R: DMatrix::from_diagonal(&DVector::from_vec(vec![0.01, 0.01, 0.01, 1e-5, 1e-5, 1e-5])),
-        angle_rows: vec![false; 6],
-        channel_of_row: (0..6).map(|i| i / 3).collect(),
-    };
+    let att_obs = att.observation();
     let ekf = time_per_call(|| {
-        let p = att.predict(black_box(&ga), Some(&interval));
-        let q = Vector4::new(p.x[0], p.x[1], p.x[2], p.x[3]);
-        let (hq, C) = measurement(&q, &g_nav, &h_nav);
-        let z = &y - (hq - &C * &p.x);
-        let obs = Observation {
-            H: C,
-            ..att_obs.clone()
-        };
+        let p = att.predict(black_box(&ga), Some(&interval), &Rg, 0.01);
+        let (obs, z) = att.linearize_at(&att_obs, &p, &[&y]);
+        let (obs, z) = (obs.into_owned(), z[0].clone().into_owned());
         black_box(kalman_update(&p, &obs, &z, &present, MissingChannels::Inflate(1e3)).unwrap());
     });
     println!(

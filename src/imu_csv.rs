@@ -5,8 +5,19 @@
 
 use nalgebra::Vector3;
 
-use crate::node::ImuRow;
 use crate::sensor::ImuSample;
+
+/// One IMU sample as sensed, with the true pose at its time (`imu-ID.csv`).
+#[derive(Debug, Clone, Copy)]
+pub struct ImuRow {
+    pub t: f64,
+    pub sample: ImuSample,
+    /// Magnetometer (attitude model).
+    pub mag: Option<Vector3<f64>>,
+    pub position: Vector3<f64>,
+    /// Euler ZYX [roll, pitch, yaw], rad.
+    pub euler: Vector3<f64>,
+}
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{file}:{line}: {message}")]

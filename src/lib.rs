@@ -34,6 +34,7 @@ pub mod estimate;
 pub mod geom;
 pub mod imu_csv;
 pub mod link;
+pub mod model;
 pub mod motion;
 pub mod net;
 pub mod node;

@@ -54,6 +54,13 @@ pub struct ImuSample {
     pub gyro: Vector3<f64>,
 }
 
+/// IMU samples at the start and the end of one prediction interval.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ImuInterval {
+    pub start: ImuSample,
+    pub end: ImuSample,
+}
+
 /// A node's sensors: its profile, its random stream and the drift state.
 #[derive(Debug, Clone)]
 pub struct Sensor {

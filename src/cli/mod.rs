@@ -9,10 +9,9 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 
 use crate::link::LossModel;
 use crate::net::{self, Clock, RunOptions};
-use crate::node::Truth;
 use crate::report::trace::TraceRecorder;
 use crate::report::{plot, summary};
-use crate::topology::{builtin, ModelConfig, Overrides, Topology, TopologyError};
+use crate::topology::{builtin, Overrides, Topology, TopologyError};
 
 mod protocol;
 mod reconstruct;
@@ -413,7 +412,7 @@ fn validate(files: &[PathBuf]) -> ExitCode {
                 t.name,
                 crate::topology::count(t.nodes.len(), "node"),
                 crate::topology::count(t.links.len(), "directed link"),
-                t.model.kind(),
+                t.model.get().kind(),
                 t.sim.steps()
             ),
             Err(e) => {
@@ -604,15 +603,14 @@ fn write_files(
     let mut buf = Vec::new();
     summary::write_links(&mut buf, &s.links)?;
     d.put("links.csv", &buf)?;
-    let model = s.model.as_str();
     let title = |what: &str| format!("{} — {what} (seed {})", s.topology, s.seed);
     d.put(
         "trajectory.svg",
-        plot::trajectory(rows, fused, model, &title("trajectories"))?.as_bytes(),
+        plot::trajectory(rows, fused, s.model.trajectory_view(), &title("trajectories"))?.as_bytes(),
     )?;
     d.put(
         "error.svg",
-        plot::error(rows, fused, dt, model, &title("error, networked vs independent"))?.as_bytes(),
+        plot::error(rows, fused, dt, s.model, &title("error, networked vs independent"))?.as_bytes(),
     )?;
     d.put(
         "trace_p.svg",
@@ -696,7 +694,6 @@ fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         out.wall_s,
         0,
     );
-    let (angle_states, error_rows, median) = crate::report::observer::fusion_layout(&topo);
     let id_of = |j: usize| topo.nodes[j].id;
     s.part = Some(crate::report::parts::PartInfo {
         node: args.id,
@@ -707,15 +704,13 @@ fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             .in_links(index)
             .map(|l| (id_of(l.from), out.report.rx[l.from]))
             .collect(),
-        angle_states,
-        error_rows,
-        median,
+        fusion: topo.model.get().fusion(),
     });
     // One end of a link cannot tell its loss: the per-link figures come from `simnet collect`.
     s.links.clear();
     if let Some(d) = &out_dir {
         let mut buf = Vec::new();
-        crate::report::trace::write_trace(&mut buf, &Truth::new(&topo).columns(), &out.report.trace)?;
+        crate::report::trace::write_trace(&mut buf, &topo.model.get().columns(), &out.report.trace)?;
         d.put(&format!("trace-{}.csv", args.id), &buf)?;
         let mut buf = Vec::new();
         crate::report::parts::write_estimates(&mut buf, &out.estimates)?;
@@ -810,7 +805,8 @@ fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
     let path = d.dir.join(TRACE_TMP);
     let f = std::fs::File::create(&path)
         .map_err(|e| UsageError::Option(format!("cannot write {}: {e}", path.display())))?;
-    let mut rec = TraceRecorder::new(columns, &s.model, dt, s.steps).to_writer(Box::new(std::io::BufWriter::new(f)));
+    let mut rec =
+        TraceRecorder::new(columns, observer.layout(), dt, s.steps).to_writer(Box::new(std::io::BufWriter::new(f)));
     // Fused rows go after the node rows of their step.
     let mut fused = observer.drain_rows().into_iter().peekable();
     for chunk in rows.chunk_by(|a, b| a.step == b.step) {
@@ -882,13 +878,13 @@ fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
         None => None,
     };
     let (A, C, Q, R) = match (&topo, &args.a, &args.c, &args.q, &args.r) {
-        (Some(t), None, None, None, None) => match &t.model {
-            ModelConfig::Linear(m) => (m.A.clone(), m.C.clone(), m.Q.clone(), m.R.clone()),
-            other => {
+        (Some(t), None, None, None, None) => match t.model.as_linear() {
+            Some(m) => (m.A().clone(), m.C().clone(), m.Q().clone(), m.R().clone()),
+            None => {
                 return Err(UsageError::Option(format!(
                     "`{}` has a {} model: bounds need kind = \"linear\"",
                     t.name,
-                    other.kind()
+                    t.model.get().kind()
                 ))
                 .into())
             }

@@ -134,6 +134,21 @@ pub fn process_noise(q: &Vector4<f64>, P: &DMatrix<f64>, Rg: &Matrix3<f64>, dt: 
     (&X * &Rg * X.transpose()) * c + (&Y * Rg.kronecker(P) * Y.transpose()) * c
 }
 
+/// The EKF prediction with the gyro reading ω over Tₑ: q⁺ = A_t q (renormalised), P⁺ = A_t P A_tᵀ + Q_t.
+pub fn predict(
+    q: &Vector4<f64>,
+    P: &DMatrix<f64>,
+    w: &Vector3<f64>,
+    dt: f64,
+    Rg: &Matrix3<f64>,
+) -> (Vector4<f64>, DMatrix<f64>) {
+    let At = transition(w, dt);
+    let A = DMatrix::from_column_slice(4, 4, At.as_slice());
+    let mut Pn = &A * P * A.transpose() + process_noise(q, P, Rg, dt);
+    super::symmetrize(&mut Pn);
+    ((At * q).normalize(), Pn)
+}
+
 /// The predicted measurement h(q) = [C(q)(−g); C(q) h] (accelerometer, magnetometer) and its Jacobian (6 × 4).
 pub fn measurement(q: &Vector4<f64>, g: &Vector3<f64>, h: &Vector3<f64>) -> (DVector<f64>, DMatrix<f64>) {
     let (ya, ja) = rotate_to_body(q, &(-g));
@@ -224,25 +239,19 @@ impl AttitudeEkf {
 
     /// Prediction with the gyro reading ω_g over Tₑ.
     pub fn predict(&mut self, w: &Vector3<f64>, dt: f64, m: &AttitudeModel) -> Result<(), EstimateError> {
+        if self.form == Form::Standard {
+            (self.q, self.cov) = predict(&self.q, &self.cov, w, dt, &m.Rg);
+            return Ok(());
+        }
         let At = transition(w, dt);
         let A = DMatrix::from_column_slice(4, 4, At.as_slice());
-        let P = self.P();
-        let Q = process_noise(&self.q, &P, &m.Rg, dt);
+        let Q = process_noise(&self.q, &self.P(), &m.Rg, dt);
         self.q = (At * self.q).normalize();
-        self.cov = match self.form {
-            Form::Standard => {
-                let mut Pn = &A * &P * A.transpose() + Q;
-                super::symmetrize(&mut Pn);
-                Pn
-            }
-            Form::SquareRoot => {
-                // QR of [Q^{1/2}; P^{1/2} Aᵀ] = [P_{t+1/t}^{1/2}; 0].
-                let mut pre = DMatrix::zeros(8, 4);
-                pre.view_mut((0, 0), (4, 4)).copy_from(&sqrt_upper(&Q)?);
-                pre.view_mut((4, 0), (4, 4)).copy_from(&(&self.cov * A.transpose()));
-                triangularise(pre)
-            }
-        };
+        // QR of [Q^{1/2}; P^{1/2} Aᵀ] = [P_{t+1/t}^{1/2}; 0].
+        let mut pre = DMatrix::zeros(8, 4);
+        pre.view_mut((0, 0), (4, 4)).copy_from(&sqrt_upper(&Q)?);
+        pre.view_mut((4, 0), (4, 4)).copy_from(&(&self.cov * A.transpose()));
+        self.cov = triangularise(pre);
         Ok(())
     }
 

@@ -85,6 +85,13 @@ pub fn effective_observation(
     }
 }
 
+/// Linear prediction: x⁺ = A x, P⁺ = A P Aᵀ + Q.
+pub fn predict(g: &Gaussian, A: &DMatrix<f64>, Q: &DMatrix<f64>) -> Gaussian {
+    let mut P = A * &g.P * A.transpose() + Q;
+    super::symmetrize(&mut P);
+    Gaussian { x: A * &g.x, P }
+}
+
 /// Standard Kalman update (Joseph form, eq. (11) of Sequeira (2023)) with the rows flagged in `present`;
 /// with no row present it returns the prior (intermittent observation, γ = 0).
 pub fn kalman_update(

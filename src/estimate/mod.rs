@@ -9,14 +9,12 @@ pub mod bvp;
 pub mod consensus;
 pub mod fusion;
 pub mod kalman;
-pub mod process;
 pub mod rigid_pair;
 
 use nalgebra::{DMatrix, DVector};
 
 pub use consensus::{consensus_update, guarded_update, ConsensusOutcome, LmiCheck, LmiTerms, Source};
-pub use kalman::{kalman_update, nees, Gaussian, MissingChannels, Observation};
-pub use process::{ImuInterval, Process};
+pub use kalman::{kalman_update, nees, predict, Gaussian, MissingChannels, Observation};
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum EstimateError {

@@ -104,8 +104,7 @@ impl RunOutput {
 }
 
 fn observer_for(topo: &Topology, record: bool) -> Observer {
-    let (angles, rows, median) = crate::report::observer::fusion_layout(topo);
-    Observer::new(topo.sim.burn_in_steps(), angles, rows, record, median).for_model(topo.model.kind())
+    Observer::new(topo.sim.burn_in_steps(), topo.model.get().fusion(), record)
 }
 
 /// Run a whole topology in this process. `shutdown` ends the run early (the results so far are kept).

@@ -6,28 +6,23 @@
 //! and the independent twin that uses only the node's own measurement — the baseline of Sequeira (2023).
 #![allow(non_snake_case)]
 
-mod truth;
-
-use std::borrow::Cow;
 use std::cmp::Reverse;
 use std::collections::{BTreeMap, BinaryHeap, HashMap};
 use std::sync::Arc;
 
 use bytes::Bytes;
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector};
 
 use crate::estimate::{
-    guarded_update, kalman_update, nees, EstimateError, Gaussian, ImuInterval, LmiTerms, MissingChannels, Observation,
-    Process, Source,
+    guarded_update, kalman_update, nees, EstimateError, Gaussian, LmiTerms, MissingChannels, Observation, Source,
 };
-use crate::imu_csv::StepRecording;
+pub use crate::imu_csv::ImuRow;
 use crate::link::{Link, LinkCounters, Verdict};
-use crate::motion::PoseTruth;
+use crate::model::{Measurement, Model, Truth};
 use crate::report::metrics::{FilterMetrics, RxCounters};
-use crate::sensor::{ImuSample, Sensor};
-use crate::topology::{ModelConfig, Role, Topology};
+use crate::sensor::{ImuInterval, ImuSample, Sensor};
+use crate::topology::{Role, Topology};
 use crate::wire::{Datagram, Header, Payload, WireError};
-pub use truth::Truth;
 
 /// A datagram ready to leave, with the simulated time at which the link layer delivers it.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -56,38 +51,6 @@ impl PartialOrd for Pending {
 impl Ord for Pending {
     fn cmp(&self, o: &Self) -> std::cmp::Ordering {
         self.at.total_cmp(&o.at).then(self.order.cmp(&o.order))
-    }
-}
-
-/// A measurement as collected for the current step: values and which rows arrived.
-#[derive(Debug, Clone)]
-struct Partial {
-    z: DVector<f64>,
-    present: Vec<bool>,
-}
-
-impl Partial {
-    fn empty(m: usize) -> Partial {
-        Partial {
-            z: DVector::zeros(m),
-            present: vec![false; m],
-        }
-    }
-    /// Merge rows; false when every row was already there (a duplicate).
-    fn merge(&mut self, rows: u64, values: &[f64]) -> bool {
-        let mut new = false;
-        let mut it = values.iter();
-        for r in 0..self.present.len().min(64) {
-            if rows & (1 << r) != 0 {
-                let v = *it.next().unwrap_or(&0.0);
-                if !self.present[r] {
-                    self.present[r] = true;
-                    self.z[r] = v;
-                    new = true;
-                }
-            }
-        }
-        new
     }
 }
 
@@ -182,16 +145,13 @@ pub struct Node {
     role: Role,
     topo: Arc<Topology>,
     id_to_index: HashMap<u32, usize>,
+    model: Arc<dyn Model>,
     truth: Truth,
     sensor: Option<Sensor>,
-    /// The IMU file that replaces the simulated IMU, read at this run's steps.
-    recorded: Option<Arc<StepRecording>>,
-    process: Process,
+    /// The process noise of this node's filters (from its own IMU's noise densities).
+    Q: DMatrix<f64>,
     /// The observation; for the attitude model a template (dimensions, R, channels) linearised about each prior.
     obs: Observation,
-    attitude: Option<AttitudeSensing>,
-    /// Lower Cholesky factor of R for simulating the linear model's measurement noise.
-    r_chol: Option<DMatrix<f64>>,
     policy: MissingChannels,
     filters: Option<Filters>,
     initial: Gaussian,
@@ -203,8 +163,8 @@ pub struct Node {
     up: bool,
     /// The step whose measurements are being collected.
     open: Option<u64>,
-    own: Option<Partial>,
-    inbox: BTreeMap<usize, Partial>,
+    own: Option<Measurement>,
+    inbox: BTreeMap<usize, Measurement>,
     /// Measurements for later steps (a peer whose clock runs ahead), bounded.
     early: Vec<(u64, usize, u64, Vec<f64>)>,
     rx: Vec<RxCounters>,
@@ -225,25 +185,6 @@ pub struct Node {
     imu_log: Option<Vec<ImuRow>>,
 }
 
-/// The attitude model's measurement: gravity and Earth's field in the navigation frame, seen in the body frame.
-#[derive(Debug, Clone, Copy)]
-struct AttitudeSensing {
-    g: Vector3<f64>,
-    h: Vector3<f64>,
-}
-
-/// One IMU sample as recorded, with the true pose at its time (`imu-ID.csv`).
-#[derive(Debug, Clone, Copy)]
-pub struct ImuRow {
-    pub t: f64,
-    pub sample: ImuSample,
-    /// Magnetometer (attitude model).
-    pub mag: Option<Vector3<f64>>,
-    pub position: nalgebra::Vector3<f64>,
-    /// Euler ZYX [roll, pitch, yaw], rad.
-    pub euler: nalgebra::Vector3<f64>,
-}
-
 /// One networked update's LMI terms with the node index of each source (own measurement included), in the order of
 /// `terms.kz`.
 #[derive(Debug, Clone)]
@@ -262,68 +203,9 @@ impl Node {
         let cfg = &topo.nodes[index];
         let seed = topo.sim.seed;
         let dt = topo.sim.dt();
-        let (process, obs, r_chol) = match &topo.model {
-            ModelConfig::Pose(m) => {
-                // An estimator has no IMU: it predicts with constant velocity and covers unknown acceleration and
-                // turn rate with process noise.
-                let (na, ng) = if cfg.role.senses() {
-                    (cfg.sensor.accel_noise, cfg.sensor.gyro_noise)
-                } else {
-                    (2.0, 0.3)
-                };
-                let process = Process::pose(dt, na, ng, m.q_pos, m.q_vel, m.q_att);
-                let mut H = DMatrix::zeros(6, 9);
-                for i in 0..3 {
-                    H[(i, i)] = 1.0;
-                    H[(3 + i, 6 + i)] = 1.0;
-                }
-                let R = DMatrix::from_diagonal(&DVector::from_vec(vec![
-                    m.r_pos, m.r_pos, m.r_pos, m.r_att, m.r_att, m.r_att,
-                ]));
-                let obs = Observation {
-                    H,
-                    R,
-                    angle_rows: (0..6).map(|i| i >= 3).collect(),
-                    channel_of_row: (0..6).map(|i| i / 3).collect(),
-                };
-                (process, obs, None)
-            }
-            ModelConfig::Attitude(m) => {
-                // Without a gyro the filter assumes no rotation and covers the turn rate with process noise.
-                let gyro = if cfg.role.senses() { cfg.sensor.gyro_noise } else { 0.3 };
-                let process = Process::Attitude {
-                    dt,
-                    Rg: Matrix3::identity() * (gyro * gyro / dt),
-                };
-                let R = DMatrix::from_diagonal(&DVector::from_vec(vec![
-                    m.r_acc, m.r_acc, m.r_acc, m.r_mag, m.r_mag, m.r_mag,
-                ]));
-                let obs = Observation {
-                    H: DMatrix::zeros(6, 4),
-                    R,
-                    angle_rows: vec![false; 6],
-                    channel_of_row: (0..6).map(|i| i / 3).collect(),
-                };
-                (process, obs, None)
-            }
-            ModelConfig::Linear(m) => {
-                let obs = Observation {
-                    H: m.C.clone(),
-                    R: m.R.clone(),
-                    angle_rows: vec![false; m.C.nrows()],
-                    channel_of_row: vec![0; m.C.nrows()],
-                };
-                let chol = nalgebra::Cholesky::new(m.R.clone()).map(|c| c.l());
-                (
-                    Process::Linear {
-                        A: m.A.clone(),
-                        Q: m.Q.clone(),
-                    },
-                    obs,
-                    chol,
-                )
-            }
-        };
+        let model = topo.model.shared();
+        let Q = model.process_noise(cfg.role.senses().then_some(&cfg.sensor), dt);
+        let obs = model.observation();
         let policy = MissingChannels::for_noise(&obs.R, topo.consensus.inflation);
         let sensor = cfg.role.senses().then(|| {
             Sensor::new(
@@ -343,19 +225,13 @@ impl Node {
                 )
             })
             .collect();
+        // The IMU file that replaces the simulated IMU, read at this run's steps.
         let recorded = cfg
             .recording
             .as_ref()
             .filter(|_| cfg.role.senses())
             .map(|r| Arc::new(r.data.at_steps(dt, topo.sim.steps())));
-        let attitude = match &topo.model {
-            ModelConfig::Attitude(m) => Some(AttitudeSensing {
-                g: Vector3::new(0.0, 0.0, -crate::geom::GRAVITY),
-                h: Vector3::from(m.mag_field),
-            }),
-            _ => None,
-        };
-        let truth = Truth::of_node(&topo, recorded.clone());
+        let truth = model.truth(topo.sim.trajectory, dt, seed, recorded);
         let id_to_index = topo.nodes.iter().enumerate().map(|(i, n)| (n.id, i)).collect();
         let n = topo.nodes.len();
         let mut node = Node {
@@ -363,13 +239,11 @@ impl Node {
             id: cfg.id,
             role: cfg.role,
             id_to_index,
+            model,
             truth,
             sensor,
-            recorded,
-            process,
+            Q,
             obs,
-            attitude,
-            r_chol,
             policy,
             filters: None,
             initial: Gaussian {
@@ -436,59 +310,15 @@ impl Node {
         self.id
     }
 
-    /// The prior a (re)started filter begins from. Pose: the truth perturbed by N(0, P₀) from the node's own stream
-    /// (the paper's "initial unfiltered estimate"); attitude: the true Euler angles perturbed likewise; linear: the
-    /// model's x₀, P₀, from which the truth itself is drawn. Where a recording has no reference: the origin at rest,
-    /// and the attitude levelled from the accelerometer and magnetometer.
+    /// The prior a (re)started filter begins from ([`Model::initial`]), from the node's own stream.
     fn initial_estimate(&self, restart: u64, k: u64) -> Gaussian {
         let k = k as usize;
-        match &self.topo.model {
-            ModelConfig::Attitude(m) => {
-                use crate::estimate::attitude::{from_euler, level, to_euler};
-                let truth = self.truth.state();
-                let euler = if truth.iter().all(|v| v.is_finite()) {
-                    to_euler(&nalgebra::Vector4::new(truth[0], truth[1], truth[2], truth[3]))
-                } else {
-                    let rec = self.recorded.as_deref();
-                    let sample = rec.and_then(|r| r.imu.get(k));
-                    let mag = rec.and_then(|r| r.mag.as_ref()).and_then(|v| v.get(k));
-                    match (sample, &self.attitude) {
-                        (Some(s), Some(a)) => level(&s.accel, mag, &a.g, &a.h),
-                        _ => Vector3::zeros(),
-                    }
-                };
-                let mut rng = crate::rng::stream(self.topo.sim.seed, "init", self.index as u64, restart);
-                let noise = Vector3::from_fn(|_, _| rand::Rng::sample(&mut rng, rand_distr::StandardNormal));
-                let q = from_euler(&(euler + noise * m.p0_att.sqrt()));
-                // δq ≈ ½ Ξ(q) δθ: an angle variance σ² is about σ²/4 per quaternion component.
-                Gaussian {
-                    x: DVector::from_column_slice(q.as_slice()),
-                    P: DMatrix::identity(4, 4) * (m.p0_att / 4.0),
-                }
-            }
-            ModelConfig::Pose(m) => {
-                let mut P = DMatrix::zeros(9, 9);
-                for i in 0..3 {
-                    P[(i, i)] = m.p0_pos;
-                    P[(3 + i, 3 + i)] = m.p0_vel;
-                    P[(6 + i, 6 + i)] = m.p0_att;
-                }
-                let mut rng = crate::rng::stream(self.topo.sim.seed, "init", self.index as u64, restart);
-                let mut x = self.truth.state();
-                for i in 0..9 {
-                    let n: f64 = rand::Rng::sample(&mut rng, rand_distr::StandardNormal);
-                    x[i] += n * P[(i, i)].sqrt();
-                }
-                crate::estimate::wrap_rows(&mut x, &self.process.angle_states());
-                // A recording without reference columns: start at the origin, at rest, level.
-                x.iter_mut().filter(|v| !v.is_finite()).for_each(|v| *v = 0.0);
-                Gaussian { x, P }
-            }
-            ModelConfig::Linear(m) => Gaussian {
-                x: m.x0.clone(),
-                P: m.P0.clone(),
-            },
-        }
+        let first = self.truth.recording().and_then(|(rec, _)| {
+            let mag = rec.mag.as_ref().and_then(|v| v.get(k));
+            rec.imu.get(k).map(|s| (s, mag))
+        });
+        let mut rng = crate::rng::stream(self.topo.sim.seed, "init", self.index as u64, restart);
+        self.model.initial(&self.truth.state(&*self.model), first, &mut rng)
     }
 
     /// Step k begins at t = k·Δt: sense, predict, queue this step's datagrams, open collection for step k.
@@ -525,7 +355,7 @@ impl Node {
             self.last_imu = None;
         }
         // Sense first: the IMU sample at t_k closes the interval the prediction integrates over.
-        let (imu, own) = self.sense(k, t);
+        let (imu, own) = self.sense(t);
         if k > 0 && !restarted {
             // Trapezoid: the mean of the samples at both ends of the interval, second-order accurate where a
             // sample held from the start leaves an O(Δt²) error per step that the IMU noise model does not cover.
@@ -535,8 +365,8 @@ impl Node {
                 _ => None,
             };
             if let Some(f) = &mut self.filters {
-                f.networked = self.process.predict(&f.networked, u.as_ref());
-                f.independent = self.process.predict(&f.independent, u.as_ref());
+                f.networked = self.model.predict(&f.networked, u.as_ref(), &self.Q, dt);
+                f.independent = self.model.predict(&f.independent, u.as_ref(), &self.Q, dt);
                 if let Some(s) = &shift {
                     f.networked.x += s;
                     f.independent.x += s;
@@ -563,78 +393,19 @@ impl Node {
         }
     }
 
-    /// This step's IMU sample and the node's own measurement: a pose fix, the accelerometer and magnetometer
-    /// (attitude), or y = C x + v (linear). A recorded IMU gives its rows (no sample past its end); its pose fixes
-    /// are simulated from the reference columns, and a channel the file lacks is missing.
-    fn sense(&mut self, k: u64, t: f64) -> (Option<ImuSample>, Option<Partial>) {
+    /// This step's IMU sample and the node's own measurement ([`Model::sense`]).
+    fn sense(&mut self, t: f64) -> (Option<ImuSample>, Option<Measurement>) {
         let Some(sensor) = self.sensor.as_mut() else {
             return (None, None);
         };
-        let full = |z: DVector<f64>| {
-            let m = z.len();
-            Partial {
-                z,
-                present: vec![true; m],
-            }
-        };
-        let stacked = |a: &Vector3<f64>, b: &Vector3<f64>| DVector::from_iterator(6, a.iter().chain(b.iter()).copied());
-        if let Some(rec) = &self.recorded {
-            let i = k as usize;
-            let Some(sample) = rec.imu.get(i).copied() else {
-                return (None, None);
-            };
-            let at = |v: &Option<Vec<Vector3<f64>>>| v.as_ref().and_then(|v| v.get(i).copied());
-            let (first, second) = match self.attitude {
-                Some(_) => (Some(sample.accel), at(&rec.mag)),
-                None => {
-                    let (p, e) = (at(&rec.position), at(&rec.euler));
-                    let tr = PoseTruth {
-                        p: p.unwrap_or_default(),
-                        v: Vector3::zeros(),
-                        a: Vector3::zeros(),
-                        euler: e.unwrap_or_default(),
-                        euler_rate: Vector3::zeros(),
-                        omega_body: Vector3::zeros(),
-                    };
-                    let fix = sensor.pose_fix(&tr);
-                    let v = |o: usize| Vector3::new(fix[o], fix[o + 1], fix[o + 2]);
-                    (p.map(|_| v(0)), e.map(|_| v(3)))
-                }
-            };
-            let z = (first.is_some() || second.is_some()).then(|| Partial {
-                z: stacked(&first.unwrap_or_default(), &second.unwrap_or_default()),
-                present: (0..6)
-                    .map(|r| if r < 3 { first.is_some() } else { second.is_some() })
-                    .collect(),
-            });
-            return (Some(sample), z);
+        let sensed = self.model.sense(sensor, &self.truth, t);
+        if let (Some(log), Some(row)) = (self.imu_log.as_mut(), sensed.row) {
+            log.push(row);
         }
-        if let Truth::Linear { x, .. } = &self.truth {
-            let r_chol = self.r_chol.as_ref().expect("validated R is SPD");
-            return (None, Some(full(sensor.linear(&self.obs.H, r_chol, x))));
-        }
-        let Some(tr) = self.truth.motion() else {
-            return (None, None);
-        };
-        let sample = sensor.imu(&tr);
-        let mag = self.attitude.map(|a| sensor.magnetometer(&tr, &a.h));
-        if let Some(log) = self.imu_log.as_mut() {
-            log.push(ImuRow {
-                t,
-                sample,
-                mag,
-                position: tr.p,
-                euler: tr.euler,
-            });
-        }
-        let z = match mag {
-            Some(m) => stacked(&sample.accel, &m),
-            None => DVector::from_row_slice(&sensor.pose_fix(&tr)),
-        };
-        (Some(sample), Some(full(z)))
+        (sensed.imu, sensed.z)
     }
 
-    fn send(&mut self, k: u64, t: f64, own: &Partial) {
+    fn send(&mut self, k: u64, t: f64, own: &Measurement) {
         let (z, m) = (&own.z, own.z.len());
         let have = (0..m).filter(|&r| own.present[r]).fold(0u64, |acc, r| acc | 1 << r);
         let groups: Vec<u64> = if self.topo.sim.split_channels {
@@ -773,7 +544,7 @@ impl Node {
 
     fn accept(&mut self, src: usize, rows: u64, values: &[f64]) {
         let m = self.obs.dim();
-        let entry = self.inbox.entry(src).or_insert_with(|| Partial::empty(m));
+        let entry = self.inbox.entry(src).or_insert_with(|| Measurement::empty(m));
         if entry.merge(rows, values) {
             self.rx[src].delivered += 1;
         } else {
@@ -801,14 +572,15 @@ impl Node {
         let priors = filters.clone();
 
         // Networked: consensus over own + received, in source order (deterministic sums).
-        let mut used: Vec<(usize, &Partial)> = Vec::new();
+        let mut used: Vec<(usize, &Measurement)> = Vec::new();
         if let Some(own) = &self.own {
             used.push((self.index, own));
         }
         used.extend(inbox.iter().map(|(s, p)| (*s, p)));
         used.sort_by_key(|(s, _)| *s);
         // Each filter sees the observation about its own prior (linearised for the attitude EKF).
-        let (obs_net, z_net) = linearised(&self.obs, self.attitude.as_ref(), &priors.networked, &used);
+        let zs: Vec<&DVector<f64>> = used.iter().map(|(_, p)| &p.z).collect();
+        let (obs_net, z_net) = self.model.linearize_at(&self.obs, &priors.networked, &zs);
         let own_at = used.iter().position(|(s, _)| *s == self.index);
         let sources: Vec<Source<'_>> = used
             .iter()
@@ -866,23 +638,23 @@ impl Node {
         let independent = match own_at {
             Some(i) => {
                 let mine = &used[i..=i];
-                let (obs, z) = linearised(&self.obs, self.attitude.as_ref(), &priors.independent, mine);
+                let (obs, z) = self.model.linearize_at(&self.obs, &priors.independent, &[&mine[0].1.z]);
                 kalman_update(&priors.independent, &obs, &z[0], &mine[0].1.present, self.policy)
             }
             None => Ok(priors.independent.clone()),
         };
-        let process = &self.process;
+        let model = &*self.model;
         let normalised = |r: Result<Gaussian, EstimateError>| {
             r.map(|mut g| {
-                process.normalize(&mut g);
+                model.normalize(&mut g);
                 g
             })
         };
         let (networked, independent) = (normalised(networked), normalised(independent));
 
-        let truth = self.truth.state();
+        let truth = self.truth.state(model);
         let counted = k >= topo.sim.burn_in_steps();
-        let angle = self.process.angle_states();
+        let angle = model.angle_states();
         let received: Vec<u32> = used.iter().map(|(s, _)| topo.nodes[*s].id).collect();
         let t = k as f64 * topo.sim.dt();
         let limit = topo.sim.divergence_trace;
@@ -906,8 +678,8 @@ impl Node {
             if tq > limit || tp > limit || !tq.is_finite() {
                 m.mark_diverged();
             }
-            let err = self.truth.error(&truth, &post.x);
-            let v = nees(&post, &self.truth.aligned(&truth, &post.x), &angle);
+            let err = model.error(&truth, &post.x);
+            let v = nees(&post, &model.aligned(&truth, &post.x), &angle);
             m.record(counted, err, tp, tq, v, if networked { feasible } else { true });
             if let Some(rows) = trace {
                 rows.push(TraceRow {
@@ -915,8 +687,8 @@ impl Node {
                     t,
                     node: self.id,
                     networked,
-                    truth: self.truth.reported(&truth),
-                    est: self.truth.reported(&post.x),
+                    truth: model.reported(&truth),
+                    est: model.reported(&post.x),
                     trace_p_prior: tp,
                     trace_p_post: tq,
                     received: if networked {
@@ -927,7 +699,7 @@ impl Node {
                     feasible: if networked { feasible } else { true },
                     nees: v.unwrap_or(f64::NAN),
                     error: err.unwrap_or(f64::NAN),
-                    var: self.truth.reported_var(&post),
+                    var: model.reported_var(&post),
                     diverged: m.diverged,
                 });
             }
@@ -1061,34 +833,6 @@ pub fn step_in_memory(nodes: &mut [Node], k: u64) -> Vec<StepEstimate> {
     nodes.iter_mut().filter_map(|n| n.handle_deadline(k)).collect()
 }
 
-/// The observation about `prior` and the measurements of `sources` in its coordinates. Linear and pose: as they
-/// are (borrowed). Attitude: the EKF's first-order expansion h(q) ≈ h(q̂) + C (q − q̂), i.e. H = C and
-/// z − (h(q̂) − C q̂), so that the linear (consensus) update sees the innovation z − h(q̂).
-fn linearised<'a>(
-    template: &'a Observation,
-    attitude: Option<&AttitudeSensing>,
-    prior: &Gaussian,
-    sources: &[(usize, &'a Partial)],
-) -> (Cow<'a, Observation>, Vec<Cow<'a, DVector<f64>>>) {
-    let Some(a) = attitude else {
-        return (
-            Cow::Borrowed(template),
-            sources.iter().map(|(_, p)| Cow::Borrowed(&p.z)).collect(),
-        );
-    };
-    let q = nalgebra::Vector4::new(prior.x[0], prior.x[1], prior.x[2], prior.x[3]);
-    let (h, C) = crate::estimate::attitude::measurement(&q, &a.g, &a.h);
-    let offset = h - &C * &prior.x;
-    let obs = Observation {
-        H: C,
-        ..template.clone()
-    };
-    (
-        Cow::Owned(obs),
-        sources.iter().map(|(_, p)| Cow::Owned(&p.z - &offset)).collect(),
-    )
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1115,6 +859,8 @@ mod tests {
     #[test]
     fn attitude_node_is_the_quaternion_ekf() {
         use crate::estimate::attitude::{AttitudeEkf, AttitudeModel, Form};
+        use crate::model::ModelConfig;
+        use nalgebra::{Matrix3, Vector3};
         let text = "[sim]\nrate_hz = 100.0\nduration_s = 5.0\ntrajectory = \"tumble\"\n[model]\nkind = \"attitude\"\n\
                     [[node]]\nid = 0\n";
         let topo = Arc::new(Topology::from_toml(text, "t.toml").unwrap());

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::estimate::fusion::{cascade, CentredMedian, Omega};
 use crate::estimate::Gaussian;
+use crate::model::FusionLayout;
 use crate::node::StepEstimate;
 use crate::report::metrics::FilterMetrics;
 
@@ -44,21 +45,10 @@ pub struct FusedSummary {
     pub optimal_mean_trace_p: Option<f64>,
 }
 
-/// Which state rows are angles, which rows the fused error is taken over (position for pose, all for linear), and
-/// whether the median smoother applies (pose only).
-pub fn fusion_layout(topo: &crate::topology::Topology) -> (Vec<bool>, Vec<usize>, bool) {
-    match &topo.model {
-        crate::topology::ModelConfig::Pose(_) => ((0..9).map(|i| i >= 6).collect(), vec![0, 1, 2], true),
-        crate::topology::ModelConfig::Attitude(_) => (vec![false; 4], vec![0, 1, 2, 3], false),
-        crate::topology::ModelConfig::Linear(m) => (vec![false; m.A.nrows()], (0..m.A.nrows()).collect(), false),
-    }
-}
-
 pub struct Observer {
     burn_in: u64,
-    angle_states: Vec<bool>,
-    /// Indices of the state entries whose error counts (position for pose, all for linear).
-    error_rows: Vec<usize>,
+    /// Angle rows, error rows, smoothing and quaternion sign of the model.
+    layout: FusionLayout,
     fixed: FilterMetrics,
     optimal: FilterMetrics,
     /// (step, truth, fused, trace P) of the error rows whose median is not known yet, in step order.
@@ -73,18 +63,14 @@ pub struct Observer {
     rows: Vec<FusedRow>,
     nodes: usize,
     record: bool,
-    /// The median smooths a trajectory (pose); on a linear model's state it is not a smoother.
-    median: bool,
-    /// The state is a quaternion: errors are rotation angles (degrees), and estimates share one sign before fusion.
-    attitude: bool,
 }
 
 impl Observer {
-    pub fn new(burn_in: u64, angle_states: Vec<bool>, error_rows: Vec<usize>, record: bool, median: bool) -> Observer {
+    /// The observer of a run whose model fuses as `layout`; `record` keeps the fused rows for plots.
+    pub fn new(burn_in: u64, layout: FusionLayout, record: bool) -> Observer {
         Observer {
             burn_in,
-            angle_states,
-            error_rows,
+            layout,
             fixed: FilterMetrics::default(),
             optimal: FilterMetrics::default(),
             waiting: Default::default(),
@@ -95,30 +81,15 @@ impl Observer {
             rows: Vec::new(),
             nodes: 0,
             record,
-            median,
-            attitude: false,
         }
     }
 
-    /// Fuse attitude quaternions (the model named `kind`).
-    pub fn for_model(mut self, kind: &str) -> Observer {
-        self.attitude = kind == "attitude";
-        self
+    pub fn layout(&self) -> &FusionLayout {
+        &self.layout
     }
 
     fn error(&self, truth: &DVector<f64>, x: &DVector<f64>) -> f64 {
-        let pick = |v: &DVector<f64>| self.error_rows.iter().map(|&i| v[i]).collect::<Vec<f64>>();
-        self.distance(&pick(truth), &pick(x))
-    }
-
-    /// Between two picks of the error rows.
-    fn distance(&self, a: &[f64], b: &[f64]) -> f64 {
-        if self.attitude {
-            let q = |v: &[f64]| nalgebra::Vector4::new(v[0], v[1], v[2], v[3]);
-            crate::estimate::attitude::angle_between(&q(a), &q(b)).to_degrees()
-        } else {
-            a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt()
-        }
+        self.layout.distance(&self.layout.pick(truth), &self.layout.pick(x))
     }
 
     /// Fuse one step's estimates (any order; they are sorted by node).
@@ -135,16 +106,8 @@ impl Observer {
         let counted = step >= self.burn_in;
         self.nodes = self.nodes.max(estimates.len());
         let mut gs: Vec<Gaussian> = estimates.into_iter().map(|e| e.networked).collect();
-        if self.attitude {
-            // q and −q are one attitude: fuse them on the first estimate's side.
-            let first = gs[0].x.clone();
-            for g in &mut gs {
-                if g.x.dot(&first) < 0.0 {
-                    g.x = -&g.x;
-                }
-            }
-        }
-        let Ok(fused) = cascade(&gs, Omega::Fixed(0.5), &self.angle_states) else {
+        self.layout.align(&mut gs);
+        let Ok(fused) = cascade(&gs, Omega::Fixed(0.5), &self.layout.angle_states) else {
             return;
         };
         // A recording without reference has no truth to score against.
@@ -153,14 +116,13 @@ impl Observer {
         let tr = fused.P.trace();
         self.fixed.record(counted, err, tr, tr, None, true);
         if gs.len() <= OPTIMAL_FUSION_MAX_NODES {
-            if let Ok(opt) = cascade(&gs, Omega::TraceOptimal, &self.angle_states) {
+            if let Ok(opt) = cascade(&gs, Omega::TraceOptimal, &self.layout.angle_states) {
                 let t2 = opt.P.trace();
                 let e2 = known.then(|| self.error(&truth, &opt.x));
                 self.optimal.record(counted, e2, t2, t2, None, true);
             }
         }
-        let pick = |v: &DVector<f64>| self.error_rows.iter().map(|&i| v[i]).collect::<Vec<f64>>();
-        let (t, f) = (pick(&truth), pick(&fused.x));
+        let (t, f) = (self.layout.pick(&truth), self.layout.pick(&fused.x));
         // The median window never straddles a change of coordinate frame.
         if frame != self.frame {
             self.end_segment();
@@ -168,7 +130,7 @@ impl Observer {
         }
         self.waiting.push_back((step, t, f.clone(), tr));
         // Without the smoother (attitude, linear) the "median" is the fused estimate itself.
-        if !self.median {
+        if !self.layout.median {
             self.release(f);
         } else if let Some((_, m)) = self.smoother.push(f) {
             self.release(m);
@@ -180,7 +142,7 @@ impl Observer {
         let Some((step, truth, fused, trace_p)) = self.waiting.pop_front() else {
             return;
         };
-        let median_error = self.distance(&truth, &median);
+        let median_error = self.layout.distance(&truth, &median);
         if step >= self.burn_in {
             self.median_sum += median_error;
             self.median_n += 1;
@@ -188,13 +150,13 @@ impl Observer {
         if self.record {
             self.rows.push(FusedRow {
                 step,
-                error: self.distance(&truth, &fused),
+                error: self.layout.distance(&truth, &fused),
                 median_error,
                 truth,
                 fused,
                 median,
                 trace_p,
-                smoothed: self.median,
+                smoothed: self.layout.median,
             });
         }
     }
@@ -222,7 +184,8 @@ impl Observer {
         }
         let f = self.fixed.summary(false);
         let o = self.optimal.summary(false);
-        let median_mean_error = (self.median && self.median_n > 0).then(|| self.median_sum / self.median_n as f64);
+        let median_mean_error =
+            (self.layout.median && self.median_n > 0).then(|| self.median_sum / self.median_n as f64);
         Some(FusedSummary {
             nodes: self.nodes,
             omega: 0.5,

@@ -25,10 +25,8 @@ pub struct PartInfo {
     pub links_out: Vec<(u32, LinkCounters)>,
     /// Receiver-side counters, by source id.
     pub rx: Vec<(u32, RxCounters)>,
-    /// For fusion: which state rows are angles, which rows the error is taken over, whether to median-filter.
-    pub angle_states: Vec<bool>,
-    pub error_rows: Vec<usize>,
-    pub median: bool,
+    /// How the observer fuses this run's estimates.
+    pub fusion: crate::model::FusionLayout,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -203,14 +201,7 @@ pub fn merge(
     }
     links.sort_by_key(|l| (l.from, l.to));
     let fi = &infos[0];
-    let mut observer = Observer::new(
-        first.burn_in_steps,
-        fi.angle_states.clone(),
-        fi.error_rows.clone(),
-        true,
-        fi.median,
-    )
-    .for_model(&first.model);
+    let mut observer = Observer::new(first.burn_in_steps, fi.fusion.clone(), true);
     let mut by_step: BTreeMap<u64, Vec<StepEstimate>> = BTreeMap::new();
     for es in estimates.values() {
         for e in es {
@@ -225,7 +216,7 @@ pub fn merge(
         simnet_version: first.simnet_version.clone(),
         topology: first.topology.clone(),
         source: first.source.clone(),
-        model: first.model.clone(),
+        model: first.model,
         seed: first.seed,
         clock: "multi-host".into(),
         rate_hz: first.rate_hz,

@@ -8,6 +8,7 @@ use plotters::prelude::*;
 use plotters::style::FontStyle;
 
 use super::observer::FusedRow;
+use crate::model::{Kind, TrajectoryView};
 use crate::node::TraceRow;
 
 #[derive(Debug, thiserror::Error)]
@@ -236,9 +237,14 @@ fn across_nodes(series: &[&Series], value: &dyn Fn(&TraceRow) -> f64) -> Vec<(u6
 }
 
 /// True trajectory and estimates: the x–y plane at equal scale for pose, roll, pitch and yaw in three panels
-/// against time for attitude (networked estimates), x₀ against time for linear. `model` is the model's kind.
-pub fn trajectory(rows: &[TraceRow], fused: &[FusedRow], model: &str, title: &str) -> Result<String, PlotError> {
-    if model == "attitude" {
+/// against time for attitude (networked estimates), x₀ against time for linear ([`TrajectoryView`]).
+pub fn trajectory(
+    rows: &[TraceRow],
+    fused: &[FusedRow],
+    view: TrajectoryView,
+    title: &str,
+) -> Result<String, PlotError> {
+    if view == TrajectoryView::Angles {
         return attitude_trajectory(rows, title);
     }
     font();
@@ -248,7 +254,7 @@ pub fn trajectory(rows: &[TraceRow], fused: &[FusedRow], model: &str, title: &st
         let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
         root.fill(&WHITE).map_err(err(name))?;
         let all = series(rows);
-        let pose = model == "pose";
+        let pose = view == TrajectoryView::Plane;
         let xy = |r: &TraceRow, est: bool| -> (f64, f64) {
             let v = if est { &r.est } else { &r.truth };
             if pose {
@@ -539,12 +545,8 @@ fn over_time(
 
 /// The error figure against time, as the node computed it: position (pose), rotation angle (attitude), state
 /// (linear).
-pub fn error(rows: &[TraceRow], fused: &[FusedRow], dt: f64, model: &str, title: &str) -> Result<String, PlotError> {
-    let y = match model {
-        "pose" => "position error (m)",
-        "attitude" => "attitude error (°)",
-        _ => "state error",
-    };
+pub fn error(rows: &[TraceRow], fused: &[FusedRow], dt: f64, model: Kind, title: &str) -> Result<String, PlotError> {
+    let y = model.error_text().axis;
     over_time("error", rows, fused, dt, title, y, |r| r.error, false)
 }
 

@@ -124,7 +124,7 @@ pub struct Summary {
     pub simnet_version: String,
     pub topology: String,
     pub source: String,
-    pub model: String,
+    pub model: crate::model::Kind,
     pub seed: u64,
     pub clock: String,
     pub rate_hz: f64,
@@ -209,7 +209,7 @@ impl Summary {
             simnet_version: env!("CARGO_PKG_VERSION").to_string(),
             topology: topo.name.clone(),
             source: topo.source.clone(),
-            model: topo.model.kind().to_string(),
+            model: topo.model.get().kind(),
             seed: topo.sim.seed,
             clock: clock.to_string(),
             rate_hz: topo.sim.rate_hz,
@@ -255,11 +255,7 @@ impl Summary {
             if self.interrupted { " · INTERRUPTED" } else { "" },
             self.wall_s
         )?;
-        let unit = match self.model.as_str() {
-            "pose" => "errors: mean position error, m",
-            "attitude" => "errors: mean attitude error, degrees",
-            _ => "errors: mean state error norm",
-        };
+        let unit = self.model.error_text().legend;
         writeln!(
             w,
             "{unit} (after the burn-in); trP: mean trace of the posterior covariance"

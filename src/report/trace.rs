@@ -44,7 +44,8 @@ pub fn header(columns: &[String]) -> String {
 pub struct TraceRecorder {
     out: Option<Box<dyn Write + Send>>,
     columns: Vec<String>,
-    attitude: bool,
+    /// The fused rows are a quaternion, reported as Euler angles.
+    quaternion: bool,
     dt: f64,
     /// Plot every `stride`-th step.
     stride: u64,
@@ -62,13 +63,13 @@ pub struct TraceRecorder {
 pub type ImuOpener = Box<dyn FnMut(u32) -> io::Result<Box<dyn Write + Send>> + Send>;
 
 impl TraceRecorder {
-    /// Keep a plot sample of a run of `steps` steps; `columns` as [`crate::node::Truth::columns`], `model` the
-    /// model's kind.
-    pub fn new(columns: Vec<String>, model: &str, dt: f64, steps: u64) -> TraceRecorder {
+    /// Keep a plot sample of a run of `steps` steps; `columns` as [`crate::model::Model::columns`], `layout` how
+    /// the fused rows are laid out.
+    pub fn new(columns: Vec<String>, layout: &crate::model::FusionLayout, dt: f64, steps: u64) -> TraceRecorder {
         TraceRecorder {
             out: None,
             columns,
-            attitude: model == "attitude",
+            quaternion: layout.quaternion,
             dt,
             stride: steps.div_ceil(PLOT_STEPS).max(1),
             kept: Vec::new(),
@@ -82,8 +83,8 @@ impl TraceRecorder {
     /// The recorder of a run of `topo`.
     pub fn for_topology(topo: &crate::topology::Topology) -> TraceRecorder {
         TraceRecorder::new(
-            crate::node::Truth::new(topo).columns(),
-            topo.model.kind(),
+            topo.model.get().columns(),
+            &topo.model.get().fusion(),
             topo.sim.dt(),
             topo.sim.steps(),
         )
@@ -192,7 +193,7 @@ impl TraceRecorder {
         // The fused values in the reported columns: Euler angles of the quaternion for attitude, else the fused
         // rows in order (position for pose), the remaining columns empty.
         let cells = |v: &[f64]| -> Vec<f64> {
-            let mut c = if self.attitude && v.len() == 4 {
+            let mut c = if self.quaternion && v.len() == 4 {
                 let q = nalgebra::Vector4::new(v[0], v[1], v[2], v[3]);
                 crate::estimate::attitude::to_euler(&q).iter().copied().collect()
             } else {

@@ -16,11 +16,13 @@
 use nalgebra::DMatrix;
 
 use super::{Claim, RunResult, Runner};
-use crate::estimate::{eigenvalues, Gaussian, ImuInterval, Process};
+use crate::estimate::{eigenvalues, Gaussian};
+use crate::model::Pose;
 use crate::motion::Trajectory;
 use crate::protocol::{run_in_memory, with_protocol};
 use crate::report::plot;
 use crate::rng;
+use crate::sensor::ImuInterval;
 use crate::sensor::{Sensor, SensorProfile};
 use crate::topology::Topology;
 
@@ -49,7 +51,7 @@ pub fn dead_reckoning(
 ) -> Vec<f64> {
     let dt = 1.0 / rate_hz;
     let mut sensor = Sensor::new(profile.clone(), rng::stream(seed, "dead-reckoning", 0, 0), dt);
-    let process = Process::pose(dt, 0.0, 0.0, 0.0, 0.0, 0.0);
+    let Q = Pose::noise(dt, 0.0, 0.0, 0.0, 0.0, 0.0);
     let s0 = trajectory.at(0.0);
     let mut g = Gaussian {
         x: nalgebra::DVector::from_iterator(9, s0.p.iter().chain(s0.v.iter()).chain(s0.euler.iter()).copied()),
@@ -60,7 +62,7 @@ pub fn dead_reckoning(
     for k in 1..=steps {
         let s = trajectory.at(k as f64 * dt);
         let imu = sensor.imu(&s);
-        g = process.predict(&g, Some(&ImuInterval { start: prev, end: imu }));
+        g = Pose::propagate(&g, Some(&ImuInterval { start: prev, end: imu }), &Q, dt);
         prev = imu;
         err.push((g.x.rows(0, 3) - s.p).norm());
     }
@@ -336,7 +338,7 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> anyhow::Res
                 &r.rows,
                 &r.fused,
                 1.0 / rate,
-                "pose",
+                crate::model::Kind::Pose,
                 &format!("§5: {}", r.summary.topology),
             )?,
         ));
@@ -425,7 +427,7 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> anyhow::Res
             &drift_runs[0].rows,
             &drift_runs[0].fused,
             1.0 / rate,
-            "pose",
+            crate::model::Kind::Pose,
             "§6, Fig. 12: drift on every node",
         )?,
     ));
@@ -435,7 +437,7 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> anyhow::Res
             &piece[0].rows,
             &piece[0].fused,
             1.0 / rate,
-            "pose",
+            crate::model::Kind::Pose,
             "§6, Fig. 13: piecewise-linear, drift",
         )?,
     ));
@@ -478,7 +480,7 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> anyhow::Res
         plot::trajectory(
             &tri3[0].rows,
             &tri3[0].fused,
-            "pose",
+            crate::model::TrajectoryView::Plane,
             "§7, Fig. 14: covariance intersection of three nodes",
         )?,
     ));

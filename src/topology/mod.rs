@@ -16,6 +16,7 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::imu_csv::ImuRecording;
 use crate::link::{FaultSchedule, Jitter, LinkConfig, LossModel, ScheduledFault};
+use crate::model::{Attitude, Linear, ModelConfig, Pose};
 use crate::motion::Trajectory;
 use crate::sensor::SensorProfile;
 use raw::*;
@@ -116,82 +117,6 @@ impl SimConfig {
     }
     pub fn burn_in_steps(&self) -> u64 {
         ((self.burn_in_s * self.rate_hz).round() as u64).min(self.steps())
-    }
-}
-
-/// Process and observation noise of the pose EKF (variances per step), §2.2 of Sequeira (2023).
-#[derive(Debug, Clone)]
-pub struct PoseModel {
-    /// Extra process noise on top of what the IMU noise densities imply (unmodelled effects).
-    pub q_pos: f64,
-    pub q_vel: f64,
-    pub q_att: f64,
-    pub r_pos: f64,
-    pub r_att: f64,
-    pub p0_pos: f64,
-    pub p0_vel: f64,
-    pub p0_att: f64,
-}
-
-/// x⁺ = A x + w, y = C x + v.
-#[derive(Debug, Clone)]
-#[allow(non_snake_case)]
-pub struct LinearModel {
-    pub A: DMatrix<f64>,
-    pub C: DMatrix<f64>,
-    pub Q: DMatrix<f64>,
-    pub R: DMatrix<f64>,
-    pub x0: DVector<f64>,
-    pub P0: DMatrix<f64>,
-}
-
-/// The quaternion attitude EKF of Lesecq's slides (Lesecq 2009): the gyro drives the prediction, the accelerometer
-/// (channel 0) and the magnetometer (channel 1) are the measurements that travel over the network.
-#[derive(Debug, Clone)]
-pub struct AttitudeConfig {
-    /// Accelerometer noise variance in the filter, (m/s²)²; covers unmodelled linear acceleration too.
-    pub r_acc: f64,
-    /// Magnetometer noise variance, in the squared unit of `mag_field`.
-    pub r_mag: f64,
-    /// Earth's field in the navigation frame (z up).
-    pub mag_field: [f64; 3],
-    /// Prior variance of each Euler angle, rad².
-    pub p0_att: f64,
-}
-
-#[derive(Debug, Clone)]
-pub enum ModelConfig {
-    Pose(PoseModel),
-    Attitude(AttitudeConfig),
-    Linear(LinearModel),
-}
-
-impl ModelConfig {
-    pub fn kind(&self) -> &'static str {
-        match self {
-            ModelConfig::Pose(_) => "pose",
-            ModelConfig::Attitude(_) => "attitude",
-            ModelConfig::Linear(_) => "linear",
-        }
-    }
-
-    /// The unit of the error figures, with its leading space: position error in m, attitude error in degrees,
-    /// a linear model's state error norm in the state's own units (none).
-    pub fn error_unit(&self) -> &'static str {
-        match self {
-            ModelConfig::Pose(_) => " m",
-            ModelConfig::Attitude(_) => "°",
-            ModelConfig::Linear(_) => "",
-        }
-    }
-
-    /// What the error figures measure, for axis labels.
-    pub fn error_label(&self) -> &'static str {
-        match self {
-            ModelConfig::Pose(_) => "mean position error, m",
-            ModelConfig::Attitude(_) => "mean attitude error, °",
-            ModelConfig::Linear(_) => "mean state error",
-        }
     }
 }
 
@@ -577,10 +502,10 @@ impl Validator {
                 if role == Role::Estimator {
                     self.bad(format!("{key}.imu_csv"), "an estimator has no IMU to replace");
                 }
-                if let ModelConfig::Linear(_) = model {
+                if !model.get().imu_driven() {
                     self.bad(
                         format!("{key}.imu_csv"),
-                        "a linear model has no IMU: only for kind = pose or attitude",
+                        format!("a {} model has no IMU: only for kind = pose or attitude", model.get().kind()),
                     );
                 }
             }
@@ -658,13 +583,11 @@ impl Validator {
         let consensus = self.consensus(raw.consensus.unwrap_or_default(), &nodes, &links);
         let faults = self.faults(&raw.fault, &ids, n);
 
-        if let ModelConfig::Linear(_) = model {
-            if sim.split_channels {
-                self.bad(
-                    "sim.split_channels",
-                    "only the pose and attitude models have separate channels",
-                );
-            }
+        if sim.split_channels && model.get().observation().channels() < 2 {
+            self.bad(
+                "sim.split_channels",
+                "only the pose and attitude models have separate channels",
+            );
         }
         Some(Topology {
             name,
@@ -795,7 +718,7 @@ impl Validator {
             }
         }
         match kind {
-            "pose" => ModelConfig::Pose(PoseModel {
+            "pose" => ModelConfig::Pose(Pose {
                 q_pos: self.non_negative("model.q_pos", m.q_pos, 0.0),
                 q_vel: self.non_negative("model.q_vel", m.q_vel, 0.0),
                 q_att: self.non_negative("model.q_att", m.q_att, 0.0),
@@ -816,7 +739,7 @@ impl Validator {
                         "must have a horizontal component: a vertical field leaves yaw unobservable",
                     );
                 }
-                ModelConfig::Attitude(AttitudeConfig {
+                ModelConfig::Attitude(Attitude {
                     r_acc: self.positive("model.r_acc", m.r_acc, 0.01),
                     r_mag: self.positive("model.r_mag", m.r_mag, 1e-5),
                     mag_field: field,
@@ -834,14 +757,14 @@ impl Validator {
                     }
                 }
                 let (Some(a), Some(c), Some(q), Some(r)) = (a, c, q, r) else {
-                    return ModelConfig::Linear(LinearModel {
-                        A: DMatrix::identity(1, 1),
-                        C: DMatrix::identity(1, 1),
-                        Q: DMatrix::identity(1, 1),
-                        R: DMatrix::identity(1, 1),
-                        x0: DVector::zeros(1),
-                        P0: DMatrix::identity(1, 1),
-                    });
+                    return ModelConfig::Linear(Linear::new(
+                        DMatrix::identity(1, 1),
+                        DMatrix::identity(1, 1),
+                        DMatrix::identity(1, 1),
+                        DMatrix::identity(1, 1),
+                        DVector::zeros(1),
+                        DMatrix::identity(1, 1),
+                    ));
                 };
                 let n = a.nrows();
                 if a.ncols() != n {
@@ -873,30 +796,14 @@ impl Validator {
                     }
                     None => DMatrix::identity(n, n),
                 };
-                ModelConfig::Linear(LinearModel {
-                    A: a,
-                    C: c,
-                    Q: q,
-                    R: r,
-                    x0,
-                    P0: p0,
-                })
+                ModelConfig::Linear(Linear::new(a, c, q, r, x0, p0))
             }
             other => {
                 self.bad(
                     "model.kind",
                     format!("expected pose | attitude | linear, got `{other}`"),
                 );
-                ModelConfig::Pose(PoseModel {
-                    q_pos: 0.0,
-                    q_vel: 0.0,
-                    q_att: 0.0,
-                    r_pos: 0.01,
-                    r_att: 0.001,
-                    p0_pos: 0.25,
-                    p0_vel: 0.01,
-                    p0_att: 0.003,
-                })
+                ModelConfig::Pose(Pose::default())
             }
         }
     }

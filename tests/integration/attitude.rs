@@ -20,7 +20,7 @@ fn attitude_network_over_udp_with_partial_loss() {
             ..common::seed(seed)
         };
         let s = common::run(common::topology("attitude3", o));
-        assert_eq!(s.model, "attitude");
+        assert_eq!(s.model, simnet::model::Kind::Attitude);
         for l in &s.links {
             // Two channels, two datagrams per step on every link.
             assert_eq!(l.sent, 2 * s.steps, "{} → {}", l.from, l.to);

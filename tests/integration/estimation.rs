@@ -5,7 +5,7 @@
 use nalgebra::{DMatrix, DVector};
 use proptest::prelude::*;
 use simnet::estimate::{
-    consensus_update, guarded_update, is_spd, kalman_update, Gaussian, MissingChannels, Observation, Process, Source,
+    consensus_update, guarded_update, is_spd, kalman_update, Gaussian, MissingChannels, Observation, Source,
 };
 
 fn observation(H: DMatrix<f64>, R: DMatrix<f64>) -> Observation {
@@ -91,15 +91,14 @@ proptest! {
         let Q = spd_from(&c.q, n, 1e-3);
         let R = spd_from(&c.r, m, 0.1);
         let obs = observation(H, R.clone());
-        let process = Process::Linear { A, Q };
         let policy = MissingChannels::for_noise(&R, 1e3);
         let total: f64 = c.betas.iter().sum();
         let scaled: Vec<f64> = c.betas.iter().map(|b| if total > 1.0 { b / total } else { *b }).collect();
         let mut guarded = Gaussian { x: DVector::zeros(n), P: DMatrix::identity(n, n) };
         let mut plain = guarded.clone();
         for (k, arrivals) in c.arrivals.iter().enumerate() {
-            guarded = process.predict(&guarded, None);
-            plain = process.predict(&plain, None);
+            guarded = simnet::estimate::predict(&guarded, &A, &Q);
+            plain = simnet::estimate::predict(&plain, &A, &Q);
             let zs: Vec<DVector<f64>> = (0..arrivals.len())
                 .map(|s| DVector::from_fn(m, |i, _| c.noise[(k * arrivals.len() + s) * m + i]))
                 .collect();

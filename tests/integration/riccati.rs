@@ -6,9 +6,9 @@ use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector};
 use simnet::estimate::Gaussian;
-use simnet::estimate::{kalman_update, MissingChannels, Observation, Process};
+use simnet::estimate::{kalman_update, predict, MissingChannels, Observation};
 use simnet::node::Node;
-use simnet::topology::{ModelConfig, Overrides, Topology};
+use simnet::topology::{Overrides, Topology};
 
 use crate::common;
 
@@ -68,8 +68,8 @@ fn dare_sda(A: &DMatrix<f64>, C: &DMatrix<f64>, Q: &DMatrix<f64>, R: &DMatrix<f6
 }
 
 fn linear(t: &Topology) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
-    match &t.model {
-        ModelConfig::Linear(m) => (m.A.clone(), m.C.clone(), m.Q.clone(), m.R.clone()),
+    match t.model.as_linear() {
+        Some(m) => (m.A().clone(), m.C().clone(), m.Q().clone(), m.R().clone()),
         _ => panic!("linear model expected"),
     }
 }
@@ -89,10 +89,6 @@ fn prior_covariance_converges_to_the_dare() {
         - &X;
     assert!(res.amax() < 1e-12 * X.amax(), "SDA residual {}", res.amax());
 
-    let process = Process::Linear {
-        A: A.clone(),
-        Q: Q.clone(),
-    };
     let obs = Observation {
         H: C.clone(),
         R: R.clone(),
@@ -106,7 +102,7 @@ fn prior_covariance_converges_to_the_dare() {
     let z = DVector::from_element(1, 0.3);
     for _ in 0..2000 {
         g = kalman_update(&g, &obs, &z, &[true], MissingChannels::Drop).unwrap();
-        g = process.predict(&g, None);
+        g = predict(&g, &A, &Q);
     }
     let rel = (&g.P - &X).amax() / X.amax();
     assert!(

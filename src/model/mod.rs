@@ -1,0 +1,349 @@
+//! The estimation models, one trait: what a node's filter estimates (its state, process and observation), how a
+//! node senses it, and how an estimate is scored against the truth. [`pose`] (position, velocity and Euler angles
+//! driven by the IMU, §2 of Sequeira (2023)), [`attitude`] (the quaternion EKF of Lesecq's slides) and [`linear`]
+//! (x⁺ = A x + w, y = C x + v, the setting of Sinopoli et al. (2004)).
+//!
+//! Everything that depends on which model a scenario runs is a method of [`Model`]; the rest of simnet holds a
+//! `&dyn Model` and never asks which one it is.
+#![allow(non_snake_case)]
+
+pub mod attitude;
+pub mod linear;
+pub mod pose;
+mod truth;
+
+use std::borrow::Cow;
+use std::sync::Arc;
+
+use nalgebra::{DMatrix, DVector, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::estimate::{Gaussian, Observation};
+pub use crate::imu_csv::ImuRow;
+use crate::imu_csv::StepRecording;
+use crate::motion::Trajectory;
+use crate::rng::Rng;
+use crate::sensor::{ImuInterval, ImuSample, Sensor, SensorProfile};
+
+pub use attitude::Attitude;
+pub use linear::Linear;
+pub use pose::Pose;
+pub use truth::{psd_sqrt, Truth, REBASE_LIMIT};
+
+/// Which model: its name in files and summaries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Kind {
+    Pose,
+    Attitude,
+    Linear,
+}
+
+impl Kind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Kind::Pose => "pose",
+            Kind::Attitude => "attitude",
+            Kind::Linear => "linear",
+        }
+    }
+
+    /// The words and units of the error figures: position error (pose), rotation angle (attitude), state error
+    /// norm (linear).
+    pub fn error_text(self) -> ErrorText {
+        match self {
+            Kind::Pose => ErrorText {
+                unit: " m",
+                label: "mean position error, m",
+                axis: "position error (m)",
+                legend: "errors: mean position error, m",
+            },
+            Kind::Attitude => ErrorText {
+                unit: "°",
+                label: "mean attitude error, °",
+                axis: "attitude error (°)",
+                legend: "errors: mean attitude error, degrees",
+            },
+            Kind::Linear => ErrorText {
+                unit: "",
+                label: "mean state error",
+                axis: "state error",
+                legend: "errors: mean state error norm",
+            },
+        }
+    }
+
+    /// How the trajectory plot shows the reported columns.
+    pub fn trajectory_view(self) -> TrajectoryView {
+        match self {
+            Kind::Pose => TrajectoryView::Plane,
+            Kind::Attitude => TrajectoryView::Angles,
+            Kind::Linear => TrajectoryView::FirstColumn,
+        }
+    }
+}
+
+impl std::fmt::Display for Kind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// The model a scenario runs, as validated.
+#[derive(Debug, Clone)]
+#[allow(clippy::large_enum_variant)] // one per scenario
+pub enum ModelConfig {
+    Pose(Pose),
+    Attitude(Attitude),
+    Linear(Linear),
+}
+
+impl ModelConfig {
+    pub fn get(&self) -> &dyn Model {
+        match self {
+            ModelConfig::Pose(m) => m,
+            ModelConfig::Attitude(m) => m,
+            ModelConfig::Linear(m) => m,
+        }
+    }
+
+    /// A shared handle for the nodes of a run.
+    pub fn shared(&self) -> Arc<dyn Model> {
+        match self {
+            ModelConfig::Pose(m) => Arc::new(m.clone()),
+            ModelConfig::Attitude(m) => Arc::new(m.clone()),
+            ModelConfig::Linear(m) => Arc::new(m.clone()),
+        }
+    }
+
+    /// The linear system, for the analyses that need one (Sinopoli's bounds).
+    pub fn as_linear(&self) -> Option<&Linear> {
+        match self {
+            ModelConfig::Linear(m) => Some(m),
+            _ => None,
+        }
+    }
+}
+
+/// A measurement: values and which rows are present.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Measurement {
+    pub z: DVector<f64>,
+    pub present: Vec<bool>,
+}
+
+impl Measurement {
+    pub fn full(z: DVector<f64>) -> Measurement {
+        let m = z.len();
+        Measurement {
+            z,
+            present: vec![true; m],
+        }
+    }
+
+    pub fn empty(m: usize) -> Measurement {
+        Measurement {
+            z: DVector::zeros(m),
+            present: vec![false; m],
+        }
+    }
+
+    /// Merge rows; false when every row was already there (a duplicate).
+    pub fn merge(&mut self, rows: u64, values: &[f64]) -> bool {
+        let mut new = false;
+        let mut it = values.iter();
+        for r in 0..self.present.len().min(64) {
+            if rows & (1 << r) != 0 {
+                let v = *it.next().unwrap_or(&0.0);
+                if !self.present[r] {
+                    self.present[r] = true;
+                    self.z[r] = v;
+                    new = true;
+                }
+            }
+        }
+        new
+    }
+}
+
+/// What a node senses at one step.
+#[derive(Debug, Clone, Default)]
+pub struct Sensed {
+    /// The IMU sample that drives the prediction.
+    pub imu: Option<ImuSample>,
+    /// The measurement that travels to the neighbours.
+    pub z: Option<Measurement>,
+    /// The simulated IMU with its truth, for `imu-ID.csv`.
+    pub row: Option<ImuRow>,
+}
+
+/// How the observer fuses the nodes' estimates and scores the result: data, so that a part of a multi-host run
+/// carries it to `simnet collect`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FusionLayout {
+    /// State rows that are angles (wrapped before averaging).
+    pub angle_states: Vec<bool>,
+    /// The rows the error is taken over (position for pose, all for attitude and linear).
+    pub error_rows: Vec<usize>,
+    /// The fused trajectory is median-filtered (pose).
+    pub median: bool,
+    /// The error rows are a unit quaternion: errors are rotation angles (degrees), and estimates share one sign
+    /// before fusion.
+    pub quaternion: bool,
+}
+
+impl FusionLayout {
+    /// The error rows of `v`.
+    pub fn pick(&self, v: &DVector<f64>) -> Vec<f64> {
+        self.error_rows.iter().map(|&i| v[i]).collect()
+    }
+
+    /// The error between two picks of the error rows: rotation angle in degrees, else the Euclidean distance.
+    pub fn distance(&self, a: &[f64], b: &[f64]) -> f64 {
+        if self.quaternion {
+            let q = |v: &[f64]| nalgebra::Vector4::new(v[0], v[1], v[2], v[3]);
+            crate::estimate::attitude::angle_between(&q(a), &q(b)).to_degrees()
+        } else {
+            a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt()
+        }
+    }
+
+    /// Bring estimates to one side of the double cover (q and −q are one attitude) before they are fused.
+    pub fn align(&self, gs: &mut [Gaussian]) {
+        if !self.quaternion || gs.is_empty() {
+            return;
+        }
+        let first = gs[0].x.clone();
+        for g in gs.iter_mut() {
+            if g.x.dot(&first) < 0.0 {
+                g.x = -&g.x;
+            }
+        }
+    }
+}
+
+/// How the trajectory plot shows a model's reported columns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TrajectoryView {
+    /// Columns 0 and 1 in the plane, at equal scale (pose).
+    Plane,
+    /// Three angle columns against time, one panel each (attitude).
+    Angles,
+    /// Column 0 against time (linear).
+    FirstColumn,
+}
+
+/// The words and units of a model's error figures.
+#[derive(Debug, Clone, Copy)]
+pub struct ErrorText {
+    /// The unit with its leading space (" m", "°", "").
+    pub unit: &'static str,
+    /// For axis labels of campaign plots: "mean position error, m".
+    pub label: &'static str,
+    /// For the error-against-time plot: "position error (m)".
+    pub axis: &'static str,
+    /// The table's legend: "errors: mean position error, m".
+    pub legend: &'static str,
+}
+
+/// One estimation model. A node holds it as `&dyn Model`; so do the observer, the recorders and the plots.
+pub trait Model: Send + Sync + std::fmt::Debug {
+    fn kind(&self) -> Kind;
+
+    /// The node's IMU drives the prediction (so a recorded IMU may replace it).
+    fn imu_driven(&self) -> bool {
+        true
+    }
+
+    /// State rows that are angles (wrapped after each step).
+    fn angle_states(&self) -> Vec<bool>;
+
+    /// The observation: H, R and the channel of each row (for the attitude model a template whose H is
+    /// [`Model::linearize_at`]'s).
+    fn observation(&self) -> Observation;
+
+    /// The process noise a node's filter uses: from its IMU's noise densities, or, without an IMU, wide enough to
+    /// cover the motion it cannot sense.
+    fn process_noise(&self, imu: Option<&SensorProfile>, dt: f64) -> DMatrix<f64>;
+
+    /// One prediction step (eq. (4) of Sequeira (2023)); `imu` holds the samples at both ends of the interval.
+    fn predict(&self, g: &Gaussian, imu: Option<&ImuInterval>, noise: &DMatrix<f64>, dt: f64) -> Gaussian;
+
+    /// Bring an updated state back onto its manifold.
+    fn normalize(&self, _g: &mut Gaussian) {}
+
+    /// The observation about `prior` and the measurements in its coordinates: as they are, unless the model is
+    /// non-linear.
+    fn linearize_at<'a>(
+        &self,
+        template: &'a Observation,
+        _prior: &Gaussian,
+        z: &[&'a DVector<f64>],
+    ) -> (Cow<'a, Observation>, Vec<Cow<'a, DVector<f64>>>) {
+        (Cow::Borrowed(template), z.iter().map(|z| Cow::Borrowed(*z)).collect())
+    }
+
+    /// The ground truth a node computes for itself: the trajectory, its recording's reference columns, or the
+    /// model's own random system.
+    fn truth(&self, trajectory: Trajectory, dt: f64, _seed: u64, recorded: Option<Arc<StepRecording>>) -> Truth {
+        match recorded {
+            Some(rec) => Truth::recorded(rec),
+            None => Truth::motion(trajectory, dt),
+        }
+    }
+
+    /// The true state in the filter's coordinates, from the kinematics (a component not known is `None`).
+    fn kinematic_state(
+        &self,
+        p: Option<Vector3<f64>>,
+        v: Option<Vector3<f64>>,
+        euler: Option<Vector3<f64>>,
+    ) -> DVector<f64>;
+
+    /// The prior a (re)started filter begins from, `truth` the true state (NaN where unknown) and `first` the
+    /// recorded IMU sample and magnetometer at this step, where the IMU is a recording.
+    fn initial(
+        &self,
+        truth: &DVector<f64>,
+        first: Option<(&ImuSample, Option<&Vector3<f64>>)>,
+        rng: &mut Rng,
+    ) -> Gaussian;
+
+    /// This step's IMU sample and the node's own measurement.
+    fn sense(&self, sensor: &mut Sensor, truth: &Truth, t: f64) -> Sensed;
+
+    /// The names of the columns `trace.csv` reports.
+    fn columns(&self) -> Vec<String>;
+
+    /// The reported columns of a state.
+    fn reported(&self, state: &DVector<f64>) -> Vec<f64>;
+
+    /// The variances of the reported columns.
+    fn reported_var(&self, g: &Gaussian) -> Vec<f64>;
+
+    fn fusion(&self) -> FusionLayout;
+
+    /// The truth with the sign of `est` where states have two representations (a NEES needs it).
+    fn aligned(&self, truth: &DVector<f64>, _est: &DVector<f64>) -> DVector<f64> {
+        truth.clone()
+    }
+
+    /// The error figure of an estimate over the fusion layout's error rows; `None` where the truth is not known.
+    fn error(&self, truth: &DVector<f64>, est: &DVector<f64>) -> Option<f64> {
+        let layout = self.fusion();
+        let t = layout.pick(truth);
+        t.iter()
+            .all(|v| v.is_finite())
+            .then(|| layout.distance(&t, &layout.pick(est)))
+    }
+}
+
+/// Standard normal samples.
+pub(crate) fn randn(rng: &mut Rng, n: usize) -> DVector<f64> {
+    DVector::from_fn(n, |_, _| rand::Rng::sample(rng, rand_distr::StandardNormal))
+}
+
+/// The stacked measurement [a; b].
+pub(crate) fn stacked(a: &Vector3<f64>, b: &Vector3<f64>) -> DVector<f64> {
+    DVector::from_iterator(6, a.iter().chain(b.iter()).copied())
+}
