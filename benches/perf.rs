@@ -12,14 +12,12 @@ use std::time::{Duration, Instant};
 use nalgebra::{DMatrix, DVector, Vector3};
 use simnet::estimate::attitude::{from_euler, measurement};
 use simnet::estimate::bvp::End;
-use simnet::estimate::{
-    consensus_update, kalman_update, Gaussian, MissingChannels, Observation, Source,
-};
+use simnet::estimate::{consensus_update, kalman_update, Gaussian, MissingChannels, Observation, Source};
 use simnet::link::{FaultSchedule, Link, LinkConfig, LossModel};
-use simnet::net::{self, RunOptions};
 use simnet::model::{Attitude, Model, Pose};
+use simnet::net::{self, RunOptions};
+use simnet::scenario::{Overrides, Scenario};
 use simnet::sensor::{ImuInterval, ImuSample};
-use simnet::topology::{Overrides, Topology};
 use simnet::wire::{Datagram, Header, Payload};
 
 /// Median time per call, in nanoseconds.
@@ -82,7 +80,7 @@ fn raw_udp_pair(n: usize) -> f64 {
 
 /// (node-steps/s, datagrams/s) of a virtual-clock run.
 fn end_to_end(name: &str, duration: f64) -> (f64, f64, f64) {
-    let mut t = Topology::resolve(name).unwrap();
+    let mut t = Scenario::resolve(name).unwrap();
     t.apply(&Overrides {
         duration_s: Some(duration),
         ..Default::default()

@@ -9,13 +9,14 @@
 //!
 //! | module | owns |
 //! |---|---|
-//! | [`topology`] | topology TOML → validated [`topology::Topology`]; every error names the file and the key; built-ins |
+//! | [`scenario`] | topology TOML and overrides → a validated [`scenario::Scenario`]; every error names the file and the key; built-ins |
+//! | [`model`] | the estimation models behind one trait: pose, attitude (quaternion EKF), linear — state, process, observation, sensing, scoring |
 //! | [`motion`] | analytic ground-truth trajectories shared by every node |
 //! | [`sensor`] | accelerometer/gyro (noise, bias, Wiener drift), magnetometer, pose fixes, linear measurements |
-//! | [`estimate`] | Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKF, the rigid-pair EKF, the FEM boundary-value solver |
+//! | [`estimate`] | pure maths: Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKF, the rigid-pair EKF, the FEM boundary-value solver |
 //! | [`wire`] | the datagram format: postcard + CRC-32, checked decode |
 //! | [`link`] | per-datagram verdicts: Bernoulli / Gilbert–Elliott loss, delay, jitter, duplication, corruption, fault schedules |
-//! | [`node`] | one node's sans-IO state machine: `handle_step`, `handle_datagram`, `handle_deadline`, `poll_transmit`; pose, attitude (linearised about each prior) and linear models; simulated or recorded IMU |
+//! | [`node`] | one node's sans-IO state machine: `handle_step`, `handle_datagram`, `handle_deadline`, `poll_transmit`, over any [`model::Model`]; simulated or recorded IMU |
 //! | [`protocol`] | β protocol search over whole in-memory runs: the paper's family by bisection on (17)/(19); all β by SDP (feature `sdp`) |
 //! | [`reconstruct`] | position from a recorded IMU file as a boundary value problem (FEM), trapezoid for comparison, sensor-error model |
 //! | [`reproduce`] | the source documents' experiments rerun: claims tables with simnet's figures, and plots |
@@ -44,7 +45,7 @@ pub mod reconstruct;
 pub mod report;
 pub mod reproduce;
 pub mod rng;
+pub mod scenario;
 pub mod sensor;
 pub mod stats;
-pub mod topology;
 pub mod wire;

@@ -11,7 +11,7 @@ use crate::link::LossModel;
 use crate::net::{self, Clock, RunOptions};
 use crate::report::trace::TraceRecorder;
 use crate::report::{plot, summary};
-use crate::topology::{builtin, Overrides, Topology, TopologyError};
+use crate::scenario::{builtin, Overrides, Scenario, ScenarioError};
 
 mod protocol;
 mod reconstruct;
@@ -45,7 +45,7 @@ pub enum Command {
     Topologies,
     /// Check topology files and explain every problem.
     Validate {
-        /// Topology files (TOML) to check.
+        /// Scenario files (TOML) to check.
         #[arg(required = true)]
         files: Vec<PathBuf>,
     },
@@ -251,7 +251,7 @@ const MAX_STEPS: f64 = 1e8;
 #[derive(Debug, thiserror::Error)]
 pub enum UsageError {
     #[error(transparent)]
-    Topology(#[from] TopologyError),
+    Scenario(#[from] ScenarioError),
     #[error("{0}")]
     Option(String),
 }
@@ -294,12 +294,12 @@ impl RunArgs {
     }
 
     /// The topology with the command-line overrides applied.
-    pub fn topology(&self) -> Result<Topology, UsageError> {
+    pub fn topology(&self) -> Result<Scenario, UsageError> {
         let name = self
             .topology
             .as_deref()
             .ok_or_else(|| UsageError::Option("--topology NAME|PATH is required (see `simnet topologies`)".into()))?;
-        let mut t = Topology::resolve(name)?;
+        let mut t = Scenario::resolve(name)?;
         t.apply(&self.overrides()?);
         t.check_recordings()?;
         for w in t.warnings() {
@@ -395,7 +395,7 @@ pub fn main() -> ExitCode {
 
 fn list_topologies() {
     for (name, text) in builtin::ALL {
-        let d = Topology::from_toml(text, name)
+        let d = Scenario::from_toml(text, name)
             .map(|t| t.description)
             .unwrap_or_else(|e| format!("(invalid: {e})"));
         println!("{name:<16} {d}");
@@ -405,13 +405,13 @@ fn list_topologies() {
 fn validate(files: &[PathBuf]) -> ExitCode {
     let mut bad = false;
     for f in files {
-        match Topology::from_path(f).and_then(|t| t.check_recordings().map(|_| t)) {
+        match Scenario::from_path(f).and_then(|t| t.check_recordings().map(|_| t)) {
             Ok(t) => println!(
                 "{}: ok — `{}`, {}, {}, {} model, {} steps",
                 f.display(),
                 t.name,
-                crate::topology::count(t.nodes.len(), "node"),
-                crate::topology::count(t.links.len(), "directed link"),
+                crate::scenario::count(t.nodes.len(), "node"),
+                crate::scenario::count(t.links.len(), "directed link"),
                 t.model.get().kind(),
                 t.sim.steps()
             ),
@@ -508,7 +508,7 @@ impl OutDir {
     }
 
     /// The recorder that streams `trace.csv` into this directory (under a temporary name until the run ends).
-    fn trace(&self, topo: &Topology) -> Result<TraceRecorder, UsageError> {
+    fn trace(&self, topo: &Scenario) -> Result<TraceRecorder, UsageError> {
         let path = self.dir.join(TRACE_TMP);
         let f = std::fs::File::create(&path)
             .map_err(|e| UsageError::Option(format!("--out: cannot write {}: {e}", path.display())))?;
@@ -829,7 +829,7 @@ fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn compose(args: &ComposeArgs) -> anyhow::Result<ExitCode> {
-    let topo = Topology::resolve(&args.topology).map_err(UsageError::from)?;
+    let topo = Scenario::resolve(&args.topology).map_err(UsageError::from)?;
     let builtin = builtin::get(&args.topology).is_some();
     print!(
         "{}",
@@ -867,7 +867,7 @@ fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
     use crate::link::LossModel;
     let topo = match &args.topology {
         Some(t) => {
-            let mut topo = Topology::resolve(t).map_err(UsageError::from)?;
+            let mut topo = Scenario::resolve(t).map_err(UsageError::from)?;
             topo.apply(&Overrides {
                 duration_s: args.duration,
                 seed: args.seed,
@@ -905,7 +905,7 @@ fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
         toml_matrix(&Q),
         toml_matrix(&R)
     );
-    Topology::from_toml(&text, "--a/--c/--q/--r").map_err(UsageError::from)?;
+    Scenario::from_toml(&text, "--a/--c/--q/--r").map_err(UsageError::from)?;
     if args.sweep {
         check_out(&args.out)?;
     }
@@ -948,7 +948,7 @@ fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
         let estimators: Vec<u32> = t
             .nodes
             .iter()
-            .filter(|n| n.role == crate::topology::Role::Estimator)
+            .filter(|n| n.role == crate::scenario::Role::Estimator)
             .map(|n| n.id)
             .collect();
         if estimators.is_empty() {

@@ -12,7 +12,7 @@ use super::{progress_bar_of, write_atomic, RunArgs, UsageError};
 use crate::net::{self, Clock, RunOptions};
 use crate::protocol::{self, Boundary, Evaluation, Objective, SearchConfig, SearchResult};
 use crate::report::plot;
-use crate::topology::{Overrides, Topology};
+use crate::scenario::{Overrides, Scenario};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum ObjectiveArg {
@@ -33,7 +33,7 @@ pub enum SolverArg {
 #[derive(Args, Debug, Clone)]
 #[command(mut_arg("out", |a| a.help("Write NAME-protocol.toml, protocol.csv/json/svg here (default out/protocol-NAME)").long_help(None)))]
 pub struct ProtocolArgs {
-    /// Topology, link options, duration and seed of the scoring runs; --out (default out/protocol-NAME) and --json.
+    /// Scenario, link options, duration and seed of the scoring runs; --out (default out/protocol-NAME) and --json.
     #[command(flatten)]
     pub run: RunArgs,
     /// Scoring runs per protocol (seeds SEED, SEED+1, …).
@@ -88,7 +88,7 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     }
     let topo = args.run.topology()?;
     let name = args.run.topology.clone().unwrap_or_default();
-    let (base_text, _) = Topology::resolve_text(&name).map_err(UsageError::from)?;
+    let (base_text, _) = Scenario::resolve_text(&name).map_err(UsageError::from)?;
     let cfg = SearchConfig {
         seeds: (0..args.seeds).map(|s| topo.sim.seed + s).collect(),
         grid: args.grid as usize,
@@ -156,7 +156,7 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         command.join(" ")
     );
     // The file must load as it is written: the verification run below uses it.
-    let mut found_topo = Topology::from_toml(&text, &found_name)?;
+    let mut found_topo = Scenario::from_toml(&text, &found_name)?;
 
     // Print first: whatever happens to the files, the result is not lost.
     if !args.run.json {
@@ -200,7 +200,7 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     own.sim.seed = verify_seed;
     own.consensus.lmi.enabled = true;
     let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
-    let verify = |t: Topology| -> anyhow::Result<crate::report::summary::Summary> {
+    let verify = |t: Scenario| -> anyhow::Result<crate::report::summary::Summary> {
         let t = Arc::new(t);
         let out = rt.block_on(net::run(t.clone(), RunOptions::default(), std::future::pending()))?;
         Ok(out.summary(&t, Clock::Virtual))
@@ -255,7 +255,7 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
 
 /// The protocol to write: the family's choice, or the SDP's (started from it).
 fn choose(
-    topo: &Topology,
+    topo: &Scenario,
     cfg: &SearchConfig,
     result: &SearchResult,
     solver: SolverArg,
@@ -311,7 +311,7 @@ fn fresh_figures(s: &crate::report::summary::Summary) -> Fresh {
 }
 
 fn print_table(
-    topo: &Topology,
+    topo: &Scenario,
     cfg: &SearchConfig,
     r: &SearchResult,
     found: &Evaluation,
@@ -322,7 +322,7 @@ fn print_table(
         o,
         "protocol search on {} ({}; α = {}, γ = {}; σ = {}; seeds {}..{}; objective {:?})",
         topo.name,
-        crate::topology::count(topo.nodes.len(), "node"),
+        crate::scenario::count(topo.nodes.len(), "node"),
         topo.consensus.lmi.alpha,
         topo.consensus.lmi.gamma,
         cfg.max_row_sum,

@@ -11,7 +11,7 @@ use super::{write_atomic, UsageError};
 use crate::net::{self, Clock, RunOptions};
 use crate::report::trace::TraceRecorder;
 use crate::reproduce::{self, lesecq, nieminen, rigid_pair, sequeira, RunResult};
-use crate::topology::Topology;
+use crate::scenario::Scenario;
 
 #[derive(Subcommand, Debug, Clone)]
 pub enum Paper {
@@ -87,7 +87,7 @@ pub struct SequeiraArgs {
 }
 
 /// A whole run over UDP (virtual clock), with its trace rows when `record`.
-fn run_over_udp(rt: &tokio::runtime::Runtime, topo: &Topology, record: bool) -> anyhow::Result<RunResult> {
+fn run_over_udp(rt: &tokio::runtime::Runtime, topo: &Scenario, record: bool) -> anyhow::Result<RunResult> {
     let topo = Arc::new(topo.clone());
     let opts = RunOptions {
         trace: record.then(|| TraceRecorder::for_topology(&topo).keep_all()),
@@ -123,7 +123,7 @@ pub fn reproduce(paper: &Paper, quiet: bool) -> anyhow::Result<ExitCode> {
         }
     }
     let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
-    let runner = |t: &Topology, record: bool| run_over_udp(&rt, t, record);
+    let runner = |t: &Scenario, record: bool| run_over_udp(&rt, t, record);
     let pb = (!quiet).then(|| {
         let pb = indicatif::ProgressBar::new_spinner();
         pb.enable_steady_tick(std::time::Duration::from_millis(200));

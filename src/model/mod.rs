@@ -9,6 +9,7 @@
 
 pub mod attitude;
 pub mod linear;
+mod parse;
 pub mod pose;
 mod truth;
 
@@ -27,6 +28,7 @@ use crate::sensor::{ImuInterval, ImuSample, Sensor, SensorProfile};
 
 pub use attitude::Attitude;
 pub use linear::Linear;
+pub(crate) use parse::parse;
 pub use pose::Pose;
 pub use truth::{psd_sqrt, Truth, REBASE_LIMIT};
 

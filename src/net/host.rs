@@ -23,7 +23,7 @@ use tokio::time::Instant;
 
 use super::{NetError, Progress};
 use crate::node::{Node, NodeReport, StepEstimate};
-use crate::topology::Topology;
+use crate::scenario::Scenario;
 use crate::wire::MAX_DATAGRAM;
 
 pub struct HostConfig {
@@ -109,7 +109,7 @@ fn deliver(node: &mut Node, peers: &mut Peers, from: SocketAddr, bytes: &[u8]) -
 
 /// Run node `index` of `topo` as its own process until the configured duration or `shutdown`.
 pub async fn run_node(
-    topo: Arc<Topology>,
+    topo: Arc<Scenario>,
     index: usize,
     cfg: HostConfig,
     shutdown: impl Future<Output = ()> + Send + 'static,

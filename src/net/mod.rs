@@ -21,7 +21,7 @@ use crate::node::{ImuRow, TraceRow};
 use crate::node::{Node, NodeReport, StepEstimate};
 use crate::report::observer::Observer;
 use crate::report::trace::TraceRecorder;
-use crate::topology::Topology;
+use crate::scenario::Scenario;
 use crate::wire::MAX_DATAGRAM;
 
 pub mod host;
@@ -89,7 +89,7 @@ pub struct RunOutput {
 
 impl RunOutput {
     /// The run's summary.
-    pub fn summary(&self, topo: &Topology, clock: Clock) -> crate::report::summary::Summary {
+    pub fn summary(&self, topo: &Scenario, clock: Clock) -> crate::report::summary::Summary {
         crate::report::summary::Summary::build(
             topo,
             clock.as_str(),
@@ -103,13 +103,13 @@ impl RunOutput {
     }
 }
 
-fn observer_for(topo: &Topology, record: bool) -> Observer {
+fn observer_for(topo: &Scenario, record: bool) -> Observer {
     Observer::new(topo.sim.burn_in_steps(), topo.model.get().fusion(), record)
 }
 
 /// Run a whole topology in this process. `shutdown` ends the run early (the results so far are kept).
 pub async fn run(
-    topo: Arc<Topology>,
+    topo: Arc<Scenario>,
     mut opts: RunOptions,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<RunOutput, NetError> {
@@ -214,7 +214,7 @@ async fn virtual_task(
                                 node = node.id(),
                                 step = k,
                                 "{} did not arrive within {recv_timeout:?}",
-                                crate::topology::count(timed_out as usize, "datagram")
+                                crate::scenario::count(timed_out as usize, "datagram")
                             );
                             from_peers = expect;
                         }
@@ -248,7 +248,7 @@ async fn virtual_task(
 }
 
 async fn run_virtual(
-    topo: Arc<Topology>,
+    topo: Arc<Scenario>,
     sockets: Vec<UdpSocket>,
     addrs: Vec<SocketAddr>,
     opts: &mut RunOptions,
@@ -458,7 +458,7 @@ async fn realtime_task(
 }
 
 async fn run_realtime(
-    topo: Arc<Topology>,
+    topo: Arc<Scenario>,
     sockets: Vec<UdpSocket>,
     addrs: Vec<SocketAddr>,
     opts: &mut RunOptions,

@@ -20,8 +20,8 @@ pub use crate::imu_csv::ImuRow;
 use crate::link::{Link, LinkCounters, Verdict};
 use crate::model::{Measurement, Model, Truth};
 use crate::report::metrics::{FilterMetrics, RxCounters};
+use crate::scenario::{Role, Scenario};
 use crate::sensor::{ImuInterval, ImuSample, Sensor};
-use crate::topology::{Role, Topology};
 use crate::wire::{Datagram, Header, Payload, WireError};
 
 /// A datagram ready to leave, with the simulated time at which the link layer delivers it.
@@ -69,7 +69,7 @@ pub struct TraceRow {
     pub received: Vec<u32>,
     pub feasible: bool,
     pub nees: f64,
-    /// The step's error figure ([`Truth::error`]); NaN where the truth is unknown.
+    /// The step's error figure ([`Model::error`]); NaN where the truth is unknown.
     pub error: f64,
     /// The posterior variances of the reported columns (±3σ bands).
     pub var: Vec<f64>,
@@ -143,7 +143,7 @@ pub struct Node {
     index: usize,
     id: u32,
     role: Role,
-    topo: Arc<Topology>,
+    topo: Arc<Scenario>,
     id_to_index: HashMap<u32, usize>,
     model: Arc<dyn Model>,
     truth: Truth,
@@ -199,7 +199,7 @@ const EARLY_CAP: usize = 256;
 
 impl Node {
     /// `record_trace` keeps one row per step and filter (needed for `trace.csv` and the plots).
-    pub fn new(topo: Arc<Topology>, index: usize, record_trace: bool) -> Node {
+    pub fn new(topo: Arc<Scenario>, index: usize, record_trace: bool) -> Node {
         let cfg = &topo.nodes[index];
         let seed = topo.sim.seed;
         let dt = topo.sim.dt();
@@ -840,7 +840,7 @@ mod tests {
     /// Two nodes driven in memory, no sockets: datagrams flow and both filters track the truth.
     #[test]
     fn pair_in_memory() {
-        let topo = Arc::new(Topology::resolve("pair2-paper").unwrap());
+        let topo = Arc::new(Scenario::resolve("pair2-paper").unwrap());
         let mut nodes: Vec<Node> = (0..2).map(|i| Node::new(topo.clone(), i, false)).collect();
         for k in 0..500 {
             step_in_memory(&mut nodes, k);
@@ -863,7 +863,7 @@ mod tests {
         use nalgebra::{Matrix3, Vector3};
         let text = "[sim]\nrate_hz = 100.0\nduration_s = 5.0\ntrajectory = \"tumble\"\n[model]\nkind = \"attitude\"\n\
                     [[node]]\nid = 0\n";
-        let topo = Arc::new(Topology::from_toml(text, "t.toml").unwrap());
+        let topo = Arc::new(Scenario::from_toml(text, "t.toml").unwrap());
         let ModelConfig::Attitude(cfg) = &topo.model else {
             unreachable!()
         };

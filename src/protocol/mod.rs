@@ -20,7 +20,7 @@ use std::sync::Arc;
 use serde::Serialize;
 
 use crate::node::{step_in_memory, LmiStep, Node};
-use crate::topology::Topology;
+use crate::scenario::Scenario;
 
 #[cfg(feature = "sdp")]
 pub mod sdp;
@@ -125,7 +125,7 @@ pub struct SearchResult {
 }
 
 /// Sensing nodes whose measurements reach node i (node indices, i excluded).
-pub fn sources_of(topo: &Topology, i: usize) -> Vec<usize> {
+pub fn sources_of(topo: &Scenario, i: usize) -> Vec<usize> {
     let mut v: Vec<usize> = topo
         .in_links(i)
         .map(|l| l.from)
@@ -137,7 +137,7 @@ pub fn sources_of(topo: &Topology, i: usize) -> Vec<usize> {
 }
 
 /// Nodes whose β row the search sets: they measure, estimate and hear at least one neighbour.
-fn exchanging(topo: &Topology) -> Vec<usize> {
+fn exchanging(topo: &Scenario) -> Vec<usize> {
     (0..topo.nodes.len())
         .filter(|&i| {
             let r = topo.nodes[i].role;
@@ -147,7 +147,7 @@ fn exchanging(topo: &Topology) -> Vec<usize> {
 }
 
 /// The largest u that changes any row.
-pub fn u_max(topo: &Topology, max_row_sum: f64) -> f64 {
+pub fn u_max(topo: &Scenario, max_row_sum: f64) -> f64 {
     exchanging(topo)
         .into_iter()
         .map(|i| max_row_sum / (sources_of(topo, i).len() + 1) as f64)
@@ -155,7 +155,7 @@ pub fn u_max(topo: &Topology, max_row_sum: f64) -> f64 {
 }
 
 /// The largest u at which every row sums to at most 1.
-pub fn u_row_sum_one(topo: &Topology) -> f64 {
+pub fn u_row_sum_one(topo: &Scenario) -> f64 {
     exchanging(topo)
         .into_iter()
         .map(|i| 1.0 / (sources_of(topo, i).len() + 1) as f64)
@@ -163,7 +163,7 @@ pub fn u_row_sum_one(topo: &Topology) -> f64 {
 }
 
 /// The family's β at parameter u; rows of other nodes are kept from the topology.
-pub fn family(topo: &Topology, u: f64, max_row_sum: f64) -> Vec<Vec<f64>> {
+pub fn family(topo: &Scenario, u: f64, max_row_sum: f64) -> Vec<Vec<f64>> {
     let mut beta = topo.consensus.beta.clone();
     for i in exchanging(topo) {
         let src = sources_of(topo, i);
@@ -180,7 +180,7 @@ pub fn family(topo: &Topology, u: f64, max_row_sum: f64) -> Vec<Vec<f64>> {
 }
 
 /// Mean over exchanging nodes of the weight given to neighbours.
-pub fn exchange(topo: &Topology, beta: &[Vec<f64>]) -> f64 {
+pub fn exchange(topo: &Scenario, beta: &[Vec<f64>]) -> f64 {
     let nodes = exchanging(topo);
     if nodes.is_empty() {
         return 0.0;
@@ -200,7 +200,7 @@ pub fn exchange(topo: &Topology, beta: &[Vec<f64>]) -> f64 {
 }
 
 /// The topology with protocol β and the LMI guard on (its α, γ).
-pub fn with_protocol(topo: &Topology, beta: &[Vec<f64>]) -> Topology {
+pub fn with_protocol(topo: &Scenario, beta: &[Vec<f64>]) -> Scenario {
     let mut t = topo.clone();
     t.consensus.beta = beta.to_vec();
     t.consensus.lmi.enabled = true;
@@ -208,7 +208,7 @@ pub fn with_protocol(topo: &Topology, beta: &[Vec<f64>]) -> Topology {
 }
 
 /// One run of every node in memory. `record_lmi` keeps each node's per-step LMI terms.
-pub fn run_in_memory(topo: &Topology, seed: u64, record_lmi: bool) -> (Vec<Node>, Vec<Vec<LmiStep>>) {
+pub fn run_in_memory(topo: &Scenario, seed: u64, record_lmi: bool) -> (Vec<Node>, Vec<Vec<LmiStep>>) {
     let mut t = topo.clone();
     t.sim.seed = seed;
     let t = Arc::new(t);
@@ -224,7 +224,7 @@ pub fn run_in_memory(topo: &Topology, seed: u64, record_lmi: bool) -> (Vec<Node>
 }
 
 /// Score protocol β on `seeds`.
-pub fn evaluate(topo: &Topology, beta: &[Vec<f64>], u: f64, seeds: &[u64]) -> Evaluation {
+pub fn evaluate(topo: &Scenario, beta: &[Vec<f64>], u: f64, seeds: &[u64]) -> Evaluation {
     let t = with_protocol(topo, beta);
     let mut per_seed = Vec::with_capacity(seeds.len());
     let mut independent = 0.0;
@@ -267,7 +267,7 @@ pub fn evaluate(topo: &Topology, beta: &[Vec<f64>], u: f64, seeds: &[u64]) -> Ev
 }
 
 /// Score family points in parallel, one worker per core; `tick` after each protocol.
-fn evaluate_many(topo: &Topology, us: &[f64], cfg: &SearchConfig, tick: &(dyn Fn() + Sync)) -> Vec<Evaluation> {
+fn evaluate_many(topo: &Scenario, us: &[f64], cfg: &SearchConfig, tick: &(dyn Fn() + Sync)) -> Vec<Evaluation> {
     crate::par::map(
         us,
         |&u| evaluate(topo, &family(topo, u, cfg.max_row_sum), u, &cfg.seeds),
@@ -281,7 +281,7 @@ pub fn planned_evaluations(cfg: &SearchConfig) -> u64 {
 }
 
 /// The family search (module docs). `tick` is called after each protocol scored.
-pub fn search(topo: &Topology, cfg: &SearchConfig, tick: &(dyn Fn() + Sync)) -> Result<SearchResult, ProtocolError> {
+pub fn search(topo: &Scenario, cfg: &SearchConfig, tick: &(dyn Fn() + Sync)) -> Result<SearchResult, ProtocolError> {
     if !(cfg.max_row_sum >= 1.0 && cfg.max_row_sum.is_finite()) {
         return Err(ProtocolError::RowSum(cfg.max_row_sum));
     }
@@ -415,7 +415,7 @@ mod tests {
 
     #[test]
     fn family_runs_from_independent_to_uniform_and_beyond() {
-        let topo = Topology::resolve("tri3-paper").unwrap();
+        let topo = Scenario::resolve("tri3-paper").unwrap();
         let b0 = family(&topo, 0.0, 1.0);
         assert_eq!(b0[0], vec![1.0, 0.0, 0.0]);
         let third = 1.0 / 3.0;
@@ -437,11 +437,11 @@ mod tests {
     fn written_topology_parses_with_its_protocol() {
         // pair2-paper gives a matrix, ring3 uniform `self`/`neighbor` weights.
         for name in ["pair2-paper", "ring3"] {
-            let text = crate::topology::builtin::get(name).unwrap();
-            let n = Topology::from_toml(text, name).unwrap().nodes.len();
+            let text = crate::scenario::builtin::get(name).unwrap();
+            let n = Scenario::from_toml(text, name).unwrap().nodes.len();
             let beta = vec![vec![1.0 / n as f64; n]; n];
             let out = topology_text(text, "found", "found", &beta, &[]).unwrap();
-            let t = Topology::from_toml(&out, "test").unwrap();
+            let t = Scenario::from_toml(&out, "test").unwrap();
             assert_eq!(t.name, "found");
             assert_eq!(t.consensus.beta, beta);
             assert!(t.consensus.lmi.enabled);

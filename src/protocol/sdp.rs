@@ -23,7 +23,7 @@ use nalgebra::{DMatrix, DVector};
 
 use super::{evaluate, run_in_memory, sources_of, Evaluation, SearchConfig};
 use crate::node::LmiStep;
-use crate::topology::Topology;
+use crate::scenario::Scenario;
 
 // Links the system OpenBLAS that Clarabel's PSD cones call.
 extern crate openblas_src;
@@ -235,7 +235,7 @@ pub struct SdpResult {
 /// Alternate runs and SDPs: record every node's LMI terms in runs with the current β (starting at `start`), solve
 /// each node's SDP over all recorded steps so far, until a run with the solution is feasible on every seed.
 pub fn search(
-    topo: &Topology,
+    topo: &Scenario,
     cfg: &SearchConfig,
     start: &[Vec<f64>],
     max_rounds: usize,

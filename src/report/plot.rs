@@ -498,7 +498,7 @@ fn over_time(
                             let label = (i == 0).then(|| {
                                 format!(
                                     "{what}: {} diverged or prediction only (clipped, not in scale)",
-                                    crate::topology::count(off.len(), "node")
+                                    crate::scenario::count(off.len(), "node")
                                 )
                             });
                             draw_runs(&mut chart, pts(s), c.mix(0.5).stroke_width(1), label, name)?;

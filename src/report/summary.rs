@@ -8,7 +8,7 @@ use super::metrics::{FilterSummary, RxCounters};
 use super::observer::FusedSummary;
 use crate::link::LinkCounters;
 use crate::node::NodeReport;
-use crate::topology::Topology;
+use crate::scenario::Scenario;
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct NodeSummary {
@@ -82,7 +82,7 @@ pub struct Settings {
     pub trajectory: crate::motion::Trajectory,
     pub split_channels: bool,
     /// The command-line (or environment) overrides applied to the file.
-    pub overrides: crate::topology::Overrides,
+    pub overrides: crate::scenario::Overrides,
     /// Every directed link's resolved settings (loss model, delay, jitter, duplication, corruption).
     pub links: Vec<LinkSetting>,
 }
@@ -96,7 +96,7 @@ pub struct LinkSetting {
 }
 
 impl Settings {
-    pub fn of(topo: &Topology) -> Settings {
+    pub fn of(topo: &Scenario) -> Settings {
         Settings {
             duration_s: topo.sim.duration_s,
             burn_in_s: topo.sim.burn_in_s,
@@ -158,7 +158,7 @@ impl Summary {
 
     #[allow(clippy::too_many_arguments)]
     pub fn build(
-        topo: &Topology,
+        topo: &Scenario,
         clock: &'static str,
         reports: &[NodeReport],
         fused: Option<FusedSummary>,
@@ -174,7 +174,7 @@ impl Summary {
                 let independent = r.independent.as_ref().map(|m| m.summary(false));
                 // An estimator has no measurement of its own: its twin only predicts, and a ratio means nothing.
                 let error_ratio = match (&networked, &independent) {
-                    _ if r.role == crate::topology::Role::Estimator => None,
+                    _ if r.role == crate::scenario::Role::Estimator => None,
                     (Some(a), Some(b)) => match (a.mean_error, b.mean_error) {
                         (Some(x), Some(y)) if y > 0.0 => Some(x / y),
                         _ => None,
@@ -340,7 +340,7 @@ impl Summary {
             writeln!(
                 w,
                 "fused ({}, covariance intersection): ω = 0.5 error {} (median-filtered {}), trace P {}; trace-optimal ω error {}, trace P {}",
-                crate::topology::count(fu.nodes, "node"),
+                crate::scenario::count(fu.nodes, "node"),
                 f(fu.mean_error),
                 f(fu.median_mean_error),
                 e(fu.mean_trace_p),
@@ -352,7 +352,7 @@ impl Summary {
             writeln!(
                 w,
                 "note: {} delivered by the link layer lost in the socket layer",
-                crate::topology::count(self.socket_losses as usize, "datagram")
+                crate::scenario::count(self.socket_losses as usize, "datagram")
             )?;
         }
         Ok(())

@@ -81,7 +81,7 @@ impl TraceRecorder {
     }
 
     /// The recorder of a run of `topo`.
-    pub fn for_topology(topo: &crate::topology::Topology) -> TraceRecorder {
+    pub fn for_topology(topo: &crate::scenario::Scenario) -> TraceRecorder {
         TraceRecorder::new(
             topo.model.get().columns(),
             &topo.model.get().fusion(),

@@ -6,7 +6,7 @@ use serde::Serialize;
 use crate::node::TraceRow;
 use crate::report::observer::FusedRow;
 use crate::report::summary::Summary;
-use crate::topology::Topology;
+use crate::scenario::Scenario;
 
 pub mod lesecq;
 pub mod nieminen;
@@ -34,7 +34,7 @@ pub struct RunResult {
 }
 
 /// Runs a topology (over UDP, in the CLI); `record` keeps the per-step rows for plots.
-pub type Runner<'a> = &'a dyn Fn(&Topology, bool) -> anyhow::Result<RunResult>;
+pub type Runner<'a> = &'a dyn Fn(&Scenario, bool) -> anyhow::Result<RunResult>;
 
 /// The claims as a Markdown table.
 pub fn markdown(title: &str, claims: &[Claim]) -> String {

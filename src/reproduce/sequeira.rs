@@ -22,9 +22,9 @@ use crate::motion::Trajectory;
 use crate::protocol::{run_in_memory, with_protocol};
 use crate::report::plot;
 use crate::rng;
+use crate::scenario::Scenario;
 use crate::sensor::ImuInterval;
 use crate::sensor::{Sensor, SensorProfile};
-use crate::topology::Topology;
 
 /// The paper's drift: 0.05·randn per step on the acceleration.
 pub const DRIFT: f64 = 0.05;
@@ -120,7 +120,7 @@ fn error_series(r: &RunResult, id: u32, networked: bool) -> Vec<(f64, f64)> {
         .collect()
 }
 
-fn with_drift(mut t: Topology) -> Topology {
+fn with_drift(mut t: Scenario) -> Scenario {
     for n in &mut t.nodes {
         n.sensor.accel_drift = [DRIFT; 3];
     }
@@ -129,8 +129,8 @@ fn with_drift(mut t: Topology) -> Topology {
 
 /// Run every experiment; `tick(what)` before each.
 pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> anyhow::Result<Output> {
-    let load = |name: &str, seed: u64| -> anyhow::Result<Topology> {
-        let mut t = Topology::resolve(name)?;
+    let load = |name: &str, seed: u64| -> anyhow::Result<Scenario> {
+        let mut t = Scenario::resolve(name)?;
         t.sim.seed = seed;
         if let Some(d) = cfg.duration_s {
             t.sim.duration_s = d;

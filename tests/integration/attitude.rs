@@ -3,7 +3,7 @@
 use std::sync::Arc;
 
 use simnet::node::{step_in_memory, Node, NodeReport, TraceRow};
-use simnet::topology::{Overrides, Topology};
+use simnet::scenario::{Overrides, Scenario};
 
 use crate::common;
 
@@ -47,7 +47,7 @@ fn attitude_network_over_udp_with_partial_loss() {
     assert!(net < ind, "networked {net} vs independent {ind}");
 }
 
-fn run_in_memory(topo: Topology, steps: u64) -> Vec<NodeReport> {
+fn run_in_memory(topo: Scenario, steps: u64) -> Vec<NodeReport> {
     let topo = Arc::new(topo);
     let mut nodes: Vec<Node> = (0..topo.nodes.len())
         .map(|i| Node::new(topo.clone(), i, true))
@@ -95,7 +95,7 @@ fn a_recorded_imu_replays_the_run_that_wrote_it() {
         .collect();
     std::fs::write(&bare, stripped).unwrap();
 
-    let (base, _) = Topology::resolve_text("attitude3").unwrap();
+    let (base, _) = Scenario::resolve_text("attitude3").unwrap();
     let fed = |file: &std::path::Path| {
         let toml = base.replacen(
             "[[node]]\nid = 0\n",
@@ -105,7 +105,7 @@ fn a_recorded_imu_replays_the_run_that_wrote_it() {
         assert!(toml.contains("imu_csv"));
         // The file covers 10 s: shorten the run before it is checked.
         let toml = toml.replace("duration_s = 30.0", "duration_s = 10.0");
-        let mut t = Topology::from_toml(&toml, "fed.toml").unwrap_or_else(|e| panic!("{e}"));
+        let mut t = Scenario::from_toml(&toml, "fed.toml").unwrap_or_else(|e| panic!("{e}"));
         t.apply(&ten_seconds());
         run_in_memory(t, steps)
     };

@@ -4,13 +4,13 @@ use std::sync::Arc;
 
 use simnet::net::{self, RunOptions, RunOutput};
 use simnet::report::summary::Summary;
-use simnet::topology::{Overrides, Topology};
+use simnet::scenario::{Overrides, Scenario};
 
-pub fn topology(name_or_toml: &str, o: Overrides) -> Topology {
+pub fn topology(name_or_toml: &str, o: Overrides) -> Scenario {
     let mut t = if name_or_toml.contains('[') {
-        Topology::from_toml(name_or_toml, "test.toml").unwrap_or_else(|e| panic!("{e}"))
+        Scenario::from_toml(name_or_toml, "test.toml").unwrap_or_else(|e| panic!("{e}"))
     } else {
-        Topology::resolve(name_or_toml).unwrap_or_else(|e| panic!("{e}"))
+        Scenario::resolve(name_or_toml).unwrap_or_else(|e| panic!("{e}"))
     };
     t.apply(&o);
     t
@@ -24,7 +24,7 @@ pub fn runtime() -> tokio::runtime::Runtime {
         .unwrap()
 }
 
-pub fn run_with(topo: Topology, opts: RunOptions) -> (Summary, RunOutput) {
+pub fn run_with(topo: Scenario, opts: RunOptions) -> (Summary, RunOutput) {
     let topo = Arc::new(topo);
     let opts_clock = opts.clock;
     let out = runtime()
@@ -34,7 +34,7 @@ pub fn run_with(topo: Topology, opts: RunOptions) -> (Summary, RunOutput) {
     (s, out)
 }
 
-pub fn run(topo: Topology) -> Summary {
+pub fn run(topo: Scenario) -> Summary {
     run_with(topo, RunOptions::default()).0
 }
 

@@ -2,7 +2,7 @@
 //! faults.
 
 use simnet::net::RunOptions;
-use simnet::topology::Overrides;
+use simnet::scenario::Overrides;
 
 use crate::common;
 
@@ -187,7 +187,7 @@ fn garbage_and_corruption_are_caught() {
 /// the datagrams sent during them, and the survivors keep stepping.
 #[test]
 fn scheduled_faults() {
-    let toml = simnet::topology::builtin::get("ring3").unwrap().to_string()
+    let toml = simnet::scenario::builtin::get("ring3").unwrap().to_string()
         + r#"
 [[fault]]
 kind = "crash"

@@ -6,7 +6,7 @@
 use std::process::Command;
 
 use simnet::protocol::{self, SearchConfig};
-use simnet::topology::Topology;
+use simnet::scenario::Scenario;
 
 use crate::common::{bernoulli, run, topology};
 
@@ -18,7 +18,7 @@ fn tmp(name: &str) -> std::path::PathBuf {
 }
 
 /// Mean over nodes of the networked mean error, and the guard's rejections, of one run.
-fn figures(t: Topology) -> (f64, u64) {
+fn figures(t: Scenario) -> (f64, u64) {
     let s = run(t);
     let (mut e, mut bad, mut n) = (0.0, 0, 0);
     for node in &s.nodes {
@@ -58,8 +58,8 @@ fn found_protocol_is_feasible_on_fresh_runs_and_beats_the_hand_picked_one() {
             json["fresh_run"]
         );
         let file = dir.join(format!("{name}-protocol.toml"));
-        let found = Topology::from_path(&file).unwrap();
-        let hand = Topology::resolve(name).unwrap();
+        let found = Scenario::from_path(&file).unwrap();
+        let hand = Scenario::resolve(name).unwrap();
         assert!(protocol::exchange(&found, &found.consensus.beta) > protocol::exchange(&hand, &hand.consensus.beta));
 
         // Seeds the search never used (it scored seeds 1 and 2).
@@ -135,7 +135,7 @@ fn family_boundary_lies_past_row_sum_one_and_is_bracketed() {
 
 #[test]
 fn search_rejects_what_it_cannot_do() {
-    let topo = Topology::resolve("sinopoli-scalar").unwrap();
+    let topo = Scenario::resolve("sinopoli-scalar").unwrap();
     let cfg = SearchConfig {
         seeds: vec![1],
         grid: 5,
@@ -151,7 +151,7 @@ fn search_rejects_what_it_cannot_do() {
         max_row_sum: 0.5,
         ..cfg
     };
-    let t = Topology::resolve("pair2-paper").unwrap();
+    let t = Scenario::resolve("pair2-paper").unwrap();
     assert!(matches!(
         protocol::search(&t, &bad, &|| ()),
         Err(protocol::ProtocolError::RowSum(_))

@@ -8,7 +8,7 @@ use nalgebra::{DMatrix, DVector};
 use simnet::estimate::Gaussian;
 use simnet::estimate::{kalman_update, predict, MissingChannels, Observation};
 use simnet::node::Node;
-use simnet::topology::{Overrides, Topology};
+use simnet::scenario::{Overrides, Scenario};
 
 use crate::common;
 
@@ -67,7 +67,7 @@ fn dare_sda(A: &DMatrix<f64>, C: &DMatrix<f64>, Q: &DMatrix<f64>, R: &DMatrix<f6
     H
 }
 
-fn linear(t: &Topology) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+fn linear(t: &Scenario) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
     match t.model.as_linear() {
         Some(m) => (m.A().clone(), m.C().clone(), m.Q().clone(), m.R().clone()),
         _ => panic!("linear model expected"),

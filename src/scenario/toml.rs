@@ -1,5 +1,5 @@
 //! The topology file as written: serde mirrors of the TOML with `deny_unknown_fields`, so a misspelt key is an
-//! error that names it. `super::validate` turns these into the typed [`super::Topology`].
+//! error that names it. `super::validate` turns these into the typed [`super::Scenario`].
 
 use serde::Deserialize;
 

@@ -1,0 +1,132 @@
+//! The `[model]` table: its kind and the keys that belong to it.
+
+use nalgebra::{DMatrix, DVector};
+
+use super::{Attitude, Linear, ModelConfig, Pose};
+use crate::scenario::toml::RawModel;
+use crate::scenario::Checks;
+
+/// The validated model of a `[model]` table; problems go to `ck` with their keys.
+pub(crate) fn parse(m: RawModel, ck: &mut Checks) -> ModelConfig {
+    let kind = m.kind.as_deref().unwrap_or("pose");
+    // Keys that belong to some kinds only.
+    let owned: [(&str, bool, &[&str]); 17] = [
+        ("q_pos", m.q_pos.is_some(), &["pose"]),
+        ("q_vel", m.q_vel.is_some(), &["pose"]),
+        ("q_att", m.q_att.is_some(), &["pose"]),
+        ("r_pos", m.r_pos.is_some(), &["pose"]),
+        ("r_att", m.r_att.is_some(), &["pose"]),
+        ("p0_pos", m.p0_pos.is_some(), &["pose"]),
+        ("p0_vel", m.p0_vel.is_some(), &["pose"]),
+        ("p0_att", m.p0_att.is_some(), &["pose", "attitude"]),
+        ("r_acc", m.r_acc.is_some(), &["attitude"]),
+        ("r_mag", m.r_mag.is_some(), &["attitude"]),
+        ("mag_field", m.mag_field.is_some(), &["attitude"]),
+        ("a", m.a.is_some(), &["linear"]),
+        ("c", m.c.is_some(), &["linear"]),
+        ("q", m.q.is_some(), &["linear"]),
+        ("r", m.r.is_some(), &["linear"]),
+        ("x0", m.x0.is_some(), &["linear"]),
+        ("p0", m.p0.is_some(), &["linear"]),
+    ];
+    if ["pose", "attitude", "linear"].contains(&kind) {
+        for (key, given, owners) in owned {
+            if given && !owners.contains(&kind) {
+                let kinds: Vec<String> = owners.iter().map(|o| format!("\"{o}\"")).collect();
+                ck.bad(
+                    format!("model.{key}"),
+                    format!("only for kind = {}", kinds.join(" or ")),
+                );
+            }
+        }
+    }
+    match kind {
+        "pose" => ModelConfig::Pose(Pose {
+            q_pos: ck.non_negative("model.q_pos", m.q_pos, 0.0),
+            q_vel: ck.non_negative("model.q_vel", m.q_vel, 0.0),
+            q_att: ck.non_negative("model.q_att", m.q_att, 0.0),
+            r_pos: ck.positive("model.r_pos", m.r_pos, 0.01),
+            r_att: ck.positive("model.r_att", m.r_att, 0.001),
+            p0_pos: ck.positive("model.p0_pos", m.p0_pos, 0.25),
+            p0_vel: ck.positive("model.p0_vel", m.p0_vel, 0.01),
+            p0_att: ck.positive("model.p0_att", m.p0_att, 0.003),
+        }),
+        "attitude" => {
+            let field = m.mag_field.unwrap_or([0.25, 0.0, -0.433]);
+            let norm = field.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if !(norm > 0.0 && norm.is_finite()) {
+                ck.bad("model.mag_field", "must be a finite non-zero vector");
+            } else if (field[0] * field[0] + field[1] * field[1]).sqrt() < 1e-3 * norm {
+                ck.bad(
+                    "model.mag_field",
+                    "must have a horizontal component: a vertical field leaves yaw unobservable",
+                );
+            }
+            ModelConfig::Attitude(Attitude {
+                r_acc: ck.positive("model.r_acc", m.r_acc, 0.01),
+                r_mag: ck.positive("model.r_mag", m.r_mag, 1e-5),
+                mag_field: field,
+                p0_att: ck.positive("model.p0_att", m.p0_att, 0.003),
+            })
+        }
+        "linear" => {
+            let a = ck.matrix("model.a", &m.a);
+            let c = ck.matrix("model.c", &m.c);
+            let q = ck.matrix("model.q", &m.q);
+            let r = ck.matrix("model.r", &m.r);
+            for (k, v) in [("a", &a), ("c", &c), ("q", &q), ("r", &r)] {
+                if v.is_none() && m.kind.is_some() && ck.problems.iter().all(|p| p.key != format!("model.{k}")) {
+                    ck.bad(format!("model.{k}"), "required for kind = \"linear\"");
+                }
+            }
+            let (Some(a), Some(c), Some(q), Some(r)) = (a, c, q, r) else {
+                return ModelConfig::Linear(Linear::new(
+                    DMatrix::identity(1, 1),
+                    DMatrix::identity(1, 1),
+                    DMatrix::identity(1, 1),
+                    DMatrix::identity(1, 1),
+                    DVector::zeros(1),
+                    DMatrix::identity(1, 1),
+                ));
+            };
+            let n = a.nrows();
+            if a.ncols() != n {
+                ck.bad("model.a", format!("must be square, got {}×{}", a.nrows(), a.ncols()));
+            }
+            if c.ncols() != n {
+                ck.bad(
+                    "model.c",
+                    format!("must have {n} columns (the state size of model.a), got {}", c.ncols()),
+                );
+            }
+            if c.nrows() > 64 {
+                ck.bad("model.c", "at most 64 measurement rows fit in one datagram");
+            }
+            ck.spd("model.q", &q, n, true);
+            ck.spd("model.r", &r, c.nrows(), false);
+            let x0 = match &m.x0 {
+                Some(v) if v.len() != n => {
+                    ck.bad("model.x0", format!("must have {n} entries, got {}", v.len()));
+                    DVector::zeros(n)
+                }
+                Some(v) => DVector::from_column_slice(v),
+                None => DVector::zeros(n),
+            };
+            let p0 = match ck.matrix("model.p0", &m.p0) {
+                Some(p) => {
+                    ck.spd("model.p0", &p, n, false);
+                    p
+                }
+                None => DMatrix::identity(n, n),
+            };
+            ModelConfig::Linear(Linear::new(a, c, q, r, x0, p0))
+        }
+        other => {
+            ck.bad(
+                "model.kind",
+                format!("expected pose | attitude | linear, got `{other}`"),
+            );
+            ModelConfig::Pose(Pose::default())
+        }
+    }
+}

@@ -1,0 +1,107 @@
+//! The checks every part of validation shares: each records a [`Problem`] naming its key and returns a usable
+//! default, so that one pass reports every problem of a file.
+
+use std::fmt;
+
+use nalgebra::DMatrix;
+
+/// One problem found in a topology file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Problem {
+    /// Dotted key path, e.g. `edge[2].nodes`.
+    pub key: String,
+    pub message: String,
+}
+
+impl fmt::Display for Problem {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "`{}`: {}", self.key, self.message)
+    }
+}
+
+/// Checks a probability, a positive number, a matrix, … and records a problem naming the key.
+#[derive(Debug, Default)]
+pub struct Checks {
+    pub problems: Vec<Problem>,
+}
+
+impl Checks {
+    pub(crate) fn bad(&mut self, key: impl Into<String>, message: impl Into<String>) {
+        self.problems.push(Problem {
+            key: key.into(),
+            message: message.into(),
+        });
+    }
+
+    pub(crate) fn prob(&mut self, key: &str, v: Option<f64>, default: f64) -> f64 {
+        match v {
+            Some(x) if !(0.0..=1.0).contains(&x) || !x.is_finite() => {
+                self.bad(key, format!("must be a probability in [0, 1], got {x}"));
+                default
+            }
+            Some(x) => x,
+            None => default,
+        }
+    }
+
+    pub(crate) fn positive(&mut self, key: &str, v: Option<f64>, default: f64) -> f64 {
+        match v {
+            Some(x) if !(x > 0.0 && x.is_finite()) => {
+                self.bad(key, format!("must be a positive finite number, got {x}"));
+                default
+            }
+            Some(x) => x,
+            None => default,
+        }
+    }
+
+    pub(crate) fn non_negative(&mut self, key: &str, v: Option<f64>, default: f64) -> f64 {
+        match v {
+            Some(x) if !(x >= 0.0 && x.is_finite()) => {
+                self.bad(key, format!("must be a non-negative finite number, got {x}"));
+                default
+            }
+            Some(x) => x,
+            None => default,
+        }
+    }
+
+    pub(crate) fn matrix(&mut self, key: &str, rows: &Option<Vec<Vec<f64>>>) -> Option<DMatrix<f64>> {
+        let rows = rows.as_ref()?;
+        let r = rows.len();
+        let c = rows.first().map_or(0, |x| x.len());
+        if r == 0 || c == 0 {
+            self.bad(key, "must be a non-empty array of rows");
+            return None;
+        }
+        if rows.iter().any(|x| x.len() != c) {
+            self.bad(key, format!("rows must all have {c} entries"));
+            return None;
+        }
+        if rows.iter().flatten().any(|x| !x.is_finite()) {
+            self.bad(key, "entries must be finite");
+            return None;
+        }
+        Some(DMatrix::from_fn(r, c, |i, j| rows[i][j]))
+    }
+
+    pub(crate) fn spd(&mut self, key: &str, m: &DMatrix<f64>, n: usize, semi: bool) {
+        if m.nrows() != n || m.ncols() != n {
+            self.bad(key, format!("must be {n}×{n}, got {}×{}", m.nrows(), m.ncols()));
+            return;
+        }
+        if (m - m.transpose()).amax() > 1e-9 * (1.0 + m.amax()) {
+            self.bad(key, "must be symmetric");
+            return;
+        }
+        let min = m.clone().symmetric_eigenvalues().min();
+        if (semi && min < -1e-12) || (!semi && min <= 0.0) {
+            let what = if semi {
+                "positive semidefinite"
+            } else {
+                "positive definite"
+            };
+            self.bad(key, format!("must be {what} (smallest eigenvalue {min:.3e})"));
+        }
+    }
+}

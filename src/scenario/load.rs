@@ -1,0 +1,73 @@
+//! Recorded IMU files named by a node's `imu_csv`, read while validating and checked against the run once the
+//! overrides have set its duration and rate.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use super::{Checks, NodeConfig, Problem, RecordedImu, Scenario, ScenarioError, SimConfig};
+
+impl Checks {
+    /// Read `imu_csv`: relative to the topology file's folder, or to the working directory for a built-in.
+    pub(crate) fn recording(&mut self, key: &str, path: &str, topology_file: &str) -> Option<RecordedImu> {
+        let base = Path::new(topology_file);
+        let resolved = match base.parent() {
+            Some(dir) if base.is_file() && Path::new(path).is_relative() => dir.join(path),
+            _ => Path::new(path).to_path_buf(),
+        };
+        let shown = resolved.display().to_string();
+        let text = match std::fs::read_to_string(&resolved) {
+            Ok(t) => t,
+            Err(e) => {
+                self.bad(key, format!("cannot read {shown}: {e}"));
+                return None;
+            }
+        };
+        match crate::imu_csv::parse(&text, &shown) {
+            Ok(data) => Some(RecordedImu {
+                given: path.to_string(),
+                path: shown,
+                data: Arc::new(data),
+            }),
+            Err(e) => {
+                self.bad(key, e.to_string());
+                None
+            }
+        }
+    }
+}
+
+/// A recording that ends before the run does. Checked once the command-line overrides have set the duration and
+/// the rate ([`Scenario::check_recordings`]); a node runs past the end of its file without IMU samples.
+fn recording_problems(sim: &SimConfig, nodes: &[NodeConfig]) -> Vec<Problem> {
+    let need = sim.steps().saturating_sub(1) as f64 * sim.dt();
+    nodes
+        .iter()
+        .enumerate()
+        .filter_map(|(i, n)| {
+            let r = n.recording.as_ref()?;
+            let span = r.data.span();
+            (span + 1e-6 * sim.dt() < need).then(|| Problem {
+                key: format!("node[{i}].imu_csv"),
+                message: format!(
+                    "{} covers {span:.3} s, the run needs {need:.3} s (shorten sim.duration_s or --duration)",
+                    r.path
+                ),
+            })
+        })
+        .collect()
+}
+
+impl Scenario {
+    /// After [`Scenario::apply`]: every recorded IMU covers the run.
+    pub fn check_recordings(&self) -> Result<(), ScenarioError> {
+        let problems = recording_problems(&self.sim, &self.nodes);
+        if problems.is_empty() {
+            Ok(())
+        } else {
+            Err(ScenarioError::Invalid {
+                file: self.source.clone(),
+                problems,
+            })
+        }
+    }
+}

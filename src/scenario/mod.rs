@@ -1,0 +1,208 @@
+//! Scenarios: everything one run needs, validated. A scenario comes from a topology file (TOML) and
+//! command-line [`Overrides`] (`resolve.rs`); every problem is reported with the file, the key and what was expected, all of them
+//! at once rather than the first.
+//!
+//! | file | owns |
+//! |---|---|
+//! | `toml.rs` | the file as written: serde mirrors with `deny_unknown_fields` |
+//! | `checks.rs` | [`Problem`] and the shared checks |
+//! | `validate/` | raw → typed: sim, nodes, links, consensus (`mod.rs`), loss, link settings and faults (`link.rs`) |
+//! | `resolve.rs` | names → paths → built-ins: the only place a topology file is read |
+//! | `load.rs` | recorded IMU files named by `imu_csv` |
+//! | `overrides.rs` | command-line overrides, applied and validated again |
+//! | `builtin.rs` | the topologies compiled into the binary |
+
+pub mod builtin;
+mod checks;
+mod load;
+mod overrides;
+mod resolve;
+pub(crate) mod toml;
+mod validate;
+
+use std::sync::Arc;
+
+use crate::imu_csv::ImuRecording;
+use crate::link::{FaultSchedule, LinkConfig};
+use crate::model::ModelConfig;
+use crate::motion::Trajectory;
+use crate::sensor::SensorProfile;
+
+pub use checks::{Checks, Problem};
+pub use overrides::Overrides;
+
+/// "1 node", "3 nodes".
+pub fn count(n: usize, what: &str) -> String {
+    format!("{n} {what}{}", if n == 1 { "" } else { "s" })
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    #[error(
+        "topology `{name}` not found: not a file, not {}, not a built-in (see `simnet topologies`)",
+        resolve::in_topologies(name)
+    )]
+    NotFound { name: String },
+    #[error("{file}: cannot read: {source}")]
+    Io { file: String, source: std::io::Error },
+    #[error("{file}: {message}")]
+    Parse { file: String, message: String },
+    #[error("{file}: {}:\n{}", count(problems.len(), "problem"), problems.iter().map(|p| format!("  - {p}")).collect::<Vec<_>>().join("\n"))]
+    Invalid { file: String, problems: Vec<Problem> },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Role {
+    /// Senses and estimates.
+    Peer,
+    /// Senses and sends; runs no filter.
+    Sensor,
+    /// Estimates from what it receives; has no sensor of its own.
+    Estimator,
+}
+
+impl Role {
+    pub fn senses(self) -> bool {
+        !matches!(self, Role::Estimator)
+    }
+    pub fn estimates(self) -> bool {
+        !matches!(self, Role::Sensor)
+    }
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Role::Peer => "peer",
+            Role::Sensor => "sensor",
+            Role::Estimator => "estimator",
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct SimConfig {
+    pub rate_hz: f64,
+    pub duration_s: f64,
+    pub burn_in_s: f64,
+    /// The burn-in the file asked for, where a shorter `--duration` halved it (see [`Scenario::warnings`]).
+    pub burn_in_shortened_from: Option<f64>,
+    pub seed: u64,
+    pub trajectory: Trajectory,
+    /// Measurements of step k are used only if they arrive by t_k + deadline (Sinopoli's deadline model).
+    pub deadline_s: f64,
+    /// The pose fix travels as two datagrams (position, orientation) so that loss can be partial.
+    pub split_channels: bool,
+    /// A filter whose trace P exceeds this is marked diverged.
+    pub divergence_trace: f64,
+}
+
+impl SimConfig {
+    pub fn dt(&self) -> f64 {
+        1.0 / self.rate_hz
+    }
+    pub fn steps(&self) -> u64 {
+        (self.duration_s * self.rate_hz).round() as u64
+    }
+    pub fn burn_in_steps(&self) -> u64 {
+        ((self.burn_in_s * self.rate_hz).round() as u64).min(self.steps())
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+pub struct LmiConfig {
+    pub alpha: f64,
+    pub gamma: f64,
+    pub enabled: bool,
+}
+
+#[derive(Debug, Clone)]
+pub struct ConsensusConfig {
+    pub beta0: f64,
+    /// `beta[i][j]`: weight node i gives the measurement of node j (row i = receiving node, by position in the file).
+    pub beta: Vec<Vec<f64>>,
+    pub lmi: LmiConfig,
+    /// λ of the per-channel inflation R̄ᵢᵢ = λ² Rᵢᵢ for a channel no source delivered.
+    pub inflation: f64,
+}
+
+#[derive(Debug, Clone)]
+pub struct NodeConfig {
+    /// The id written in the file; nodes are indexed by position everywhere else.
+    pub id: u32,
+    pub role: Role,
+    pub addr: Option<String>,
+    pub sensor: SensorProfile,
+    /// A recorded IMU that replaces the simulated one (`imu_csv`).
+    pub recording: Option<RecordedImu>,
+}
+
+/// A node's IMU file: the path as written, as resolved, and its rows.
+#[derive(Debug, Clone)]
+pub struct RecordedImu {
+    pub given: String,
+    pub path: String,
+    pub data: Arc<ImuRecording>,
+}
+
+#[derive(Debug, Clone)]
+pub struct DirectedLink {
+    pub from: usize,
+    pub to: usize,
+    pub config: LinkConfig,
+}
+
+#[derive(Debug, Clone)]
+pub struct Scenario {
+    pub name: String,
+    pub description: String,
+    /// Where it came from: a path or `builtin:NAME`.
+    pub source: String,
+    pub sim: SimConfig,
+    pub model: ModelConfig,
+    pub consensus: ConsensusConfig,
+    pub nodes: Vec<NodeConfig>,
+    pub links: Vec<DirectedLink>,
+    pub faults: FaultSchedule,
+    /// The overrides applied since the file was read (the last value of each wins).
+    pub applied: Overrides,
+}
+impl Scenario {
+    /// Index of the node whose file id is `id`.
+    pub fn index_of(&self, id: u32) -> Option<usize> {
+        self.nodes.iter().position(|n| n.id == id)
+    }
+    /// Directed links into node `i`.
+    pub fn in_links(&self, i: usize) -> impl Iterator<Item = &DirectedLink> {
+        self.links.iter().filter(move |l| l.to == i)
+    }
+    pub fn out_links(&self, i: usize) -> impl Iterator<Item = &DirectedLink> {
+        self.links.iter().filter(move |l| l.from == i)
+    }
+}
+
+impl Scenario {
+    /// Settings that are valid but probably not meant: a run no longer than its burn-in (no step counts in the
+    /// means), faults that start after the run has ended.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        let d = self.sim.duration_s;
+        if let Some(asked) = self.sim.burn_in_shortened_from.filter(|b| d <= *b) {
+            w.push(format!(
+                "the run ({d} s) is shorter than the burn-in sim.burn_in_s = {asked} s: the means count from {} s",
+                self.sim.burn_in_s
+            ));
+        }
+        let late: Vec<f64> = self.faults.starts().filter(|t| *t >= d).collect();
+        if !late.is_empty() {
+            w.push(format!(
+                "{} after the run ends at {d} s (at {}): never applied",
+                if late.len() == 1 {
+                    "1 fault starts".to_string()
+                } else {
+                    format!("{} faults start", late.len())
+                },
+                late.iter().map(|t| format!("{t} s")).collect::<Vec<_>>().join(", ")
+            ));
+        }
+        w
+    }
+}

@@ -1,0 +1,199 @@
+//! Links and faults: loss models, delay and jitter, duplication and corruption, link-down windows, partitions and
+//! crashes.
+
+use std::collections::HashMap;
+
+use crate::link::{FaultSchedule, Jitter, LinkConfig, LossModel, ScheduledFault};
+use crate::scenario::toml::{RawFault, RawLink, RawLoss};
+use crate::scenario::Checks;
+
+impl Checks {
+    pub(crate) fn loss(&mut self, key: &str, l: &RawLoss) -> LossModel {
+        match l.model.as_str() {
+            "bernoulli" => {
+                for (k, v) in [
+                    ("r", l.r),
+                    ("one_minus_h", l.one_minus_h),
+                    ("one_minus_k", l.one_minus_k),
+                    ("burst", l.burst),
+                ] {
+                    if v.is_some() {
+                        self.bad(format!("{key}.{k}"), "only for model = \"gilbert-elliott\"");
+                    }
+                }
+                let p = self.prob(&format!("{key}.p"), l.p.or(l.rate), 0.0);
+                LossModel::Bernoulli { p }
+            }
+            "gilbert-elliott" => {
+                if let (Some(rate), Some(burst)) = (l.rate, l.burst) {
+                    let rate = self.prob(&format!("{key}.rate"), Some(rate), 0.0);
+                    if burst.is_nan() || burst < 1.0 {
+                        self.bad(
+                            format!("{key}.burst"),
+                            format!("mean loss run must be at least 1 packet, got {burst}"),
+                        );
+                        return LossModel::Bernoulli { p: 0.0 };
+                    }
+                    return match LossModel::gilbert_elliott_from(rate, burst) {
+                        Ok(m) => m,
+                        Err(e) => {
+                            self.bad(format!("{key}.rate"), e);
+                            LossModel::Bernoulli { p: 0.0 }
+                        }
+                    };
+                }
+                let p = self.prob(&format!("{key}.p"), l.p, 0.0);
+                let r = self.prob(&format!("{key}.r"), l.r, 1.0);
+                if l.p.is_none() || l.r.is_none() {
+                    self.bad(
+                        key,
+                        "gilbert-elliott needs p and r (netem's `loss gemodel p r 1-h 1-k`), or rate and burst",
+                    );
+                }
+                if p + r == 0.0 {
+                    self.bad(format!("{key}.r"), "p and r cannot both be 0");
+                }
+                LossModel::GilbertElliott {
+                    p,
+                    r,
+                    one_minus_h: self.prob(&format!("{key}.one_minus_h"), l.one_minus_h, 1.0),
+                    one_minus_k: self.prob(&format!("{key}.one_minus_k"), l.one_minus_k, 0.0),
+                }
+            }
+            other => {
+                self.bad(
+                    format!("{key}.model"),
+                    format!("expected bernoulli | gilbert-elliott, got `{other}`"),
+                );
+                LossModel::Bernoulli { p: 0.0 }
+            }
+        }
+    }
+
+    pub(crate) fn link(&mut self, key: &str, raw: RawLink, base: &LinkConfig) -> LinkConfig {
+        let loss = match &raw.loss {
+            Some(l) => self.loss(&format!("{key}.loss"), l),
+            None => base.loss,
+        };
+        let jitter = match raw.jitter.as_deref() {
+            None => base.jitter,
+            Some("uniform") => Jitter::Uniform,
+            Some("normal") => Jitter::Normal,
+            Some(other) => {
+                self.bad(
+                    format!("{key}.jitter"),
+                    format!("expected uniform | normal, got `{other}`"),
+                );
+                base.jitter
+            }
+        };
+        LinkConfig {
+            loss,
+            delay_ms: self.non_negative(&format!("{key}.delay_ms"), raw.delay_ms, base.delay_ms),
+            jitter_ms: self.non_negative(&format!("{key}.jitter_ms"), raw.jitter_ms, base.jitter_ms),
+            jitter,
+            duplicate: self.prob(&format!("{key}.duplicate"), raw.duplicate, base.duplicate),
+            corrupt: self.prob(&format!("{key}.corrupt"), raw.corrupt, base.corrupt),
+        }
+    }
+
+    pub(crate) fn faults(&mut self, raw: &[RawFault], ids: &HashMap<i64, usize>, n: usize) -> FaultSchedule {
+        let mut out = Vec::new();
+        for (f, r) in raw.iter().enumerate() {
+            let key = format!("fault[{f}]");
+            let idx = |v: &mut Checks, k: &str, id: i64| -> Option<usize> {
+                let r = ids.get(&id).copied();
+                if r.is_none() {
+                    v.bad(format!("{key}.{k}"), format!("no [[node]] has id {id}"));
+                }
+                r
+            };
+            let window = |v: &mut Checks| -> Option<(f64, f64)> {
+                let (Some(s), Some(e)) = (r.start_s, r.end_s) else {
+                    v.bad(key.clone(), "needs start_s and end_s");
+                    return None;
+                };
+                if !(s >= 0.0 && e > s && e.is_finite()) {
+                    v.bad(
+                        format!("{key}.end_s"),
+                        format!("need 0 ≤ start_s < end_s, got {s}..{e}"),
+                    );
+                    return None;
+                }
+                Some((s, e))
+            };
+            match r.kind.as_str() {
+                "link-down" => {
+                    let Some(link) = &r.link else {
+                        self.bad(format!("{key}.link"), "link-down needs link = [from, to]");
+                        continue;
+                    };
+                    if link.len() != 2 {
+                        self.bad(format!("{key}.link"), "must list two node ids");
+                        continue;
+                    }
+                    let (a, b) = (idx(self, "link", link[0]), idx(self, "link", link[1]));
+                    let (Some(a), Some(b), Some((s, e))) = (a, b, window(self)) else {
+                        continue;
+                    };
+                    out.push(ScheduledFault::LinkDown {
+                        from: a,
+                        to: b,
+                        both_ways: !r.directed.unwrap_or(false),
+                        start: s,
+                        end: e,
+                    });
+                }
+                "partition" => {
+                    let Some(ns) = &r.nodes else {
+                        self.bad(
+                            format!("{key}.nodes"),
+                            "partition needs nodes = [ids cut off from the rest]",
+                        );
+                        continue;
+                    };
+                    let set: Vec<usize> = ns.iter().filter_map(|&id| idx(self, "nodes", id)).collect();
+                    if set.is_empty() || set.len() >= n {
+                        self.bad(format!("{key}.nodes"), "must name some but not all nodes");
+                    }
+                    let Some((s, e)) = window(self) else { continue };
+                    out.push(ScheduledFault::Partition {
+                        nodes: set,
+                        start: s,
+                        end: e,
+                    });
+                }
+                "crash" => {
+                    let Some(id) = r.node else {
+                        self.bad(format!("{key}.node"), "crash needs node = ID");
+                        continue;
+                    };
+                    let Some(node) = idx(self, "node", id) else { continue };
+                    let Some(at) = r.at_s.filter(|a| *a >= 0.0 && a.is_finite()) else {
+                        self.bad(format!("{key}.at_s"), "crash needs at_s ≥ 0");
+                        continue;
+                    };
+                    if let Some(rs) = r.restart_s {
+                        if rs.is_nan() || rs <= at {
+                            self.bad(
+                                format!("{key}.restart_s"),
+                                format!("must be after at_s ({at}), got {rs}"),
+                            );
+                            continue;
+                        }
+                    }
+                    out.push(ScheduledFault::Crash {
+                        node,
+                        at,
+                        restart: r.restart_s,
+                    });
+                }
+                other => self.bad(
+                    format!("{key}.kind"),
+                    format!("expected link-down | partition | crash, got `{other}`"),
+                ),
+            }
+        }
+        FaultSchedule::new(out)
+    }
+}

@@ -1,0 +1,382 @@
+//! Raw → typed: the file as written ([`super::toml`]) becomes a [`Scenario`], every problem recorded in
+//! [`Checks`] with its key.
+
+mod link;
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use super::toml::*;
+use super::{
+    Checks, ConsensusConfig, DirectedLink, LmiConfig, NodeConfig, Overrides, Role, Scenario, ScenarioError, SimConfig,
+};
+use crate::link::LinkConfig;
+use crate::motion::Trajectory;
+use crate::sensor::SensorProfile;
+
+impl Scenario {
+    /// Parse and validate TOML text; `file` names the source in errors.
+    pub fn from_toml(text: &str, file: &str) -> Result<Scenario, ScenarioError> {
+        let raw: RawTopology = ::toml::from_str(text).map_err(|e| ScenarioError::Parse {
+            file: file.to_string(),
+            message: e.to_string().trim_end().to_string(),
+        })?;
+        let mut v = Checks::default();
+        let topo = v.topology(raw, file);
+        if v.problems.is_empty() {
+            Ok(topo.expect("no problems implies a topology"))
+        } else {
+            Err(ScenarioError::Invalid {
+                file: file.to_string(),
+                problems: v.problems,
+            })
+        }
+    }
+}
+
+impl Checks {
+    fn topology(&mut self, raw: RawTopology, file: &str) -> Option<Scenario> {
+        let name = raw.name.clone().unwrap_or_else(|| {
+            Path::new(file)
+                .file_stem()
+                .map(|s| s.to_string_lossy().trim_start_matches("builtin:").to_string())
+                .unwrap_or_default()
+        });
+        let description = raw.description.clone().unwrap_or_default();
+        let sim = self.sim(raw.sim.unwrap_or_default());
+        let model = crate::model::parse(raw.model.unwrap_or_default(), self);
+
+        // Nodes.
+        if raw.node.is_empty() {
+            self.bad("node", "at least one [[node]] is required");
+        }
+        let mut ids: HashMap<i64, usize> = HashMap::new();
+        let sensor_defaults = self.sensor("sensor", raw.sensor.as_ref(), &SensorProfile::default());
+        let mut nodes = Vec::new();
+        for (i, n) in raw.node.iter().enumerate() {
+            let key = format!("node[{i}]");
+            let id = n.id.unwrap_or(i as i64);
+            if !(0..=u32::MAX as i64).contains(&id) {
+                self.bad(format!("{key}.id"), format!("must be a non-negative integer, got {id}"));
+            }
+            if ids.insert(id, i).is_some() {
+                self.bad(format!("{key}.id"), format!("id {id} is used by more than one node"));
+            }
+            let role = match n.role.as_deref().unwrap_or("peer") {
+                "peer" => Role::Peer,
+                "sensor" => Role::Sensor,
+                "estimator" => Role::Estimator,
+                other => {
+                    self.bad(
+                        format!("{key}.role"),
+                        format!("expected peer | sensor | estimator, got `{other}`"),
+                    );
+                    Role::Peer
+                }
+            };
+            let sensor = self.sensor(&format!("{key}.sensor"), n.sensor.as_ref(), &sensor_defaults);
+            let recording = n
+                .imu_csv
+                .as_deref()
+                .and_then(|f| self.recording(&format!("{key}.imu_csv"), f, file));
+            if recording.is_some() {
+                if role == Role::Estimator {
+                    self.bad(format!("{key}.imu_csv"), "an estimator has no IMU to replace");
+                }
+                if !model.get().imu_driven() {
+                    self.bad(
+                        format!("{key}.imu_csv"),
+                        format!(
+                            "a {} model has no IMU: only for kind = pose or attitude",
+                            model.get().kind()
+                        ),
+                    );
+                }
+            }
+            nodes.push(NodeConfig {
+                id: id.clamp(0, u32::MAX as i64) as u32,
+                role,
+                addr: n.addr.clone(),
+                sensor,
+                recording,
+            });
+        }
+        let n = nodes.len();
+        let index = |v: &mut Checks, key: &str, id: i64| -> Option<usize> {
+            let r = ids.get(&id).copied();
+            if r.is_none() {
+                v.bad(key, format!("no [[node]] has id {id}"));
+            }
+            r
+        };
+
+        // Links: [link] defaults, then one or two directed links per [[edge]].
+        let default_link = self.link("link", raw.link.clone().unwrap_or_default(), &LinkConfig::default());
+        let mut links: Vec<DirectedLink> = Vec::new();
+        for (e, edge) in raw.edge.iter().enumerate() {
+            let key = format!("edge[{e}]");
+            if edge.nodes.len() != 2 {
+                self.bad(
+                    format!("{key}.nodes"),
+                    format!("must list exactly two node ids, got {}", edge.nodes.len()),
+                );
+                continue;
+            }
+            let a = index(self, &format!("{key}.nodes"), edge.nodes[0]);
+            let b = index(self, &format!("{key}.nodes"), edge.nodes[1]);
+            let (Some(a), Some(b)) = (a, b) else { continue };
+            if a == b {
+                self.bad(format!("{key}.nodes"), "an edge must join two different nodes");
+                continue;
+            }
+            let over = RawLink {
+                loss: edge.loss.clone(),
+                delay_ms: edge.delay_ms,
+                jitter_ms: edge.jitter_ms,
+                jitter: edge.jitter.clone(),
+                duplicate: edge.duplicate,
+                corrupt: edge.corrupt,
+            };
+            let cfg = self.link(&key, over, &default_link);
+            let mut add = |v: &mut Checks, from: usize, to: usize| {
+                if links.iter().any(|l| l.from == from && l.to == to) {
+                    v.bad(
+                        format!("{key}.nodes"),
+                        format!("link {} -> {} is given twice", nodes[from].id, nodes[to].id),
+                    );
+                } else {
+                    links.push(DirectedLink { from, to, config: cfg });
+                }
+            };
+            add(self, a, b);
+            if !edge.directed.unwrap_or(false) {
+                add(self, b, a);
+            }
+        }
+
+        // Roles must make sense on the graph.
+        for (i, node) in nodes.iter().enumerate() {
+            let key = format!("node[{i}].role");
+            if node.role == Role::Estimator && !links.iter().any(|l| l.to == i) {
+                self.bad(key, "an estimator with no incoming edge never receives a measurement");
+            } else if node.role == Role::Sensor && !links.iter().any(|l| l.from == i) {
+                self.bad(key, "a sensor with no outgoing edge sends to nobody");
+            }
+        }
+
+        let consensus = self.consensus(raw.consensus.unwrap_or_default(), &nodes, &links);
+        let faults = self.faults(&raw.fault, &ids, n);
+
+        if sim.split_channels && model.get().observation().channels() < 2 {
+            self.bad(
+                "sim.split_channels",
+                "only the pose and attitude models have separate channels",
+            );
+        }
+        Some(Scenario {
+            name,
+            description,
+            source: file.to_string(),
+            sim,
+            model,
+            consensus,
+            applied: Overrides::default(),
+            nodes,
+            links,
+            faults,
+        })
+    }
+
+    fn sim(&mut self, s: RawSim) -> SimConfig {
+        let rate_hz = self.positive("sim.rate_hz", s.rate_hz, 100.0);
+        let duration_s = self.positive("sim.duration_s", s.duration_s, 30.0);
+        let burn_in_s = self.non_negative("sim.burn_in_s", s.burn_in_s, 3.0_f64.min(duration_s / 10.0));
+        if burn_in_s >= duration_s {
+            self.bad(
+                "sim.burn_in_s",
+                format!("must be shorter than sim.duration_s ({duration_s} s), got {burn_in_s}"),
+            );
+        }
+        let trajectory = match s.trajectory.as_deref().unwrap_or("spiral").parse::<Trajectory>() {
+            Ok(t) => t,
+            Err(e) => {
+                self.bad("sim.trajectory", e);
+                Trajectory::Spiral
+            }
+        };
+        let period_ms = 1000.0 / rate_hz;
+        let deadline_ms = self.positive("sim.deadline_ms", s.deadline_ms, period_ms);
+        if deadline_ms > period_ms + 1e-9 {
+            self.bad(
+                "sim.deadline_ms",
+                format!("must not exceed one step period ({period_ms} ms): a measurement is used only in its own step"),
+            );
+        }
+        let divergence_trace = self.positive("sim.divergence_trace", s.divergence_trace, 1e6);
+        if duration_s * rate_hz > 1e8 {
+            self.bad("sim.duration_s", "more than 1e8 steps");
+        }
+        SimConfig {
+            rate_hz,
+            duration_s,
+            burn_in_s,
+            burn_in_shortened_from: None,
+            seed: s.seed.unwrap_or(1),
+            trajectory,
+            deadline_s: deadline_ms.min(period_ms) / 1000.0,
+            split_channels: s.split_channels.unwrap_or(false),
+            divergence_trace,
+        }
+    }
+
+    fn sensor(&mut self, key: &str, raw: Option<&RawSensor>, base: &SensorProfile) -> SensorProfile {
+        let Some(s) = raw else { return base.clone() };
+        let vec3 = |v: &mut Checks, k: &str, x: Option<[f64; 3]>, d: [f64; 3]| -> [f64; 3] {
+            match x {
+                Some(a) if a.iter().any(|e| !e.is_finite()) => {
+                    v.bad(format!("{key}.{k}"), "entries must be finite");
+                    d
+                }
+                Some(a) => a,
+                None => d,
+            }
+        };
+        let non_neg3 = |v: &mut Checks, k: &str, x: Option<[f64; 3]>, d: [f64; 3]| -> [f64; 3] {
+            let a = vec3(v, k, x, d);
+            if a.iter().any(|e| *e < 0.0) {
+                v.bad(format!("{key}.{k}"), "standard deviations must be non-negative");
+            }
+            a
+        };
+        SensorProfile {
+            accel_noise: self.non_negative(&format!("{key}.accel_noise"), s.accel_noise, base.accel_noise),
+            gyro_noise: self.non_negative(&format!("{key}.gyro_noise"), s.gyro_noise, base.gyro_noise),
+            accel_bias: vec3(self, "accel_bias", s.accel_bias, base.accel_bias),
+            gyro_bias: vec3(self, "gyro_bias", s.gyro_bias, base.gyro_bias),
+            accel_drift: non_neg3(self, "accel_drift", s.accel_drift, base.accel_drift),
+            gyro_drift: non_neg3(self, "gyro_drift", s.gyro_drift, base.gyro_drift),
+            pos_noise: self.non_negative(&format!("{key}.pos_noise"), s.pos_noise, base.pos_noise),
+            att_noise: self.non_negative(&format!("{key}.att_noise"), s.att_noise, base.att_noise),
+            mag_noise: self.non_negative(&format!("{key}.mag_noise"), s.mag_noise, base.mag_noise),
+        }
+    }
+
+    fn consensus(&mut self, c: RawConsensus, nodes: &[NodeConfig], links: &[DirectedLink]) -> ConsensusConfig {
+        let n = nodes.len();
+        let beta0 = self.prob("consensus.beta0", c.beta0, 0.0);
+        if c.matrix.is_some() && (c.self_weight.is_some() || c.neighbor.is_some()) {
+            self.bad(
+                "consensus.matrix",
+                "give either `matrix` or `self`/`neighbor`, not both",
+            );
+        }
+        let beta = match &c.matrix {
+            Some(m) => {
+                if m.len() != n || m.iter().any(|r| r.len() != n) {
+                    self.bad(
+                        "consensus.matrix",
+                        format!("must be {n}×{n} (one row and column per [[node]])"),
+                    );
+                    vec![vec![0.0; n]; n]
+                } else {
+                    for (i, row) in m.iter().enumerate() {
+                        for (j, &b) in row.iter().enumerate() {
+                            if !(b >= 0.0 && b.is_finite()) {
+                                self.bad(
+                                    format!("consensus.matrix[{i}][{j}]"),
+                                    format!("weights must be ≥ 0, got {b}"),
+                                );
+                            } else if b > 0.0 && i != j && !links.iter().any(|l| l.from == j && l.to == i) {
+                                self.bad(
+                                    format!("consensus.matrix[{i}][{j}]"),
+                                    format!(
+                                        "weight {b} but no link carries node {}'s measurement to node {}",
+                                        nodes[j].id, nodes[i].id
+                                    ),
+                                );
+                            }
+                        }
+                    }
+                    m.clone()
+                }
+            }
+            None => {
+                let s = self.non_negative("consensus.self", c.self_weight, 1.0);
+                let nb = self.non_negative("consensus.neighbor", c.neighbor, 0.0);
+                (0..n)
+                    .map(|i| {
+                        (0..n)
+                            .map(|j| {
+                                if i == j {
+                                    if nodes[i].role.senses() {
+                                        s
+                                    } else {
+                                        0.0
+                                    }
+                                } else if links.iter().any(|l| l.from == j && l.to == i) && nodes[j].role.senses() {
+                                    // An estimator without a sensor of its own gives its sources the whole weight.
+                                    if nodes[i].role == Role::Estimator && c.neighbor.is_none() {
+                                        1.0
+                                    } else {
+                                        nb
+                                    }
+                                } else {
+                                    0.0
+                                }
+                            })
+                            .collect()
+                    })
+                    .collect()
+            }
+        };
+        for (i, node) in nodes.iter().enumerate() {
+            if node.role.estimates() && beta[i].iter().all(|&b| b == 0.0) && c.matrix.is_some() {
+                self.bad(
+                    format!("consensus.matrix[{i}]"),
+                    format!("node {} estimates but gives every measurement weight 0", node.id),
+                );
+            }
+        }
+        let l = c.lmi.unwrap_or_default();
+        let lmi = LmiConfig {
+            alpha: self.positive("consensus.lmi.alpha", l.alpha, 1000.0),
+            gamma: self.non_negative("consensus.lmi.gamma", l.gamma, 1e-5),
+            enabled: l.enabled.unwrap_or(true),
+        };
+        let inflation = self.positive("consensus.inflation", c.inflation, 1e3);
+        if inflation < 1.0 {
+            self.bad(
+                "consensus.inflation",
+                format!("λ inflates a missing channel and must be ≥ 1, got {inflation}"),
+            );
+        }
+        ConsensusConfig {
+            beta0,
+            beta,
+            lmi,
+            inflation,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_builtin_validates() {
+        for (name, _) in crate::scenario::builtin::ALL {
+            let t = Scenario::resolve(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(t.name, *name);
+        }
+    }
+
+    #[test]
+    fn problems_name_the_key() {
+        let err = Scenario::from_toml("[sim]\nrate_hz = -1\n[[node]]\nid=0\nrole='boss'\n", "x.toml").unwrap_err();
+        let s = err.to_string();
+        assert!(s.contains("sim.rate_hz") && s.contains("node[0].role"), "{s}");
+        let err = Scenario::from_toml("[sim]\nrat_hz = 1\n", "x.toml").unwrap_err();
+        assert!(err.to_string().contains("rat_hz"), "{err}");
+    }
+}
