@@ -80,12 +80,14 @@ fn raw_udp_pair(n: usize) -> f64 {
 
 /// (node-steps/s, datagrams/s) of a virtual-clock run.
 fn end_to_end(name: &str, duration: f64) -> (f64, f64, f64) {
-    let mut t = Scenario::resolve(name).unwrap();
-    t.apply(&Overrides {
-        duration_s: Some(duration),
-        ..Default::default()
-    });
-    let topo = Arc::new(t);
+    let t = Scenario::resolve(name).unwrap();
+    let topo = Arc::new(
+        t.with(&Overrides {
+            duration_s: Some(duration),
+            ..Default::default()
+        })
+        .unwrap(),
+    );
     let rt = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()

@@ -45,6 +45,22 @@ impl FromStr for Trajectory {
     }
 }
 
+impl std::fmt::Display for Trajectory {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let all = [
+            Trajectory::Spiral,
+            Trajectory::Circle,
+            Trajectory::Line,
+            Trajectory::Rest,
+            Trajectory::Piecewise,
+            Trajectory::Figure8,
+            Trajectory::Tumble,
+        ];
+        let i = all.iter().position(|t| t == self).unwrap_or(0);
+        f.write_str(TRAJECTORIES[i])
+    }
+}
+
 /// The true state of the package at one instant.
 #[derive(Debug, Clone, Copy)]
 pub struct PoseTruth {

@@ -299,9 +299,7 @@ impl RunArgs {
             .topology
             .as_deref()
             .ok_or_else(|| UsageError::Option("--topology NAME|PATH is required (see `simnet topologies`)".into()))?;
-        let mut t = Scenario::resolve(name)?;
-        t.apply(&self.overrides()?);
-        t.check_recordings()?;
+        let t = Scenario::resolve(name)?.with(&self.overrides()?)?;
         for w in t.warnings() {
             tracing::warn!("{}: {w}", t.name);
         }
@@ -867,12 +865,15 @@ fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
     use crate::link::LossModel;
     let topo = match &args.topology {
         Some(t) => {
-            let mut topo = Scenario::resolve(t).map_err(UsageError::from)?;
-            topo.apply(&Overrides {
-                duration_s: args.duration,
-                seed: args.seed,
-                ..Default::default()
-            });
+            let topo = Scenario::resolve(t)
+                .and_then(|t| {
+                    t.with(&Overrides {
+                        duration_s: args.duration,
+                        seed: args.seed,
+                        ..Default::default()
+                    })
+                })
+                .map_err(UsageError::from)?;
             Some(topo)
         }
         None => None,
@@ -939,12 +940,10 @@ fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
     }
     let measure = |l: f64| -> anyhow::Result<Option<f64>> {
         let Some(t) = &topo else { return Ok(None) };
-        let mut t = t.clone();
-        t.apply(&Overrides {
+        let t = Arc::new(t.with(&Overrides {
             loss: Some(LossModel::Bernoulli { p: 1.0 - l }),
             ..Default::default()
-        });
-        let t = Arc::new(t);
+        })?);
         let estimators: Vec<u32> = t
             .nodes
             .iter()

@@ -156,7 +156,7 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         command.join(" ")
     );
     // The file must load as it is written: the verification run below uses it.
-    let mut found_topo = Scenario::from_toml(&text, &found_name)?;
+    let found_topo = Scenario::from_toml(&text, &found_name)?;
 
     // Print first: whatever happens to the files, the result is not lost.
     if !args.run.json {
@@ -195,7 +195,7 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         seed: Some(verify_seed),
         ..args.run.overrides()?
     };
-    found_topo.apply(&over);
+    let found_topo = found_topo.with(&over).map_err(UsageError::from)?;
     let mut own = topo.clone();
     own.sim.seed = verify_seed;
     own.consensus.lmi.enabled = true;
@@ -263,7 +263,7 @@ fn choose(
     match solver {
         SolverArg::Family => {
             // Score the rounded β the file will carry, not the unrounded family point.
-            let mut e = protocol::evaluate(topo, &result.beta, result.chosen.u, &cfg.seeds);
+            let mut e = protocol::evaluate(topo, &result.beta, result.chosen.u, &cfg.seeds)?;
             e.u = result.chosen.u;
             Ok((result.beta.clone(), e, None))
         }

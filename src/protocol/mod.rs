@@ -20,7 +20,7 @@ use std::sync::Arc;
 use serde::Serialize;
 
 use crate::node::{step_in_memory, LmiStep, Node};
-use crate::scenario::Scenario;
+use crate::scenario::{Scenario, ScenarioError};
 
 #[cfg(feature = "sdp")]
 pub mod sdp;
@@ -71,6 +71,15 @@ pub enum ProtocolError {
          have no reference columns)"
     )]
     NoReference(String),
+    /// A protocol the scenario's validator rejects (its message).
+    #[error("{0}")]
+    Scenario(String),
+}
+
+impl From<ScenarioError> for ProtocolError {
+    fn from(e: ScenarioError) -> ProtocolError {
+        ProtocolError::Scenario(e.to_string())
+    }
 }
 
 /// Mean errors within this fraction of the lowest count as equal; among them the most exchange wins.
@@ -200,11 +209,8 @@ pub fn exchange(topo: &Scenario, beta: &[Vec<f64>]) -> f64 {
 }
 
 /// The topology with protocol β and the LMI guard on (its α, γ).
-pub fn with_protocol(topo: &Scenario, beta: &[Vec<f64>]) -> Scenario {
-    let mut t = topo.clone();
-    t.consensus.beta = beta.to_vec();
-    t.consensus.lmi.enabled = true;
-    t
+pub fn with_protocol(topo: &Scenario, beta: &[Vec<f64>]) -> Result<Scenario, ScenarioError> {
+    topo.with_beta(beta, true)
 }
 
 /// One run of every node in memory. `record_lmi` keeps each node's per-step LMI terms.
@@ -224,8 +230,8 @@ pub fn run_in_memory(topo: &Scenario, seed: u64, record_lmi: bool) -> (Vec<Node>
 }
 
 /// Score protocol β on `seeds`.
-pub fn evaluate(topo: &Scenario, beta: &[Vec<f64>], u: f64, seeds: &[u64]) -> Evaluation {
-    let t = with_protocol(topo, beta);
+pub fn evaluate(topo: &Scenario, beta: &[Vec<f64>], u: f64, seeds: &[u64]) -> Result<Evaluation, ProtocolError> {
+    let t = with_protocol(topo, beta)?;
     let mut per_seed = Vec::with_capacity(seeds.len());
     let mut independent = 0.0;
     let mut infeasible_steps = 0;
@@ -254,7 +260,7 @@ pub fn evaluate(topo: &Scenario, beta: &[Vec<f64>], u: f64, seeds: &[u64]) -> Ev
         independent += ind / n;
     }
     let s = seeds.len().max(1) as f64;
-    Evaluation {
+    Ok(Evaluation {
         u,
         exchange: exchange(topo, beta),
         mean_error: per_seed.iter().sum::<f64>() / s,
@@ -263,16 +269,23 @@ pub fn evaluate(topo: &Scenario, beta: &[Vec<f64>], u: f64, seeds: &[u64]) -> Ev
         infeasible_steps,
         diverged,
         scored_nodes: if seeds.is_empty() { 0 } else { scored_nodes },
-    }
+    })
 }
 
 /// Score family points in parallel, one worker per core; `tick` after each protocol.
-fn evaluate_many(topo: &Scenario, us: &[f64], cfg: &SearchConfig, tick: &(dyn Fn() + Sync)) -> Vec<Evaluation> {
+fn evaluate_many(
+    topo: &Scenario,
+    us: &[f64],
+    cfg: &SearchConfig,
+    tick: &(dyn Fn() + Sync),
+) -> Result<Vec<Evaluation>, ProtocolError> {
     crate::par::map(
         us,
         |&u| evaluate(topo, &family(topo, u, cfg.max_row_sum), u, &cfg.seeds),
         tick,
     )
+    .into_iter()
+    .collect()
 }
 
 /// How many protocol evaluations [`search`] runs at most (for a progress bar).
@@ -295,13 +308,13 @@ pub fn search(topo: &Scenario, cfg: &SearchConfig, tick: &(dyn Fn() + Sync)) -> 
     if umax <= 0.0 {
         return Err(ProtocolError::NoExchange(topo.name.clone()));
     }
-    let reference = evaluate(topo, &topo.consensus.beta, f64::NAN, &cfg.seeds);
+    let reference = evaluate(topo, &topo.consensus.beta, f64::NAN, &cfg.seeds)?;
     tick();
     if reference.scored_nodes == 0 {
         return Err(ProtocolError::NoReference(topo.name.clone()));
     }
     let us: Vec<f64> = (0..cfg.grid).map(|k| umax * k as f64 / (cfg.grid - 1) as f64).collect();
-    let mut curve = evaluate_many(topo, &us, cfg, tick);
+    let mut curve = evaluate_many(topo, &us, cfg, tick)?;
 
     // Feasible region: the grid points before the first infeasible one; bisect the bracket.
     let first_bad = curve.iter().position(|e| !e.feasible());
@@ -317,7 +330,7 @@ pub fn search(topo: &Scenario, cfg: &SearchConfig, tick: &(dyn Fn() + Sync)) -> 
             let (mut lo, mut hi) = (us[b - 1], us[b]);
             for _ in 0..cfg.bisect {
                 let mid = 0.5 * (lo + hi);
-                let e = evaluate(topo, &family(topo, mid, cfg.max_row_sum), mid, &cfg.seeds);
+                let e = evaluate(topo, &family(topo, mid, cfg.max_row_sum), mid, &cfg.seeds)?;
                 tick();
                 if e.feasible() {
                     lo = mid;

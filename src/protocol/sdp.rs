@@ -34,6 +34,8 @@ pub enum SdpError {
     Solver { node: usize, status: String },
     #[error("node {node}: no β keeps (17) and (19) at step {step} even with independent weights; raise α")]
     Infeasible { node: usize, step: u64 },
+    #[error(transparent)]
+    Protocol(#[from] super::ProtocolError),
 }
 
 /// Strictness margin of the scaled LMIs (their blocks are normalised to order 1).
@@ -245,7 +247,7 @@ pub fn search(
     let mut beta = start.to_vec();
     let mut last = None;
     for round in 1..=max_rounds {
-        let t = super::with_protocol(topo, &beta);
+        let t = super::with_protocol(topo, &beta).map_err(super::ProtocolError::from)?;
         for &seed in &cfg.seeds {
             let (_, logs) = run_in_memory(&t, seed, true);
             for (p, l) in pool.iter_mut().zip(logs) {
@@ -271,7 +273,7 @@ pub fn search(
                 next[i][*j] = ((v.max(0.0)) * 1e4).floor() / 1e4;
             }
         }
-        let e = evaluate(topo, &next, f64::NAN, &cfg.seeds);
+        let e = evaluate(topo, &next, f64::NAN, &cfg.seeds)?;
         let done = e.feasible();
         beta = next;
         last = Some(SdpResult {

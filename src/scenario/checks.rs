@@ -23,6 +23,8 @@ impl fmt::Display for Problem {
 #[derive(Debug, Default)]
 pub struct Checks {
     pub problems: Vec<Problem>,
+    /// Recordings already read, by resolved path: validating a changed scenario again does not re-read them.
+    pub(crate) loaded: std::collections::HashMap<String, std::sync::Arc<crate::imu_csv::ImuRecording>>,
 }
 
 impl Checks {

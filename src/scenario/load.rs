@@ -15,6 +15,13 @@ impl Checks {
             _ => Path::new(path).to_path_buf(),
         };
         let shown = resolved.display().to_string();
+        if let Some(data) = self.loaded.get(&shown) {
+            return Some(RecordedImu {
+                given: path.to_string(),
+                path: shown,
+                data: data.clone(),
+            });
+        }
         let text = match std::fs::read_to_string(&resolved) {
             Ok(t) => t,
             Err(e) => {
@@ -23,11 +30,15 @@ impl Checks {
             }
         };
         match crate::imu_csv::parse(&text, &shown) {
-            Ok(data) => Some(RecordedImu {
-                given: path.to_string(),
-                path: shown,
-                data: Arc::new(data),
-            }),
+            Ok(data) => {
+                let data = Arc::new(data);
+                self.loaded.insert(shown.clone(), data.clone());
+                Some(RecordedImu {
+                    given: path.to_string(),
+                    path: shown,
+                    data,
+                })
+            }
             Err(e) => {
                 self.bad(key, e.to_string());
                 None

@@ -164,6 +164,8 @@ pub struct Scenario {
     pub faults: FaultSchedule,
     /// The overrides applied since the file was read (the last value of each wins).
     pub applied: Overrides,
+    /// The file as written, with every change since: what a change re-validates.
+    pub(crate) raw: toml::RawTopology,
 }
 impl Scenario {
     /// Index of the node whose file id is `id`.

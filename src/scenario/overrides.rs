@@ -1,6 +1,7 @@
 //! Command-line overrides on top of a file.
 
-use super::Scenario;
+use super::toml::{RawLoss, RawTopology};
+use super::{Checks, Scenario, ScenarioError};
 use crate::link::LossModel;
 
 /// Command-line overrides applied on top of a file (as `summary.json` records them: unset ones left out).
@@ -25,48 +26,220 @@ pub struct Overrides {
     pub seed: Option<u64>,
 }
 
+impl Overrides {
+    /// Each value in its range, keyed by its field.
+    fn check(&self, c: &mut Checks) {
+        let key = |k: &str| format!("overrides.{k}");
+        if let Some(l) = self.loss {
+            c.loss(&key("loss"), &RawLoss::from(l));
+        }
+        c.non_negative(&key("delay_ms"), self.delay_ms, 0.0);
+        c.non_negative(&key("jitter_ms"), self.jitter_ms, 0.0);
+        c.prob(&key("duplicate"), self.duplicate, 0.0);
+        c.prob(&key("corrupt"), self.corrupt, 0.0);
+        c.positive(&key("duration_s"), self.duration_s, 1.0);
+        c.positive(&key("rate_hz"), self.rate_hz, 1.0);
+    }
+
+    /// The link options replace one link's (the `[link]` defaults or an `[[edge]]`'s own).
+    fn on_link(
+        &self,
+        loss: &mut Option<RawLoss>,
+        delay: &mut Option<f64>,
+        jitter: &mut Option<f64>,
+        duplicate: &mut Option<f64>,
+        corrupt: &mut Option<f64>,
+    ) {
+        if let Some(l) = self.loss {
+            *loss = Some(RawLoss::from(l));
+        }
+        *delay = self.delay_ms.or(*delay);
+        *jitter = self.jitter_ms.or(*jitter);
+        *duplicate = self.duplicate.or(*duplicate);
+        *corrupt = self.corrupt.or(*corrupt);
+    }
+
+    /// `b` on top of `self`: the last value of each wins.
+    fn then(&self, b: &Overrides) -> Overrides {
+        Overrides {
+            loss: b.loss.or(self.loss),
+            delay_ms: b.delay_ms.or(self.delay_ms),
+            jitter_ms: b.jitter_ms.or(self.jitter_ms),
+            duplicate: b.duplicate.or(self.duplicate),
+            corrupt: b.corrupt.or(self.corrupt),
+            duration_s: b.duration_s.or(self.duration_s),
+            rate_hz: b.rate_hz.or(self.rate_hz),
+            seed: b.seed.or(self.seed),
+        }
+    }
+}
+
 impl Scenario {
-    /// CLI link options replace the value on every link (file defaults and per-edge overrides alike).
-    pub fn apply(&mut self, o: &Overrides) {
-        let a = &mut self.applied;
-        macro_rules! keep {
-            ($($f:ident),*) => { $( if o.$f.is_some() { a.$f = o.$f; } )* };
+    /// This scenario with `o` applied, validated again as a whole (the same checks and keys as the file). Link
+    /// options replace the value on every link (file defaults and per-edge overrides alike); a duration shorter
+    /// than twice the burn-in halves the burn-in; a new rate keeps a deadline of one period.
+    pub fn with(&self, o: &Overrides) -> Result<Scenario, ScenarioError> {
+        let mut c = self.checks();
+        o.check(&mut c);
+        if !c.problems.is_empty() {
+            return Err(ScenarioError::Invalid {
+                file: self.source.clone(),
+                problems: c.problems,
+            });
         }
-        keep!(loss, delay_ms, jitter_ms, duplicate, corrupt, duration_s, rate_hz, seed);
-        for l in &mut self.links {
-            if let Some(loss) = o.loss {
-                l.config.loss = loss;
-            }
-            if let Some(d) = o.delay_ms {
-                l.config.delay_ms = d;
-            }
-            if let Some(j) = o.jitter_ms {
-                l.config.jitter_ms = j;
-            }
-            if let Some(d) = o.duplicate {
-                l.config.duplicate = d;
-            }
-            if let Some(c) = o.corrupt {
-                l.config.corrupt = c;
-            }
+        let mut raw = self.raw.clone();
+        let l = raw.link.get_or_insert_with(Default::default);
+        o.on_link(
+            &mut l.loss,
+            &mut l.delay_ms,
+            &mut l.jitter_ms,
+            &mut l.duplicate,
+            &mut l.corrupt,
+        );
+        for e in &mut raw.edge {
+            o.on_link(
+                &mut e.loss,
+                &mut e.delay_ms,
+                &mut e.jitter_ms,
+                &mut e.duplicate,
+                &mut e.corrupt,
+            );
         }
+        let sim = raw.sim.get_or_insert_with(Default::default);
+        let mut shortened = self.sim.burn_in_shortened_from;
         if let Some(d) = o.duration_s {
-            self.sim.duration_s = d;
-            if self.sim.burn_in_s > d / 2.0 {
-                let asked = self.sim.burn_in_shortened_from.unwrap_or(self.sim.burn_in_s);
-                self.sim.burn_in_shortened_from = Some(asked);
-                self.sim.burn_in_s = d / 2.0;
+            sim.duration_s = Some(d);
+            // The burn-in stays what it was (not the default of the new duration) unless it would cover half the run.
+            let mut burn_in = self.sim.burn_in_s;
+            if burn_in > d / 2.0 {
+                shortened = Some(shortened.unwrap_or(burn_in));
+                burn_in = d / 2.0;
             }
+            sim.burn_in_s = Some(burn_in);
         }
         if let Some(r) = o.rate_hz {
             let old_dt = self.sim.dt();
-            self.sim.rate_hz = r;
-            if (self.sim.deadline_s - old_dt).abs() < 1e-12 || self.sim.deadline_s > self.sim.dt() {
-                self.sim.deadline_s = self.sim.dt();
+            sim.rate_hz = Some(r);
+            // A deadline of one period stays one period; a longer one than the new period is cut to it.
+            if (self.sim.deadline_s - old_dt).abs() < 1e-12 || self.sim.deadline_s > 1.0 / r {
+                sim.deadline_ms = None;
             }
         }
         if let Some(s) = o.seed {
-            self.sim.seed = s;
+            sim.seed = Some(s);
         }
+        let mut t = self.revalidate(raw, c)?;
+        t.sim.burn_in_shortened_from = shortened;
+        t.applied = self.applied.then(o);
+        t.check_recordings()?;
+        Ok(t)
+    }
+
+    /// This scenario with another consensus weight matrix (row i = receiving node i), validated again.
+    /// `guard` turns the LMI guard of (17)/(19) on or off.
+    pub fn with_beta(&self, beta: &[Vec<f64>], guard: bool) -> Result<Scenario, ScenarioError> {
+        let mut raw = self.raw.clone();
+        let c = raw.consensus.get_or_insert_with(Default::default);
+        c.matrix = Some(beta.to_vec());
+        (c.self_weight, c.neighbor) = (None, None);
+        c.lmi.get_or_insert_with(Default::default).enabled = Some(guard);
+        self.revalidate(raw, self.checks())
+    }
+
+    /// This scenario with another trajectory, validated again.
+    pub fn with_trajectory(&self, t: crate::motion::Trajectory) -> Result<Scenario, ScenarioError> {
+        let mut raw = self.raw.clone();
+        raw.sim.get_or_insert_with(Default::default).trajectory = Some(t.to_string());
+        self.revalidate(raw, self.checks())
+    }
+
+    /// Checks that know this scenario's recordings.
+    fn checks(&self) -> Checks {
+        let mut c = Checks::default();
+        for r in self.nodes.iter().filter_map(|n| n.recording.as_ref()) {
+            c.loaded.insert(r.path.clone(), r.data.clone());
+        }
+        c
+    }
+
+    fn revalidate(&self, raw: RawTopology, c: Checks) -> Result<Scenario, ScenarioError> {
+        let mut t = c.validate(raw, &self.source)?;
+        t.source = self.source.clone();
+        t.name = self.name.clone();
+        t.applied = self.applied.clone();
+        t.sim.burn_in_shortened_from = self.sim.burn_in_shortened_from;
+        Ok(t)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ring3() -> Scenario {
+        Scenario::resolve("ring3").unwrap()
+    }
+
+    #[test]
+    fn bad_overrides_are_errors_naming_their_key() {
+        let t = ring3();
+        for (o, key) in [
+            (
+                Overrides {
+                    loss: Some(LossModel::Bernoulli { p: f64::NAN }),
+                    ..Default::default()
+                },
+                "overrides.loss.p",
+            ),
+            (
+                Overrides {
+                    delay_ms: Some(-1.0),
+                    ..Default::default()
+                },
+                "overrides.delay_ms",
+            ),
+            (
+                Overrides {
+                    rate_hz: Some(0.0),
+                    ..Default::default()
+                },
+                "overrides.rate_hz",
+            ),
+            (
+                Overrides {
+                    duplicate: Some(1.5),
+                    ..Default::default()
+                },
+                "overrides.duplicate",
+            ),
+        ] {
+            let e = t.with(&o).unwrap_err().to_string();
+            assert!(e.contains(key), "{key}: {e}");
+        }
+        let e = t.with_beta(&[vec![1.0]], true).unwrap_err().to_string();
+        assert!(e.contains("consensus.matrix"), "{e}");
+    }
+
+    #[test]
+    fn overrides_reach_every_link_and_keep_the_burn_in_rules() {
+        let t = ring3()
+            .with(&Overrides {
+                delay_ms: Some(4.0),
+                duration_s: Some(4.0),
+                ..Default::default()
+            })
+            .unwrap();
+        assert!(t.links.iter().all(|l| l.config.delay_ms == 4.0));
+        assert_eq!((t.sim.burn_in_s, t.sim.burn_in_shortened_from), (2.0, Some(3.0)));
+        let t = t
+            .with(&Overrides {
+                rate_hz: Some(50.0),
+                seed: Some(9),
+                ..Default::default()
+            })
+            .unwrap();
+        assert_eq!((t.sim.deadline_s, t.sim.seed, t.sim.duration_s), (0.02, 9, 4.0));
+        assert_eq!(t.applied.delay_ms, Some(4.0));
+        assert_eq!(t.applied.rate_hz, Some(50.0));
     }
 }

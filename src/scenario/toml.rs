@@ -3,7 +3,7 @@
 
 use serde::Deserialize;
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Clone, Default)]
 #[serde(deny_unknown_fields)]
 pub struct RawTopology {
     pub name: Option<String>,
@@ -21,7 +21,7 @@ pub struct RawTopology {
     pub fault: Vec<RawFault>,
 }
 
-#[derive(Debug, Deserialize, Default)]
+#[derive(Debug, Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawSim {
     pub rate_hz: Option<f64>,
@@ -34,7 +34,7 @@ pub struct RawSim {
     pub divergence_trace: Option<f64>,
 }
 
-#[derive(Debug, Deserialize, Default)]
+#[derive(Debug, Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawModel {
     pub kind: Option<String>,
@@ -60,7 +60,7 @@ pub struct RawModel {
     pub p0: Option<Vec<Vec<f64>>>,
 }
 
-#[derive(Debug, Deserialize, Default)]
+#[derive(Debug, Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawConsensus {
     pub beta0: Option<f64>,
@@ -72,7 +72,7 @@ pub struct RawConsensus {
     pub inflation: Option<f64>,
 }
 
-#[derive(Debug, Deserialize, Default)]
+#[derive(Debug, Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawLmi {
     pub alpha: Option<f64>,
@@ -118,7 +118,7 @@ pub struct RawSensor {
     pub mag_noise: Option<f64>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawNode {
     pub id: Option<i64>,
@@ -128,7 +128,7 @@ pub struct RawNode {
     pub imu_csv: Option<String>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawEdge {
     pub nodes: Vec<i64>,
@@ -141,7 +141,7 @@ pub struct RawEdge {
     pub corrupt: Option<f64>,
 }
 
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawFault {
     pub kind: String,
@@ -153,4 +153,39 @@ pub struct RawFault {
     pub end_s: Option<f64>,
     pub at_s: Option<f64>,
     pub restart_s: Option<f64>,
+}
+
+impl From<crate::link::LossModel> for RawLoss {
+    fn from(l: crate::link::LossModel) -> RawLoss {
+        use crate::link::LossModel;
+        let none = RawLoss {
+            model: String::new(),
+            p: None,
+            r: None,
+            one_minus_h: None,
+            one_minus_k: None,
+            rate: None,
+            burst: None,
+        };
+        match l {
+            LossModel::Bernoulli { p } => RawLoss {
+                model: "bernoulli".into(),
+                p: Some(p),
+                ..none
+            },
+            LossModel::GilbertElliott {
+                p,
+                r,
+                one_minus_h,
+                one_minus_k,
+            } => RawLoss {
+                model: "gilbert-elliott".into(),
+                p: Some(p),
+                r: Some(r),
+                one_minus_h: Some(one_minus_h),
+                one_minus_k: Some(one_minus_k),
+                ..none
+            },
+        }
+    }
 }

@@ -105,8 +105,9 @@ fn a_recorded_imu_replays_the_run_that_wrote_it() {
         assert!(toml.contains("imu_csv"));
         // The file covers 10 s: shorten the run before it is checked.
         let toml = toml.replace("duration_s = 30.0", "duration_s = 10.0");
-        let mut t = Scenario::from_toml(&toml, "fed.toml").unwrap_or_else(|e| panic!("{e}"));
-        t.apply(&ten_seconds());
+        let t = Scenario::from_toml(&toml, "fed.toml")
+            .and_then(|t| t.with(&ten_seconds()))
+            .unwrap_or_else(|e| panic!("{e}"));
         run_in_memory(t, steps)
     };
 

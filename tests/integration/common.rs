@@ -7,13 +7,12 @@ use simnet::report::summary::Summary;
 use simnet::scenario::{Overrides, Scenario};
 
 pub fn topology(name_or_toml: &str, o: Overrides) -> Scenario {
-    let mut t = if name_or_toml.contains('[') {
+    let t = if name_or_toml.contains('[') {
         Scenario::from_toml(name_or_toml, "test.toml").unwrap_or_else(|e| panic!("{e}"))
     } else {
         Scenario::resolve(name_or_toml).unwrap_or_else(|e| panic!("{e}"))
     };
-    t.apply(&o);
-    t
+    t.with(&o).unwrap_or_else(|e| panic!("{e}"))
 }
 
 pub fn runtime() -> tokio::runtime::Runtime {

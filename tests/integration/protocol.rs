@@ -65,8 +65,7 @@ fn found_protocol_is_feasible_on_fresh_runs_and_beats_the_hand_picked_one() {
         // Seeds the search never used (it scored seeds 1 and 2).
         let (mut sum_found, mut sum_hand) = (0.0, 0.0);
         for seed in [500, 501, 502] {
-            let mut f = found.clone();
-            f.apply(&bernoulli(0.2, seed));
+            let mut f = found.with(&bernoulli(0.2, seed)).unwrap();
             f.sim.duration_s = 12.0;
             let mut h = topology(name, bernoulli(0.2, seed));
             h.sim.duration_s = 12.0;
@@ -167,7 +166,7 @@ fn sdp_over_all_beta_is_feasible_tight_and_beats_the_family_on_its_data() {
     let mut topo = topology("tri3-paper", bernoulli(0.2, 3));
     topo.sim.duration_s = 10.0;
     let beta = protocol::family(&topo, 0.2, 2.0);
-    let (_, logs) = protocol::run_in_memory(&protocol::with_protocol(&topo, &beta), 3, true);
+    let (_, logs) = protocol::run_in_memory(&protocol::with_protocol(&topo, &beta).unwrap(), 3, true);
     let i = 0;
     let steps: Vec<&LmiStep> = logs[i].iter().collect();
     assert!(steps.len() > 900);

@@ -21,14 +21,20 @@ impl Scenario {
             file: file.to_string(),
             message: e.to_string().trim_end().to_string(),
         })?;
-        let mut v = Checks::default();
-        let topo = v.topology(raw, file);
-        if v.problems.is_empty() {
+        Checks::default().validate(raw, file)
+    }
+}
+
+impl Checks {
+    /// Raw → typed, or every problem found.
+    pub(crate) fn validate(mut self, raw: RawTopology, file: &str) -> Result<Scenario, ScenarioError> {
+        let topo = self.topology(raw, file);
+        if self.problems.is_empty() {
             Ok(topo.expect("no problems implies a topology"))
         } else {
             Err(ScenarioError::Invalid {
                 file: file.to_string(),
-                problems: v.problems,
+                problems: self.problems,
             })
         }
     }
@@ -36,6 +42,7 @@ impl Scenario {
 
 impl Checks {
     fn topology(&mut self, raw: RawTopology, file: &str) -> Option<Scenario> {
+        let kept = raw.clone();
         let name = raw.name.clone().unwrap_or_else(|| {
             Path::new(file)
                 .file_stem()
@@ -181,6 +188,7 @@ impl Checks {
             model,
             consensus,
             applied: Overrides::default(),
+            raw: kept,
             nodes,
             links,
             faults,
