@@ -47,5 +47,10 @@ pub mod reproduce;
 pub mod rng;
 pub mod scenario;
 pub mod sensor;
+pub mod sim;
 pub mod stats;
 pub mod wire;
+
+pub use report::summary::Summary;
+pub use scenario::{Overrides, Scenario};
+pub use sim::{RunResults, Sim};

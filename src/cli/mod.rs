@@ -449,7 +449,7 @@ fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     if let Some(pb) = progress {
         pb.finish_and_clear();
     }
-    let s = out.summary(&topo, if args.realtime { Clock::Realtime } else { Clock::Virtual });
+    let s = out.summary();
     // Files first: a reader that closes stdout early (`| head`) loses nothing.
     let mut wrote = Vec::new();
     if let Some(d) = &out_dir {
@@ -959,7 +959,7 @@ fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
         }
         let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
         let out = rt.block_on(net::run(t.clone(), RunOptions::default(), std::future::pending()))?;
-        let s = out.summary(&t, Clock::Virtual);
+        let s = out.summary();
         let v: Vec<f64> = s
             .nodes
             .iter()

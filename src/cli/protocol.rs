@@ -9,7 +9,7 @@ use std::sync::Arc;
 use clap::{Args, ValueEnum};
 
 use super::{progress_bar_of, write_atomic, RunArgs, UsageError};
-use crate::net::{self, Clock, RunOptions};
+use crate::net::{self, RunOptions};
 use crate::protocol::{self, Boundary, Evaluation, Objective, SearchConfig, SearchResult};
 use crate::report::plot;
 use crate::scenario::{Overrides, Scenario};
@@ -203,7 +203,7 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let verify = |t: Scenario| -> anyhow::Result<crate::report::summary::Summary> {
         let t = Arc::new(t);
         let out = rt.block_on(net::run(t.clone(), RunOptions::default(), std::future::pending()))?;
-        Ok(out.summary(&t, Clock::Virtual))
+        Ok(out.summary())
     };
     let fresh_found = verify(found_topo)?;
     let fresh_own = verify(own)?;

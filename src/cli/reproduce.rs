@@ -8,7 +8,7 @@ use std::sync::Arc;
 use clap::{Args, Subcommand};
 
 use super::{write_atomic, UsageError};
-use crate::net::{self, Clock, RunOptions};
+use crate::net::{self, RunOptions};
 use crate::report::trace::TraceRecorder;
 use crate::reproduce::{self, lesecq, nieminen, rigid_pair, sequeira, RunResult};
 use crate::scenario::Scenario;
@@ -94,7 +94,7 @@ fn run_over_udp(rt: &tokio::runtime::Runtime, topo: &Scenario, record: bool) -> 
         ..Default::default()
     };
     let out = rt.block_on(net::run(topo.clone(), opts, std::future::pending()))?;
-    let summary = out.summary(&topo, Clock::Virtual);
+    let summary = out.summary();
     let (rows, fused) = match out.trace {
         Some(t) => t.finish()?,
         None => Default::default(),

@@ -22,24 +22,11 @@ use crate::node::{Node, NodeReport, StepEstimate};
 use crate::report::observer::Observer;
 use crate::report::trace::TraceRecorder;
 use crate::scenario::Scenario;
+use crate::sim::observer_for;
+pub use crate::sim::{Clock, Progress, RunResults};
 use crate::wire::MAX_DATAGRAM;
 
 pub mod host;
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Clock {
-    Virtual,
-    Realtime,
-}
-
-impl Clock {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Clock::Virtual => "virtual",
-            Clock::Realtime => "realtime",
-        }
-    }
-}
 
 #[derive(Debug, thiserror::Error)]
 pub enum NetError {
@@ -48,9 +35,6 @@ pub enum NetError {
     #[error("node task {0} stopped unexpectedly")]
     TaskLost(usize),
 }
-
-/// Called with (steps done, steps total).
-pub type Progress = Arc<dyn Fn(u64, u64) + Send + Sync>;
 
 pub struct RunOptions {
     pub clock: Clock,
@@ -75,44 +59,12 @@ impl Default for RunOptions {
     }
 }
 
-pub struct RunOutput {
-    pub reports: Vec<NodeReport>,
-    pub observer: Observer,
-    pub steps_done: u64,
-    pub interrupted: bool,
-    pub wall_s: f64,
-    /// Datagrams the link layer delivered that never came out of a socket in time (virtual clock).
-    pub socket_losses: u64,
-    /// The recorder of [`RunOptions::trace`], handed back with every row given to it.
-    pub trace: Option<TraceRecorder>,
-}
-
-impl RunOutput {
-    /// The run's summary.
-    pub fn summary(&self, topo: &Scenario, clock: Clock) -> crate::report::summary::Summary {
-        crate::report::summary::Summary::build(
-            topo,
-            clock.as_str(),
-            &self.reports,
-            self.observer.summary(),
-            self.steps_done,
-            self.interrupted,
-            self.wall_s,
-            self.socket_losses,
-        )
-    }
-}
-
-fn observer_for(topo: &Scenario, record: bool) -> Observer {
-    Observer::new(topo.sim.burn_in_steps(), topo.model.get().fusion(), record)
-}
-
 /// Run a whole topology in this process. `shutdown` ends the run early (the results so far are kept).
 pub async fn run(
     topo: Arc<Scenario>,
     mut opts: RunOptions,
     shutdown: impl Future<Output = ()> + Send + 'static,
-) -> Result<RunOutput, NetError> {
+) -> Result<RunResults, NetError> {
     let n = topo.nodes.len();
     let mut sockets = Vec::with_capacity(n);
     for _ in 0..n {
@@ -253,7 +205,7 @@ async fn run_virtual(
     addrs: Vec<SocketAddr>,
     opts: &mut RunOptions,
     stop: watch::Receiver<bool>,
-) -> Result<RunOutput, NetError> {
+) -> Result<RunResults, NetError> {
     let n = topo.nodes.len();
     let addrs_arc = Arc::new(addrs.clone());
     let (reply_tx, mut reply_rx) = mpsc::channel::<Reply>(n.max(1) * 2);
@@ -351,7 +303,9 @@ async fn run_virtual(
     if let Some(t) = trace.as_mut() {
         t.fused(observer.drain_rows());
     }
-    Ok(RunOutput {
+    Ok(RunResults {
+        scenario: topo,
+        clock: Clock::Virtual,
         reports,
         observer,
         steps_done: done,
@@ -359,6 +313,7 @@ async fn run_virtual(
         wall_s: 0.0,
         socket_losses,
         trace,
+        lmi: Vec::new(),
     })
 }
 
@@ -463,7 +418,7 @@ async fn run_realtime(
     addrs: Vec<SocketAddr>,
     opts: &mut RunOptions,
     stop: watch::Receiver<bool>,
-) -> Result<RunOutput, NetError> {
+) -> Result<RunResults, NetError> {
     let n = topo.nodes.len();
     let addrs_arc = Arc::new(addrs.clone());
     let steps = topo.sim.steps();
@@ -548,7 +503,9 @@ async fn run_realtime(
         t.fused(observer.drain_rows());
     }
     let done = if n == 0 { 0 } else { done };
-    Ok(RunOutput {
+    Ok(RunResults {
+        scenario: topo,
+        clock: Clock::Realtime,
         reports,
         observer,
         steps_done: done,
@@ -556,5 +513,6 @@ async fn run_realtime(
         wall_s: 0.0,
         socket_losses: 0,
         trace,
+        lmi: Vec::new(),
     })
 }

@@ -812,30 +812,16 @@ impl Node {
     }
 }
 
-/// One lockstep step of nodes wired together in memory, no sockets (as quinn-proto's tests drive endpoints): every
-/// node steps, datagrams due by the deadline move to their receivers, every node closes the step. Returns the
-/// estimates of the nodes that estimate.
-pub fn step_in_memory(nodes: &mut [Node], k: u64) -> Vec<StepEstimate> {
-    let Some(first) = nodes.first() else { return Vec::new() };
-    let now = k as f64 * first.topo.sim.dt() + first.topo.sim.deadline_s;
-    for n in nodes.iter_mut() {
-        n.handle_step(k);
-    }
-    let mut moved = Vec::new();
-    for n in nodes.iter_mut() {
-        while let Some(tx) = n.poll_transmit(now) {
-            moved.push((n.index(), tx));
-        }
-    }
-    for (from, tx) in moved {
-        nodes[tx.to].handle_datagram(Some(from), &tx.bytes);
-    }
-    nodes.iter_mut().filter_map(|n| n.handle_deadline(k)).collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// One lockstep step with the scenario's deadline.
+    fn step_in_memory(nodes: &mut [Node], k: u64) {
+        let sim = &nodes[0].topo.sim;
+        let window_end = k as f64 * sim.dt() + sim.deadline_s;
+        crate::sim::lockstep(nodes, k, window_end);
+    }
 
     /// Two nodes driven in memory, no sockets: datagrams flow and both filters track the truth.
     #[test]

@@ -15,12 +15,10 @@
 //! exchanged weight ([`Objective::Exchange`]). With the `sdp` feature,
 //! the `sdp` module searches all β, not only the family, for the most exchanged weight.
 
-use std::sync::Arc;
-
 use serde::Serialize;
 
-use crate::node::{step_in_memory, LmiStep, Node};
-use crate::scenario::{Scenario, ScenarioError};
+use crate::scenario::{Overrides, Scenario, ScenarioError};
+use crate::sim::{RunResults, Sim, SimError, SimOptions};
 
 #[cfg(feature = "sdp")]
 pub mod sdp;
@@ -74,6 +72,12 @@ pub enum ProtocolError {
     /// A protocol the scenario's validator rejects (its message).
     #[error("{0}")]
     Scenario(String),
+}
+
+impl From<SimError> for ProtocolError {
+    fn from(e: SimError) -> ProtocolError {
+        ProtocolError::Scenario(e.to_string())
+    }
 }
 
 impl From<ScenarioError> for ProtocolError {
@@ -213,20 +217,17 @@ pub fn with_protocol(topo: &Scenario, beta: &[Vec<f64>]) -> Result<Scenario, Sce
     topo.with_beta(beta, true)
 }
 
-/// One run of every node in memory. `record_lmi` keeps each node's per-step LMI terms.
-pub fn run_in_memory(topo: &Scenario, seed: u64, record_lmi: bool) -> (Vec<Node>, Vec<Vec<LmiStep>>) {
-    let mut t = topo.clone();
-    t.sim.seed = seed;
-    let t = Arc::new(t);
-    let mut nodes: Vec<Node> = (0..t.nodes.len()).map(|i| Node::new(t.clone(), i, false)).collect();
-    if record_lmi {
-        nodes.iter_mut().for_each(Node::record_lmi);
-    }
-    for k in 0..t.sim.steps() {
-        step_in_memory(&mut nodes, k);
-    }
-    let logs = nodes.iter_mut().map(Node::take_lmi_log).collect();
-    (nodes, logs)
+/// One run in memory with `seed` ([`Sim`]); `record_lmi` keeps each node's per-step LMI terms.
+pub fn run_in_memory(topo: &Scenario, seed: u64, record_lmi: bool) -> Result<RunResults, ProtocolError> {
+    let t = topo.with(&Overrides {
+        seed: Some(seed),
+        ..Default::default()
+    })?;
+    let opts = SimOptions {
+        record_lmi,
+        ..Default::default()
+    };
+    Ok(Sim::with_options(&t, opts)?.run()?)
 }
 
 /// Score protocol β on `seeds`.
@@ -238,10 +239,9 @@ pub fn evaluate(topo: &Scenario, beta: &[Vec<f64>], u: f64, seeds: &[u64]) -> Re
     let mut diverged = false;
     let mut scored_nodes = usize::MAX;
     for &seed in seeds {
-        let (mut nodes, _) = run_in_memory(&t, seed, false);
+        let results = run_in_memory(&t, seed, false)?;
         let (mut net, mut ind, mut n) = (0.0, 0.0, 0usize);
-        for node in &mut nodes {
-            let r = node.report();
+        for r in results.reports {
             let (Some(mn), Some(mi)) = (r.networked, r.independent) else {
                 continue;
             };

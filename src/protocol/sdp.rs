@@ -249,7 +249,7 @@ pub fn search(
     for round in 1..=max_rounds {
         let t = super::with_protocol(topo, &beta).map_err(super::ProtocolError::from)?;
         for &seed in &cfg.seeds {
-            let (_, logs) = run_in_memory(&t, seed, true);
+            let logs = run_in_memory(&t, seed, true)?.lmi;
             for (p, l) in pool.iter_mut().zip(logs) {
                 p.extend(l);
             }

@@ -247,7 +247,7 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> anyhow::Res
         let n = t.nodes.len();
         let mut ind = with_protocol(&t, &identity(n))?;
         ind.consensus.beta0 = 0.0;
-        let (_, logs) = run_in_memory(&ind, seed, true);
+        let logs = run_in_memory(&ind, seed, true)?.lmi;
         let mut series = Vec::new();
         let mut lowest = f64::INFINITY;
         for (i, log) in logs.iter().enumerate() {
@@ -354,7 +354,7 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> anyhow::Res
     let (mut max_z, mut min_eig) = (0.0_f64, f64::INFINITY);
     {
         let t = load("tri3-paper", first)?;
-        let (_, logs) = run_in_memory(&with_protocol(&t, &t.consensus.beta)?, first, true);
+        let logs = run_in_memory(&with_protocol(&t, &t.consensus.beta)?, first, true)?.lmi;
         let (mut zs, mut es) = (Vec::new(), Vec::new());
         for (i, log) in logs.iter().enumerate() {
             let (mut z, mut e) = (Vec::new(), Vec::new());

@@ -1,9 +1,9 @@
 //! The attitude model over the network, and recorded IMU files driving a node.
 
-use std::sync::Arc;
-
-use simnet::node::{step_in_memory, Node, NodeReport, TraceRow};
+use simnet::node::{NodeReport, TraceRow};
+use simnet::report::trace::TraceRecorder;
 use simnet::scenario::{Overrides, Scenario};
+use simnet::sim::{Sim, SimOptions};
 
 use crate::common;
 
@@ -47,22 +47,41 @@ fn attitude_network_over_udp_with_partial_loss() {
     assert!(net < ind, "networked {net} vs independent {ind}");
 }
 
-fn run_in_memory(topo: Scenario, steps: u64) -> Vec<NodeReport> {
-    let topo = Arc::new(topo);
-    let mut nodes: Vec<Node> = (0..topo.nodes.len())
-        .map(|i| Node::new(topo.clone(), i, true))
-        .collect();
-    for k in 0..steps {
-        step_in_memory(&mut nodes, k);
+/// The first `steps` steps in memory: each node's report with its trace rows; `imu_dir` receives `imu-ID.csv`.
+fn run_in_memory(topo: Scenario, steps: u64, imu_dir: Option<&std::path::Path>) -> Vec<(NodeReport, Vec<TraceRow>)> {
+    let mut rec = TraceRecorder::for_topology(&topo).keep_all();
+    if let Some(dir) = imu_dir {
+        let dir = dir.to_path_buf();
+        rec = rec.with_imu(Box::new(move |id| {
+            let f = std::fs::File::create(dir.join(format!("imu-{id}.csv")))?;
+            Ok(Box::new(f) as Box<dyn std::io::Write + Send>)
+        }));
     }
-    nodes.iter_mut().map(|n| n.report()).collect()
+    let opts = SimOptions {
+        trace: Some(rec),
+        ..Default::default()
+    };
+    let mut sim = Sim::with_options(&topo, opts).unwrap();
+    for _ in 0..steps {
+        sim.step().unwrap();
+    }
+    let results = sim.finish();
+    let (rows, _) = results.trace.unwrap().finish().unwrap();
+    results
+        .reports
+        .into_iter()
+        .map(|r| {
+            let mine = rows.iter().filter(|t| t.node == r.id).cloned().collect();
+            (r, mine)
+        })
+        .collect()
 }
 
-fn estimates(r: &NodeReport) -> Vec<&TraceRow> {
-    r.trace.iter().filter(|t| t.networked).collect()
+fn estimates(r: &(NodeReport, Vec<TraceRow>)) -> Vec<&TraceRow> {
+    r.1.iter().filter(|t| t.networked).collect()
 }
 
-fn largest_gap(a: &NodeReport, b: &NodeReport) -> f64 {
+fn largest_gap(a: &(NodeReport, Vec<TraceRow>), b: &(NodeReport, Vec<TraceRow>)) -> f64 {
     estimates(a)
         .iter()
         .zip(estimates(b))
@@ -81,11 +100,11 @@ fn a_recorded_imu_replays_the_run_that_wrote_it() {
         duration_s: Some(10.0),
         ..common::seed(4)
     };
-    let original = run_in_memory(common::topology("attitude3", ten_seconds()), steps);
     let dir = std::env::temp_dir().join(format!("simnet-replay-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
+    let original = run_in_memory(common::topology("attitude3", ten_seconds()), steps, Some(&dir));
     let with_ref = dir.join("imu-0.csv");
-    let text = simnet::imu_csv::write(&original[0].imu);
+    let text = std::fs::read_to_string(&with_ref).unwrap();
     assert!(text.starts_with("t,ax,ay,az,gx,gy,gz,mx,my,mz,x,y,z,roll,pitch,yaw"));
     std::fs::write(&with_ref, &text).unwrap();
     let bare = dir.join("raw-0.csv");
@@ -108,27 +127,27 @@ fn a_recorded_imu_replays_the_run_that_wrote_it() {
         let t = Scenario::from_toml(&toml, "fed.toml")
             .and_then(|t| t.with(&ten_seconds()))
             .unwrap_or_else(|e| panic!("{e}"));
-        run_in_memory(t, steps)
+        run_in_memory(t, steps, None)
     };
 
     let replay = fed(&with_ref);
     for (a, b) in original.iter().zip(&replay) {
         let gap = largest_gap(a, b);
-        assert!(gap < 1e-9, "node {}: {gap:e}", a.id);
+        assert!(gap < 1e-9, "node {}: {gap:e}", a.0.id);
         assert_eq!(
-            a.networked.as_ref().unwrap().summary(true),
-            b.networked.as_ref().unwrap().summary(true)
+            a.0.networked.as_ref().unwrap().summary(true),
+            b.0.networked.as_ref().unwrap().summary(true)
         );
     }
 
     let raw = fed(&bare);
-    assert!(raw[0].networked.as_ref().unwrap().summary(true).mean_error.is_none());
+    assert!(raw[0].0.networked.as_ref().unwrap().summary(true).mean_error.is_none());
     for i in 1..3 {
         // Node 0's measurements are the file's: identical whatever node 0 itself estimates.
         let gap = largest_gap(&original[i], &raw[i]);
         assert!(gap < 1e-9, "node {i}: {gap:e}");
     }
-    let last = |r: &NodeReport| estimates(r).last().map(|t| t.est.clone()).unwrap();
+    let last = |r: &(NodeReport, Vec<TraceRow>)| estimates(r).last().map(|t| t.est.clone()).unwrap();
     let (truth, est) = (estimates(&original[0]).last().unwrap().truth.clone(), last(&raw[0]));
     let q = |e: &[f64]| simnet::estimate::attitude::from_euler(&nalgebra::Vector3::new(e[0], e[1], e[2]));
     let err = simnet::estimate::attitude::angle_between(&q(&truth), &q(&est)).to_degrees();

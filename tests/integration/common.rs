@@ -2,7 +2,7 @@
 
 use std::sync::Arc;
 
-use simnet::net::{self, RunOptions, RunOutput};
+use simnet::net::{self, RunOptions, RunResults};
 use simnet::report::summary::Summary;
 use simnet::scenario::{Overrides, Scenario};
 
@@ -23,13 +23,12 @@ pub fn runtime() -> tokio::runtime::Runtime {
         .unwrap()
 }
 
-pub fn run_with(topo: Scenario, opts: RunOptions) -> (Summary, RunOutput) {
+pub fn run_with(topo: Scenario, opts: RunOptions) -> (Summary, RunResults) {
     let topo = Arc::new(topo);
-    let opts_clock = opts.clock;
     let out = runtime()
         .block_on(net::run(topo.clone(), opts, std::future::pending()))
         .expect("run");
-    let s = out.summary(&topo, opts_clock);
+    let s = out.summary();
     (s, out)
 }
 

@@ -1,5 +1,6 @@
 //! Golden summaries: every built-in, run on the virtual clock as it ships and again with every link fault and a
-//! fault schedule on, must give the `summary.json` recorded in `tests/golden/` to 1e-9. Restructuring keeps these
+//! fault schedule on, must give the `summary.json` recorded in `tests/golden/` to 1e-9, and the same run in memory
+//! through the library ([`simnet::Sim`]) must give the same summary as the run over UDP. Restructuring keeps these
 //! green; a change that moves a figure on purpose regenerates them with `SIMNET_BLESS=1 cargo test golden` and says
 //! why in its commit.
 
@@ -7,6 +8,8 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use serde_json::Value;
+use simnet::link::LossModel;
+use simnet::{Overrides, Scenario, Sim};
 
 const DURATION: &str = "6";
 /// Keys that say how or when a run was made, not what it found.
@@ -65,6 +68,39 @@ const FAULTY: &[&str] = &[
     "0.03",
 ];
 
+/// The same run in memory through the library: [`simnet::Sim`] must give the summary the CLI's UDP run gives.
+fn in_memory(topology: &Path, faulty: bool) -> Value {
+    let o = if faulty {
+        Overrides {
+            loss: Some(LossModel::gilbert_elliott_from(0.15, 3.0).unwrap()),
+            delay_ms: Some(4.0),
+            jitter_ms: Some(3.0),
+            duplicate: Some(0.05),
+            corrupt: Some(0.03),
+            ..Default::default()
+        }
+    } else {
+        Overrides::default()
+    };
+    let o = Overrides {
+        duration_s: Some(DURATION.parse().unwrap()),
+        ..o
+    };
+    let scenario = Scenario::from_path(topology).and_then(|s| s.with(&o)).unwrap();
+    let summary = Sim::new(&scenario).unwrap().run().unwrap().summary();
+    normalised(serde_json::from_str(&summary.to_json()).unwrap())
+}
+
+/// The faulty variants live in a temporary directory: keep the file name only.
+fn normalised(mut v: Value) -> Value {
+    if let Some(Value::String(s)) = v.get_mut("source") {
+        if let Some(f) = Path::new(s.as_str()).file_name() {
+            *s = f.to_string_lossy().into_owned();
+        }
+    }
+    v
+}
+
 fn summary(topology: &Path, extra: &[&str]) -> Value {
     let out = Command::new(env!("CARGO_BIN_EXE_simnet"))
         .args([
@@ -84,14 +120,7 @@ fn summary(topology: &Path, extra: &[&str]) -> Value {
         topology.display(),
         String::from_utf8_lossy(&out.stderr)
     );
-    let mut v: Value = serde_json::from_slice(&out.stdout).unwrap();
-    // The faulty variants live in a temporary directory: keep the file name only.
-    if let Some(Value::String(s)) = v.get_mut("source") {
-        if let Some(f) = Path::new(s.as_str()).file_name() {
-            *s = f.to_string_lossy().into_owned();
-        }
-    }
-    v
+    normalised(serde_json::from_slice(&out.stdout).unwrap())
 }
 
 /// Every key of `golden` is in `got` with an equal value (numbers to [`TOLERANCE`], absolute or relative); keys
@@ -148,14 +177,19 @@ fn every_builtin_keeps_its_golden_summary() {
         let text = std::fs::read_to_string(root().join(format!("topologies/{name}.toml"))).unwrap();
         let faulty = tmp.join(format!("{name}-faults.toml"));
         std::fs::write(&faulty, with_faults(&text)).unwrap();
+        let plain = root().join(format!("topologies/{name}.toml"));
         let runs = [
-            (
-                format!("{name}.json"),
-                summary(&root().join(format!("topologies/{name}.toml")), &[]),
-            ),
-            (format!("{name}-faults.json"), summary(&faulty, FAULTY)),
+            (format!("{name}.json"), summary(&plain, &[]), &plain, false),
+            (format!("{name}-faults.json"), summary(&faulty, FAULTY), &faulty, true),
         ];
-        for (file, got) in runs {
+        for (file, got, toml, faults) in runs {
+            // The library's in-memory run of the same scenario gives the same summary as the CLI's UDP run.
+            compare(
+                &format!("{file} (in memory)"),
+                &got,
+                &in_memory(toml, faults),
+                &mut diffs,
+            );
             let path = dir.join(&file);
             if bless {
                 std::fs::create_dir_all(&dir).unwrap();

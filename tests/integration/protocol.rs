@@ -166,7 +166,9 @@ fn sdp_over_all_beta_is_feasible_tight_and_beats_the_family_on_its_data() {
     let mut topo = topology("tri3-paper", bernoulli(0.2, 3));
     topo.sim.duration_s = 10.0;
     let beta = protocol::family(&topo, 0.2, 2.0);
-    let (_, logs) = protocol::run_in_memory(&protocol::with_protocol(&topo, &beta).unwrap(), 3, true);
+    let logs = protocol::run_in_memory(&protocol::with_protocol(&topo, &beta).unwrap(), 3, true)
+        .unwrap()
+        .lmi;
     let i = 0;
     let steps: Vec<&LmiStep> = logs[i].iter().collect();
     assert!(steps.len() > 900);

@@ -2,13 +2,12 @@
 //! consistency (g).
 #![allow(non_snake_case)]
 
-use std::sync::Arc;
-
 use nalgebra::{DMatrix, DVector};
 use simnet::estimate::Gaussian;
 use simnet::estimate::{kalman_update, predict, MissingChannels, Observation};
-use simnet::node::Node;
+use simnet::report::trace::TraceRecorder;
 use simnet::scenario::{Overrides, Scenario};
+use simnet::sim::{Sim, SimOptions};
 
 use crate::common;
 
@@ -182,13 +181,21 @@ fn linear_nees_is_in_its_chi_square_band() {
     let step = 400u64;
     let mut sum = 0.0;
     for seed in 1..=runs {
-        let t = Arc::new(common::topology(CV2, common::seed(seed)));
-        let mut nodes: Vec<Node> = (0..2).map(|i| Node::new(t.clone(), i, true)).collect();
-        for k in 0..=step {
-            simnet::node::step_in_memory(&mut nodes, k);
+        let t = common::topology(CV2, common::seed(seed));
+        let opts = SimOptions {
+            trace: Some(TraceRecorder::for_topology(&t).keep_all()),
+            ..Default::default()
+        };
+        let mut sim = Sim::with_options(&t, opts).unwrap();
+        for _ in 0..=step {
+            sim.step().unwrap();
         }
-        let r = nodes[1].report();
-        let row = r.trace.iter().find(|row| row.step == step && row.networked).unwrap();
+        let (rows, _) = sim.finish().trace.unwrap().finish().unwrap();
+        let id = t.nodes[1].id;
+        let row = rows
+            .iter()
+            .find(|row| row.step == step && row.networked && row.node == id)
+            .unwrap();
         sum += row.nees;
     }
     let dof = 2.0 * runs as f64;

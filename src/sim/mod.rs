@@ -1,0 +1,189 @@
+//! Whole runs in memory: every node of a scenario stepped in lockstep on the virtual clock, datagrams moved between
+//! them with no socket (as quinn-proto's tests drive endpoints). Deterministic: the same scenario and seed give the
+//! same [`RunResults`] as the same run over UDP ([`crate::net::run`]) — the datagrams are the same bytes, moved by
+//! a function call instead of a socket.
+//!
+//! ```
+//! let scenario = simnet::Scenario::resolve("ring3")?.with(&simnet::Overrides {
+//!     duration_s: Some(2.0),
+//!     ..Default::default()
+//! })?;
+//! let results = simnet::Sim::new(&scenario)?.run()?;
+//! let summary = results.summary();
+//! assert_eq!(summary.nodes.len(), 3);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod results;
+
+use std::sync::Arc;
+
+use crate::node::{Node, StepEstimate};
+use crate::report::observer::Observer;
+use crate::report::trace::TraceRecorder;
+use crate::scenario::{Scenario, ScenarioError};
+
+pub use results::{Clock, RunResults};
+
+/// Called with (steps done, steps total).
+pub type Progress = Arc<dyn Fn(u64, u64) + Send + Sync>;
+
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+}
+
+/// What a run keeps beyond its figures.
+#[derive(Default)]
+pub struct SimOptions {
+    /// Takes the per-step rows for `trace.csv` and the plots as the run goes (none: no rows are made).
+    pub trace: Option<TraceRecorder>,
+    pub progress: Option<Progress>,
+    /// Keep every node's per-step LMI terms (for a protocol search).
+    pub record_lmi: bool,
+}
+
+/// The lockstep driver: [`Sim::step`] runs one step of every node, [`Sim::run`] the rest of the run.
+pub struct Sim {
+    scenario: Arc<Scenario>,
+    nodes: Vec<Node>,
+    observer: Observer,
+    trace: Option<TraceRecorder>,
+    progress: Option<Progress>,
+    record_lmi: bool,
+    next: u64,
+    started: std::time::Instant,
+}
+
+impl Sim {
+    pub fn new(scenario: &Scenario) -> Result<Sim, SimError> {
+        Sim::with_options(scenario, SimOptions::default())
+    }
+
+    pub fn with_options(scenario: &Scenario, opts: SimOptions) -> Result<Sim, SimError> {
+        scenario.check_recordings()?;
+        let scenario = Arc::new(scenario.clone());
+        let record = opts.trace.is_some();
+        let mut nodes: Vec<Node> = (0..scenario.nodes.len())
+            .map(|i| Node::new(scenario.clone(), i, record))
+            .collect();
+        if opts.record_lmi {
+            nodes.iter_mut().for_each(Node::record_lmi);
+        }
+        Ok(Sim {
+            observer: observer_for(&scenario, record),
+            scenario,
+            nodes,
+            trace: opts.trace,
+            progress: opts.progress,
+            record_lmi: opts.record_lmi,
+            next: 0,
+            started: std::time::Instant::now(),
+        })
+    }
+
+    pub fn scenario(&self) -> &Scenario {
+        &self.scenario
+    }
+
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
+    }
+
+    /// Steps run so far.
+    pub fn steps_done(&self) -> u64 {
+        self.next
+    }
+
+    /// One lockstep step: every node steps, the datagrams the link layer delivers by the deadline move to their
+    /// receivers, every node closes the step, the observer fuses. `None` once the run is over; else the estimates
+    /// of the nodes that estimate.
+    pub fn step(&mut self) -> Option<Vec<StepEstimate>> {
+        let steps = self.scenario.sim.steps();
+        let k = self.next;
+        if k >= steps {
+            return None;
+        }
+        // As on the virtual clock over sockets: the last window also flushes everything still queued.
+        let window_end = if k + 1 == steps {
+            f64::INFINITY
+        } else {
+            k as f64 * self.scenario.sim.dt() + self.scenario.sim.deadline_s
+        };
+        let estimates = lockstep(&mut self.nodes, k, window_end);
+        let mut rows = Vec::new();
+        for n in &mut self.nodes {
+            rows.append(&mut n.take_trace());
+            let imu = n.take_imu();
+            if let Some(t) = self.trace.as_mut() {
+                t.imu(n.id(), &imu);
+            }
+        }
+        self.observer.push(estimates.clone());
+        if let Some(t) = self.trace.as_mut() {
+            rows.sort_by_key(|r| (r.node, !r.networked));
+            t.rows(rows);
+            t.fused(self.observer.drain_rows());
+        }
+        self.next = k + 1;
+        if let Some(p) = &self.progress {
+            p(self.next, steps);
+        }
+        Some(estimates)
+    }
+
+    /// The rest of the run, and its results.
+    pub fn run(mut self) -> Result<RunResults, SimError> {
+        while self.step().is_some() {}
+        Ok(self.finish())
+    }
+
+    /// The results of the steps run so far.
+    pub fn finish(mut self) -> RunResults {
+        self.observer.finish();
+        if let Some(t) = self.trace.as_mut() {
+            t.fused(self.observer.drain_rows());
+        }
+        let lmi = if self.record_lmi {
+            self.nodes.iter_mut().map(Node::take_lmi_log).collect()
+        } else {
+            Vec::new()
+        };
+        let steps = self.scenario.sim.steps();
+        RunResults {
+            reports: self.nodes.iter_mut().map(Node::report).collect(),
+            observer: self.observer,
+            steps_done: self.next,
+            interrupted: self.next < steps,
+            wall_s: self.started.elapsed().as_secs_f64(),
+            socket_losses: 0,
+            trace: self.trace,
+            lmi,
+            clock: Clock::Virtual,
+            scenario: self.scenario,
+        }
+    }
+}
+
+/// Step `k` of nodes wired together in memory; datagrams due by `window_end` (simulated s) reach their receivers
+/// before the step closes.
+pub(crate) fn lockstep(nodes: &mut [Node], k: u64, window_end: f64) -> Vec<StepEstimate> {
+    for n in nodes.iter_mut() {
+        n.handle_step(k);
+    }
+    let mut moved = Vec::new();
+    for n in nodes.iter_mut() {
+        while let Some(tx) = n.poll_transmit(window_end) {
+            moved.push((n.index(), tx));
+        }
+    }
+    for (from, tx) in moved {
+        nodes[tx.to].handle_datagram(Some(from), &tx.bytes);
+    }
+    nodes.iter_mut().filter_map(|n| n.handle_deadline(k)).collect()
+}
+
+pub(crate) fn observer_for(scenario: &Scenario, record: bool) -> Observer {
+    Observer::new(scenario.sim.burn_in_steps(), scenario.model.get().fusion(), record)
+}

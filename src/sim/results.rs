@@ -1,0 +1,58 @@
+//! What a run gives back, whichever transport drove it.
+
+use std::sync::Arc;
+
+use crate::node::{LmiStep, NodeReport};
+use crate::report::observer::Observer;
+use crate::report::summary::Summary;
+use crate::report::trace::TraceRecorder;
+use crate::scenario::Scenario;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Clock {
+    /// Lockstep: each step's datagrams are exchanged before it closes (in memory or over sockets).
+    Virtual,
+    /// Every node paces itself on the wall clock; delay and jitter are real waits.
+    Realtime,
+}
+
+impl Clock {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Clock::Virtual => "virtual",
+            Clock::Realtime => "realtime",
+        }
+    }
+}
+
+pub struct RunResults {
+    pub scenario: Arc<Scenario>,
+    pub clock: Clock,
+    pub reports: Vec<NodeReport>,
+    pub observer: Observer,
+    pub steps_done: u64,
+    pub interrupted: bool,
+    pub wall_s: f64,
+    /// Datagrams the link layer delivered that never came out of a socket in time (virtual clock over sockets).
+    pub socket_losses: u64,
+    /// The recorder the run was given, handed back with every row given to it.
+    pub trace: Option<TraceRecorder>,
+    /// Each node's per-step LMI terms, when they were asked for.
+    pub lmi: Vec<Vec<LmiStep>>,
+}
+
+impl RunResults {
+    /// The run's summary (`summary.json`, the table).
+    pub fn summary(&self) -> Summary {
+        Summary::build(
+            &self.scenario,
+            self.clock.as_str(),
+            &self.reports,
+            self.observer.summary(),
+            self.steps_done,
+            self.interrupted,
+            self.wall_s,
+            self.socket_losses,
+        )
+    }
+}
