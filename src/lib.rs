@@ -52,5 +52,10 @@ pub mod stats;
 pub mod wire;
 
 pub use report::summary::Summary;
-pub use scenario::{Overrides, Scenario};
+pub use scenario::{LinkSpec, Overrides, Scenario, ScenarioBuilder};
 pub use sim::{RunResults, Sim};
+
+/// The README's examples run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

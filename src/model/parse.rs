@@ -130,3 +130,61 @@ pub(crate) fn parse(m: RawModel, ck: &mut Checks) -> ModelConfig {
         }
     }
 }
+
+/// The `[model]` table that [`parse`] turns back into `m` (a scenario built in code goes through the same checks as
+/// a file).
+pub(crate) fn to_raw(m: &ModelConfig) -> RawModel {
+    let rows = |m: &DMatrix<f64>| -> Option<Vec<Vec<f64>>> {
+        Some((0..m.nrows()).map(|i| m.row(i).iter().copied().collect()).collect())
+    };
+    match m {
+        ModelConfig::Pose(p) => RawModel {
+            kind: Some("pose".into()),
+            q_pos: Some(p.q_pos),
+            q_vel: Some(p.q_vel),
+            q_att: Some(p.q_att),
+            r_pos: Some(p.r_pos),
+            r_att: Some(p.r_att),
+            p0_pos: Some(p.p0_pos),
+            p0_vel: Some(p.p0_vel),
+            p0_att: Some(p.p0_att),
+            ..Default::default()
+        },
+        ModelConfig::Attitude(a) => RawModel {
+            kind: Some("attitude".into()),
+            r_acc: Some(a.r_acc),
+            r_mag: Some(a.r_mag),
+            mag_field: Some(a.mag_field),
+            p0_att: Some(a.p0_att),
+            ..Default::default()
+        },
+        ModelConfig::Linear(l) => RawModel {
+            kind: Some("linear".into()),
+            a: rows(l.A()),
+            c: rows(l.C()),
+            q: rows(l.Q()),
+            r: rows(l.R()),
+            x0: Some(l.x0().iter().copied().collect()),
+            p0: rows(l.P0()),
+            ..Default::default()
+        },
+    }
+}
+
+impl From<Pose> for ModelConfig {
+    fn from(m: Pose) -> ModelConfig {
+        ModelConfig::Pose(m)
+    }
+}
+
+impl From<Attitude> for ModelConfig {
+    fn from(m: Attitude) -> ModelConfig {
+        ModelConfig::Attitude(m)
+    }
+}
+
+impl From<Linear> for ModelConfig {
+    fn from(m: Linear) -> ModelConfig {
+        ModelConfig::Linear(m)
+    }
+}

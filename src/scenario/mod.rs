@@ -12,6 +12,7 @@
 //! | `overrides.rs` | command-line overrides, applied and validated again |
 //! | `builtin.rs` | the topologies compiled into the binary |
 
+pub mod builder;
 pub mod builtin;
 mod checks;
 mod load;
@@ -28,6 +29,7 @@ use crate::model::ModelConfig;
 use crate::motion::Trajectory;
 use crate::sensor::SensorProfile;
 
+pub use builder::{LinkSpec, ScenarioBuilder};
 pub use checks::{Checks, Problem};
 pub use overrides::Overrides;
 

@@ -141,7 +141,7 @@ pub struct RawEdge {
     pub corrupt: Option<f64>,
 }
 
-#[derive(Debug, Deserialize, Clone)]
+#[derive(Debug, Deserialize, Clone, Default)]
 #[serde(deny_unknown_fields)]
 pub struct RawFault {
     pub kind: String,

@@ -1,0 +1,294 @@
+//! Scenarios in code: [`ScenarioBuilder`] writes the same tables a topology file holds and [`ScenarioBuilder::build`]
+//! runs the file's validator on them, so a scenario built in code has the same checks and the same error keys.
+
+use super::toml::{RawEdge, RawFault, RawLink, RawLoss, RawNode, RawTopology};
+use super::{Checks, Role, Scenario, ScenarioError};
+use crate::link::{Jitter, LossModel};
+use crate::model::ModelConfig;
+use crate::motion::Trajectory;
+
+/// Link settings; unset ones keep the default (`[link]`) or, on the default itself, simnet's (no loss, no delay).
+#[derive(Debug, Clone, Default)]
+pub struct LinkSpec {
+    raw: RawLink,
+}
+
+impl LinkSpec {
+    pub fn loss(mut self, l: LossModel) -> LinkSpec {
+        self.raw.loss = Some(RawLoss::from(l));
+        self
+    }
+    pub fn delay_ms(mut self, d: f64) -> LinkSpec {
+        self.raw.delay_ms = Some(d);
+        self
+    }
+    pub fn jitter_ms(mut self, j: f64, shape: Jitter) -> LinkSpec {
+        self.raw.jitter_ms = Some(j);
+        self.raw.jitter = Some(
+            match shape {
+                Jitter::Uniform => "uniform",
+                Jitter::Normal => "normal",
+            }
+            .into(),
+        );
+        self
+    }
+    pub fn duplicate(mut self, p: f64) -> LinkSpec {
+        self.raw.duplicate = Some(p);
+        self
+    }
+    pub fn corrupt(mut self, p: f64) -> LinkSpec {
+        self.raw.corrupt = Some(p);
+        self
+    }
+}
+
+/// Builds a [`Scenario`] without a file: `Scenario::builder().peer(0).peer(1).edge(0, 1, LinkSpec::default())
+/// .build()`.
+#[derive(Debug, Clone, Default)]
+pub struct ScenarioBuilder {
+    raw: RawTopology,
+    name: Option<String>,
+}
+
+impl Scenario {
+    pub fn builder() -> ScenarioBuilder {
+        ScenarioBuilder::default()
+    }
+}
+
+impl ScenarioBuilder {
+    pub fn name(mut self, name: &str) -> ScenarioBuilder {
+        self.raw.name = Some(name.into());
+        self.name = Some(name.into());
+        self
+    }
+    pub fn description(mut self, d: &str) -> ScenarioBuilder {
+        self.raw.description = Some(d.into());
+        self
+    }
+    pub fn rate_hz(mut self, r: f64) -> ScenarioBuilder {
+        self.raw.sim.get_or_insert_with(Default::default).rate_hz = Some(r);
+        self
+    }
+    pub fn duration_s(mut self, d: f64) -> ScenarioBuilder {
+        self.raw.sim.get_or_insert_with(Default::default).duration_s = Some(d);
+        self
+    }
+    pub fn burn_in_s(mut self, b: f64) -> ScenarioBuilder {
+        self.raw.sim.get_or_insert_with(Default::default).burn_in_s = Some(b);
+        self
+    }
+    pub fn seed(mut self, s: u64) -> ScenarioBuilder {
+        self.raw.sim.get_or_insert_with(Default::default).seed = Some(s);
+        self
+    }
+    pub fn trajectory(mut self, t: Trajectory) -> ScenarioBuilder {
+        self.raw.sim.get_or_insert_with(Default::default).trajectory = Some(t.to_string());
+        self
+    }
+    pub fn deadline_ms(mut self, d: f64) -> ScenarioBuilder {
+        self.raw.sim.get_or_insert_with(Default::default).deadline_ms = Some(d);
+        self
+    }
+    /// The channels of a measurement travel in separate datagrams (pose, attitude).
+    pub fn split_channels(mut self, on: bool) -> ScenarioBuilder {
+        self.raw.sim.get_or_insert_with(Default::default).split_channels = Some(on);
+        self
+    }
+    pub fn model(mut self, m: impl Into<ModelConfig>) -> ScenarioBuilder {
+        self.raw.model = Some(crate::model::to_raw(&m.into()));
+        self
+    }
+
+    /// A node that senses and estimates.
+    pub fn peer(self, id: u32) -> ScenarioBuilder {
+        self.node(id, Role::Peer)
+    }
+    pub fn node(mut self, id: u32, role: Role) -> ScenarioBuilder {
+        self.raw.node.push(RawNode {
+            id: Some(id as i64),
+            role: Some(role.as_str().into()),
+            addr: None,
+            sensor: None,
+            imu_csv: None,
+        });
+        self
+    }
+
+    /// The default of every link (`[link]`).
+    pub fn link(mut self, spec: LinkSpec) -> ScenarioBuilder {
+        self.raw.link = Some(spec.raw);
+        self
+    }
+    /// An undirected edge; `spec` overrides the default link on it.
+    pub fn edge(self, a: u32, b: u32, spec: LinkSpec) -> ScenarioBuilder {
+        self.push_edge(a, b, false, spec)
+    }
+    /// One direction only: `from`'s measurements reach `to`.
+    pub fn directed(self, from: u32, to: u32, spec: LinkSpec) -> ScenarioBuilder {
+        self.push_edge(from, to, true, spec)
+    }
+    fn push_edge(mut self, a: u32, b: u32, directed: bool, spec: LinkSpec) -> ScenarioBuilder {
+        let l = spec.raw;
+        self.raw.edge.push(RawEdge {
+            nodes: vec![a as i64, b as i64],
+            directed: Some(directed),
+            loss: l.loss,
+            delay_ms: l.delay_ms,
+            jitter_ms: l.jitter_ms,
+            jitter: l.jitter,
+            duplicate: l.duplicate,
+            corrupt: l.corrupt,
+        });
+        self
+    }
+    /// Undirected edges joining the nodes given so far in a ring, in the order given.
+    pub fn ring(mut self) -> ScenarioBuilder {
+        let ids: Vec<i64> = self.raw.node.iter().filter_map(|n| n.id).collect();
+        let n = ids.len();
+        if n >= 2 {
+            for i in 0..(if n == 2 { 1 } else { n }) {
+                self = self.edge(ids[i] as u32, ids[(i + 1) % n] as u32, LinkSpec::default());
+            }
+        }
+        self
+    }
+
+    /// β weights: own measurement and each neighbour's (the file's `self` and `neighbor`).
+    pub fn weights(mut self, own: f64, neighbour: f64) -> ScenarioBuilder {
+        let c = self.raw.consensus.get_or_insert_with(Default::default);
+        (c.self_weight, c.neighbor) = (Some(own), Some(neighbour));
+        self
+    }
+    /// β₀, the weight of the prior in the consensus update (eq. (5) of Sequeira (2023)).
+    pub fn beta0(mut self, b: f64) -> ScenarioBuilder {
+        self.raw.consensus.get_or_insert_with(Default::default).beta0 = Some(b);
+        self
+    }
+    /// The LMI guard of (17)/(19): α, γ, and whether it is on.
+    pub fn lmi(mut self, alpha: f64, gamma: f64, enabled: bool) -> ScenarioBuilder {
+        self.raw.consensus.get_or_insert_with(Default::default).lmi = Some(super::toml::RawLmi {
+            alpha: Some(alpha),
+            gamma: Some(gamma),
+            enabled: Some(enabled),
+        });
+        self
+    }
+    /// The full β matrix, row i = receiving node i (in the order the nodes were given).
+    pub fn beta(mut self, m: Vec<Vec<f64>>) -> ScenarioBuilder {
+        self.raw.consensus.get_or_insert_with(Default::default).matrix = Some(m);
+        self
+    }
+
+    /// Node `id` stops at `at_s`; with `restart_s` it comes back with fresh filters.
+    pub fn crash(mut self, id: u32, at_s: f64, restart_s: Option<f64>) -> ScenarioBuilder {
+        self.raw.fault.push(RawFault {
+            kind: "crash".into(),
+            node: Some(id as i64),
+            at_s: Some(at_s),
+            restart_s,
+            ..RawFault::default()
+        });
+        self
+    }
+    /// The link a–b carries nothing (both ways) from `start_s` to `end_s`.
+    pub fn link_down(mut self, a: u32, b: u32, start_s: f64, end_s: f64) -> ScenarioBuilder {
+        self.raw.fault.push(RawFault {
+            kind: "link-down".into(),
+            link: Some(vec![a as i64, b as i64]),
+            start_s: Some(start_s),
+            end_s: Some(end_s),
+            ..RawFault::default()
+        });
+        self
+    }
+    /// `ids` cannot talk to the other nodes from `start_s` to `end_s`.
+    pub fn partition(mut self, ids: &[u32], start_s: f64, end_s: f64) -> ScenarioBuilder {
+        self.raw.fault.push(RawFault {
+            kind: "partition".into(),
+            nodes: Some(ids.iter().map(|&i| i as i64).collect()),
+            start_s: Some(start_s),
+            end_s: Some(end_s),
+            ..RawFault::default()
+        });
+        self
+    }
+
+    /// The validated scenario, or every problem with its key (as for a file).
+    pub fn build(self) -> Result<Scenario, ScenarioError> {
+        let file = format!("builder:{}", self.name.as_deref().unwrap_or("scenario"));
+        let t = Checks::default().validate(self.raw, &file)?;
+        t.check_recordings()?;
+        Ok(t)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// ring3 built in code is ring3: the same summary, run for run.
+    #[test]
+    fn ring3_in_code_is_the_file() {
+        let built = Scenario::builder()
+            .name("ring3")
+            .rate_hz(100.0)
+            .duration_s(3.0)
+            .burn_in_s(1.0)
+            .seed(1)
+            .trajectory(Trajectory::Spiral)
+            .model(crate::model::Pose::default())
+            .peer(0)
+            .peer(1)
+            .peer(2)
+            .ring()
+            .weights(0.7, 0.15)
+            .beta0(0.01)
+            .lmi(1000.0, 1e-5, true)
+            .link(LinkSpec::default().loss(LossModel::Bernoulli { p: 0.1 }))
+            .build()
+            .unwrap();
+        let file = Scenario::resolve("ring3")
+            .unwrap()
+            .with(&crate::scenario::Overrides {
+                duration_s: Some(3.0),
+                loss: Some(LossModel::Bernoulli { p: 0.1 }),
+                ..Default::default()
+            })
+            .unwrap();
+        let file = {
+            let mut raw = file.raw.clone();
+            raw.sim.get_or_insert_with(Default::default).burn_in_s = Some(1.0);
+            Checks::default().validate(raw, "ring3").unwrap()
+        };
+        let a = crate::sim::Sim::new(&built).unwrap().run().unwrap().summary();
+        let b = crate::sim::Sim::new(&file).unwrap().run().unwrap().summary();
+        assert_eq!(a.nodes, b.nodes);
+        assert_eq!(a.links, b.links);
+        assert_eq!(a.fused, b.fused);
+    }
+
+    #[test]
+    fn a_bad_scenario_in_code_names_its_key() {
+        let e = Scenario::builder()
+            .rate_hz(f64::NAN)
+            .peer(0)
+            .peer(1)
+            .edge(0, 7, LinkSpec::default().duplicate(2.0))
+            .build()
+            .unwrap_err()
+            .to_string();
+        for key in ["sim.rate_hz", "edge[0].nodes"] {
+            assert!(e.contains(key), "{key}: {e}");
+        }
+        let e = Scenario::builder()
+            .peer(0)
+            .peer(1)
+            .edge(0, 1, LinkSpec::default().duplicate(2.0))
+            .build()
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("edge[0].duplicate"), "{e}");
+    }
+}
