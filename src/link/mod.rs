@@ -5,8 +5,10 @@
 //! jitter, duplication and one-bit corruption follow; [`FaultSchedule`] adds link-down windows, partitions and
 //! node crashes over simulated time.
 
+mod egress;
 mod schedule;
 
+pub use egress::{Egress, Transmit};
 pub use schedule::{FaultSchedule, ScheduledFault};
 
 use rand::Rng as _;

@@ -6,53 +6,25 @@
 //! and the independent twin that uses only the node's own measurement — the baseline of Sequeira (2023).
 #![allow(non_snake_case)]
 
-use std::cmp::Reverse;
-use std::collections::{BTreeMap, BinaryHeap, HashMap};
+mod filters;
+mod inbox;
+
+use std::collections::HashMap;
 use std::sync::Arc;
 
-use bytes::Bytes;
 use nalgebra::{DMatrix, DVector};
 
-use crate::estimate::{
-    guarded_update, kalman_update, nees, EstimateError, Gaussian, LmiTerms, MissingChannels, Observation, Source,
-};
+use crate::estimate::{nees, EstimateError, Gaussian, LmiTerms, MissingChannels, Observation};
 pub use crate::imu_csv::ImuRow;
-use crate::link::{Link, LinkCounters, Verdict};
+pub use crate::link::Transmit;
+use crate::link::{Egress, Link, LinkCounters};
 use crate::model::{Measurement, Model, Truth};
 use crate::report::metrics::{FilterMetrics, RxCounters};
 use crate::scenario::{Role, Scenario};
 use crate::sensor::{ImuInterval, ImuSample, Sensor};
 use crate::wire::{Datagram, Header, Payload, WireError};
-
-/// A datagram ready to leave, with the simulated time at which the link layer delivers it.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Transmit {
-    pub to: usize,
-    pub bytes: Bytes,
-}
-
-#[derive(Debug)]
-struct Pending {
-    at: f64,
-    order: u64,
-    tx: Transmit,
-}
-impl PartialEq for Pending {
-    fn eq(&self, o: &Self) -> bool {
-        self.at == o.at && self.order == o.order
-    }
-}
-impl Eq for Pending {}
-impl PartialOrd for Pending {
-    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(o))
-    }
-}
-impl Ord for Pending {
-    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
-        self.at.total_cmp(&o.at).then(self.order.cmp(&o.order))
-    }
-}
+use filters::Filters;
+use inbox::{Inbox, Received};
 
 /// One row of `trace.csv`.
 #[derive(Debug, Clone)]
@@ -109,6 +81,9 @@ pub struct NodeCounters {
     pub early: u64,
     pub restarts: u64,
     pub steps_down: u64,
+    /// Networked updates whose LMI terms could not be computed for a protocol search (left out of it).
+    #[serde(default)]
+    pub lmi_failures: u64,
     /// The first step this node ran (0 unless it joined a running network late).
     pub first_step: u64,
     pub steps_run: u64,
@@ -132,13 +107,6 @@ pub struct NodeReport {
     pub imu: Vec<ImuRow>,
 }
 
-/// The filters of an estimating node.
-#[derive(Debug, Clone)]
-struct Filters {
-    networked: Gaussian,
-    independent: Gaussian,
-}
-
 pub struct Node {
     index: usize,
     id: u32,
@@ -156,18 +124,11 @@ pub struct Node {
     filters: Option<Filters>,
     initial: Gaussian,
     last_imu: Option<ImuSample>,
-    links: Vec<Link>,
-    outbox: BinaryHeap<Reverse<Pending>>,
-    order: u64,
+    /// The outgoing links and the copies they have yet to deliver.
+    egress: Egress,
     seq: u32,
     up: bool,
-    /// The step whose measurements are being collected.
-    open: Option<u64>,
-    own: Option<Measurement>,
-    inbox: BTreeMap<usize, Measurement>,
-    /// Measurements for later steps (a peer whose clock runs ahead), bounded.
-    early: Vec<(u64, usize, u64, Vec<f64>)>,
-    rx: Vec<RxCounters>,
+    inbox: Inbox,
     counters: NodeCounters,
     m_net: FilterMetrics,
     m_ind: FilterMetrics,
@@ -194,8 +155,6 @@ pub struct LmiStep {
     pub terms: LmiTerms,
 }
 
-/// Most early measurements a node holds (bounded buffers).
-const EARLY_CAP: usize = 256;
 
 impl Node {
     /// `record_trace` keeps one row per step and filter (needed for `trace.csv` and the plots).
@@ -234,6 +193,7 @@ impl Node {
         let truth = model.truth(topo.sim.trajectory, dt, seed, recorded);
         let id_to_index = topo.nodes.iter().enumerate().map(|(i, n)| (n.id, i)).collect();
         let n = topo.nodes.len();
+        let obs_dim = obs.dim();
         let mut node = Node {
             index,
             id: cfg.id,
@@ -251,16 +211,10 @@ impl Node {
                 P: DMatrix::identity(1, 1),
             },
             last_imu: None,
-            links,
-            outbox: BinaryHeap::new(),
-            order: 0,
+            egress: Egress::new(links),
             seq: 0,
             up: true,
-            open: None,
-            own: None,
-            inbox: BTreeMap::new(),
-            early: Vec::new(),
-            rx: vec![RxCounters::default(); n],
+            inbox: Inbox::new(n, obs_dim),
             counters: NodeCounters::default(),
             m_net: FilterMetrics::default(),
             m_ind: FilterMetrics::default(),
@@ -331,8 +285,7 @@ impl Node {
         self.up = self.topo.faults.node_up(self.index, t);
         if !self.up {
             self.counters.steps_down += 1;
-            self.open = None;
-            self.inbox.clear();
+            self.inbox.close_down();
             return;
         }
         let joining = !self.started && k > 0;
@@ -374,23 +327,10 @@ impl Node {
             }
         }
         self.last_imu = imu;
-        self.open = Some(k);
-        self.inbox.clear();
         if let Some(own) = &own {
             self.send(k, t, own);
         }
-        self.own = own;
-        // Measurements that arrived early for this step.
-        let early = std::mem::take(&mut self.early);
-        for (step, src, rows, values) in early {
-            if step == k {
-                self.accept(src, rows, &values);
-            } else if step > k {
-                self.early.push((step, src, rows, values));
-            } else {
-                self.rx[src].late += 1;
-            }
-        }
+        self.inbox.open(k, own);
     }
 
     /// This step's IMU sample and the node's own measurement ([`Model::sense`]).
@@ -421,7 +361,7 @@ impl Node {
         } else {
             vec![have]
         };
-        for li in 0..self.links.len() {
+        for li in 0..self.egress.len() {
             for rows in &groups {
                 let values: Vec<f64> = (0..m).filter(|r| rows & (1 << r) != 0).map(|r| z[r]).collect();
                 let dg = Datagram {
@@ -429,32 +369,9 @@ impl Node {
                     payload: Payload::measurement(*rows, values),
                 };
                 self.seq = self.seq.wrapping_add(1);
-                let bytes = match dg.encode() {
-                    Ok(b) => b,
-                    Err(e) => {
-                        tracing::error!(node = self.id, "cannot encode a measurement: {e}");
-                        continue;
-                    }
-                };
-                let link = &mut self.links[li];
-                let to = link.to;
-                if let Verdict::Deliver(copies) = link.verdict(t, bytes.len(), &self.topo.faults) {
-                    for c in copies {
-                        let bytes = match c.flip_bit {
-                            Some(bit) => {
-                                let mut v = bytes.to_vec();
-                                v[bit / 8] ^= 1 << (bit % 8);
-                                Bytes::from(v)
-                            }
-                            None => bytes.clone(),
-                        };
-                        self.order += 1;
-                        self.outbox.push(Reverse(Pending {
-                            at: t + c.delay,
-                            order: self.order,
-                            tx: Transmit { to, bytes },
-                        }));
-                    }
+                match dg.encode() {
+                    Ok(bytes) => self.egress.push(li, t, &bytes, &self.topo.faults),
+                    Err(e) => tracing::error!(node = self.id, "cannot encode a measurement: {e}"),
                 }
             }
         }
@@ -462,16 +379,12 @@ impl Node {
 
     /// The next datagram due at or before `now` (simulated seconds), in delivery order.
     pub fn poll_transmit(&mut self, now: f64) -> Option<Transmit> {
-        if self.outbox.peek().is_some_and(|Reverse(p)| p.at <= now + 1e-12) {
-            self.outbox.pop().map(|Reverse(p)| p.tx)
-        } else {
-            None
-        }
+        self.egress.poll_transmit(now)
     }
 
     /// When the next queued datagram is due.
     pub fn poll_timeout(&self) -> Option<f64> {
-        self.outbox.peek().map(|Reverse(p)| p.at)
+        self.egress.poll_timeout()
     }
 
     /// Bytes arrived; `from` is the sender's node index when the shell knows it by address.
@@ -483,7 +396,7 @@ impl Node {
                 // A peer's datagram damaged on the way: the link layer's corruption, caught.
                 self.counters.corrupted += 1;
                 if let Some(f) = from {
-                    self.rx[f].corrupted += 1;
+                    self.inbox.rx[f].corrupted += 1;
                 }
                 return None;
             }
@@ -519,7 +432,7 @@ impl Node {
             return Some(arrival);
         };
         if !self.up {
-            self.rx[src].while_down += 1;
+            self.inbox.rx[src].while_down += 1;
             return None;
         }
         let m = self.obs.dim();
@@ -527,44 +440,15 @@ impl Node {
             self.counters.malformed += 1;
             return None;
         }
-        match self.open {
-            Some(k) if dg.header.step == k => self.accept(src, rows, &values),
-            Some(k) if dg.header.step > k => {
-                if self.early.len() < EARLY_CAP {
-                    self.counters.early += 1;
-                    self.early.push((dg.header.step, src, rows, values));
-                } else {
-                    self.rx[src].late += 1;
-                }
-            }
-            _ => self.rx[src].late += 1,
+        if self.inbox.receive(src, dg.header.step, rows, values) == Received::Held {
+            self.counters.early += 1;
         }
         Some(arrival)
     }
 
-    fn accept(&mut self, src: usize, rows: u64, values: &[f64]) {
-        let m = self.obs.dim();
-        let entry = self.inbox.entry(src).or_insert_with(|| Measurement::empty(m));
-        if entry.merge(rows, values) {
-            self.rx[src].delivered += 1;
-        } else {
-            self.rx[src].duplicates += 1;
-        }
-    }
-
     /// The deadline of step k: update both filters with what arrived, record metrics.
     pub fn handle_deadline(&mut self, k: u64) -> Option<StepEstimate> {
-        if self.open != Some(k) {
-            return None;
-        }
-        self.open = None;
-        let inbox = std::mem::take(&mut self.inbox);
-        for &j in &self.in_sources {
-            self.rx[j].steps += 1;
-            if !inbox.contains_key(&j) {
-                self.rx[j].missing_steps += 1;
-            }
-        }
+        let inbox = self.inbox.close(k, &self.in_sources)?;
         let filters = self.filters.as_mut()?;
         let topo = &self.topo;
         let c = &topo.consensus;
@@ -573,85 +457,41 @@ impl Node {
 
         // Networked: consensus over own + received, in source order (deterministic sums).
         let mut used: Vec<(usize, &Measurement)> = Vec::new();
-        if let Some(own) = &self.own {
+        if let Some(own) = self.inbox.own() {
             used.push((self.index, own));
         }
         used.extend(inbox.iter().map(|(s, p)| (*s, p)));
         used.sort_by_key(|(s, _)| *s);
-        // Each filter sees the observation about its own prior (linearised for the attitude EKF).
-        let zs: Vec<&DVector<f64>> = used.iter().map(|(_, p)| &p.z).collect();
-        let (obs_net, z_net) = self.model.linearize_at(&self.obs, &priors.networked, &zs);
-        let own_at = used.iter().position(|(s, _)| *s == self.index);
-        let sources: Vec<Source<'_>> = used
-            .iter()
-            .zip(&z_net)
-            .filter(|((s, _), _)| beta[*s] > 0.0)
-            .map(|((s, p), z)| Source {
-                beta: beta[*s],
-                z,
-                present: &p.present,
-            })
-            .collect();
-        // The independent update this step if (17)/(19) fail: own measurement, else the highest-weight source.
-        let own = own_at.map(|i| Source {
-            beta: 1.0,
-            z: &z_net[i],
-            present: &used[i].1.present,
-        });
-        let fallback = own.or_else(|| sources.iter().max_by(|a, b| a.beta.total_cmp(&b.beta)).cloned());
-        let lmi = c.lmi.enabled.then_some((c.lmi.alpha, c.lmi.gamma));
-        if let Some(log) = self.lmi_log.as_mut() {
-            // Every source that arrived, whatever its β, so that a search may weigh it.
-            let data: Vec<(&DVector<f64>, &[bool])> = used
-                .iter()
-                .zip(&z_net)
-                .map(|((_, p), z)| (z.as_ref(), &p.present[..]))
-                .collect();
-            let terms = LmiTerms::new(
-                &priors.networked,
-                &obs_net,
-                c.beta0,
-                &data,
-                self.policy,
+        let updated = filters::update(
+            &filters::Inputs {
+                model: &*self.model,
+                obs: &self.obs,
+                policy: self.policy,
+                consensus: c,
+                beta,
+                index: self.index,
                 k,
-                c.lmi.alpha,
-                c.lmi.gamma,
-            );
-            if let Ok(Some(terms)) = terms {
-                log.push(LmiStep {
+            },
+            &priors,
+            &used,
+            self.lmi_log.is_some(),
+        );
+        if let (Some(log), Some(terms)) = (self.lmi_log.as_mut(), updated.lmi) {
+            match terms {
+                Ok(Some(terms)) => log.push(LmiStep {
                     k,
                     sources: used.iter().map(|(s, _)| *s).collect(),
                     terms,
-                });
+                }),
+                Ok(None) => {}
+                Err(e) => {
+                    self.counters.lmi_failures += 1;
+                    tracing::debug!(node = self.id, step = k, "LMI terms not computed: {e}");
+                }
             }
         }
-        let (networked, feasible) = guarded_update(
-            &priors.networked,
-            &obs_net,
-            c.beta0,
-            &sources,
-            fallback.as_ref(),
-            self.policy,
-            k,
-            lmi,
-        );
-        let independent = match own_at {
-            Some(i) => {
-                let mine = &used[i..=i];
-                let (obs, z) = self.model.linearize_at(&self.obs, &priors.independent, &[&mine[0].1.z]);
-                kalman_update(&priors.independent, &obs, &z[0], &mine[0].1.present, self.policy)
-            }
-            None => Ok(priors.independent.clone()),
-        };
+        let (networked, independent, feasible) = (updated.networked, updated.independent, updated.feasible);
         let model = &*self.model;
-        let normalised = |r: Result<Gaussian, EstimateError>| {
-            r.map(|mut g| {
-                model.normalize(&mut g);
-                g
-            })
-        };
-        let (networked, independent) = (normalised(networked), normalised(independent));
-
         let truth = self.truth.state(model);
         let counted = k >= topo.sim.burn_in_steps();
         let angle = model.angle_states();
@@ -803,8 +643,8 @@ impl Node {
             role: self.role,
             networked: est.then(|| self.m_net.clone()),
             independent: est.then(|| self.m_ind.clone()),
-            links_out: self.links.iter().map(|l| (l.to, *l.counters())).collect(),
-            rx: self.rx.clone(),
+            links_out: self.egress.counters(),
+            rx: self.inbox.rx.clone(),
             counters: self.counters,
             trace: self.trace.take().unwrap_or_default(),
             imu: self.imu_log.take().unwrap_or_default(),

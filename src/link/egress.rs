@@ -1,0 +1,111 @@
+//! A node's way out: each outgoing link's verdict carried out — copies queued at their delivery time, corrupted
+//! copies with their bit flipped — and handed to the transport in delivery order. The node only says what it sends.
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+use bytes::Bytes;
+
+use super::{FaultSchedule, Link, LinkCounters, Verdict};
+
+/// A datagram ready to leave for node `to`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Transmit {
+    pub to: usize,
+    pub bytes: Bytes,
+}
+
+#[derive(Debug)]
+struct Pending {
+    at: f64,
+    order: u64,
+    tx: Transmit,
+}
+impl PartialEq for Pending {
+    fn eq(&self, o: &Self) -> bool {
+        self.at == o.at && self.order == o.order
+    }
+}
+impl Eq for Pending {}
+impl PartialOrd for Pending {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Pending {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        self.at.total_cmp(&o.at).then(self.order.cmp(&o.order))
+    }
+}
+
+/// The outgoing links of one node and the copies they have yet to deliver.
+#[derive(Debug)]
+pub struct Egress {
+    links: Vec<Link>,
+    queue: BinaryHeap<Reverse<Pending>>,
+    /// Ties in delivery time leave in the order they were queued.
+    order: u64,
+}
+
+impl Egress {
+    pub fn new(links: Vec<Link>) -> Egress {
+        Egress {
+            links,
+            queue: BinaryHeap::new(),
+            order: 0,
+        }
+    }
+
+    /// How many outgoing links.
+    pub fn len(&self) -> usize {
+        self.links.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.links.is_empty()
+    }
+
+    /// Send `bytes` at simulated time `now` on outgoing link `link`: the link decides (loss, outage, delay,
+    /// duplication, corruption) and every copy it delivers is queued.
+    pub fn push(&mut self, link: usize, now: f64, bytes: &Bytes, faults: &FaultSchedule) {
+        let l = &mut self.links[link];
+        let to = l.to;
+        if let Verdict::Deliver(copies) = l.verdict(now, bytes.len(), faults) {
+            for c in copies {
+                let bytes = match c.flip_bit {
+                    Some(bit) => {
+                        let mut v = bytes.to_vec();
+                        v[bit / 8] ^= 1 << (bit % 8);
+                        Bytes::from(v)
+                    }
+                    None => bytes.clone(),
+                };
+                self.order += 1;
+                self.queue.push(Reverse(Pending {
+                    at: now + c.delay,
+                    order: self.order,
+                    tx: Transmit { to, bytes },
+                }));
+            }
+        }
+    }
+
+    /// The next copy due at or before `now` (simulated seconds), in delivery order.
+    pub fn poll_transmit(&mut self, now: f64) -> Option<Transmit> {
+        if self.queue.peek().is_some_and(|Reverse(p)| p.at <= now + 1e-12) {
+            self.queue.pop().map(|Reverse(p)| p.tx)
+        } else {
+            None
+        }
+    }
+
+    /// When the next queued copy is due.
+    pub fn poll_timeout(&self) -> Option<f64> {
+        self.queue.peek().map(|Reverse(p)| p.at)
+    }
+
+    /// Sender-side counters of each outgoing link, by destination.
+    pub fn counters(&self) -> Vec<(usize, LinkCounters)> {
+        self.links.iter().map(|l| (l.to, *l.counters())).collect()
+    }
+}

@@ -1,0 +1,119 @@
+//! Step collection: the measurements of the open step, by source, and a bounded buffer of measurements for steps
+//! this node has not reached yet (a peer whose clock runs ahead). Receive-side counters per source.
+
+use std::collections::BTreeMap;
+
+use crate::model::Measurement;
+use crate::report::metrics::RxCounters;
+
+/// Most early measurements a node holds.
+pub(super) const EARLY_CAP: usize = 256;
+
+/// Where a measurement went.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Received {
+    /// For the open step.
+    Collected,
+    /// For a later step: held until the node reaches it.
+    Held,
+    /// For a closed step, or the early buffer is full.
+    Late,
+}
+
+#[derive(Debug)]
+pub(super) struct Inbox {
+    /// Rows of a measurement.
+    m: usize,
+    /// The step whose measurements are being collected.
+    open: Option<u64>,
+    own: Option<Measurement>,
+    from: BTreeMap<usize, Measurement>,
+    /// (step, source, rows, values) of measurements for later steps.
+    early: Vec<(u64, usize, u64, Vec<f64>)>,
+    /// Receive counters, by source node index.
+    pub rx: Vec<RxCounters>,
+}
+
+impl Inbox {
+    pub fn new(nodes: usize, m: usize) -> Inbox {
+        Inbox {
+            m,
+            open: None,
+            own: None,
+            from: BTreeMap::new(),
+            early: Vec::new(),
+            rx: vec![RxCounters::default(); nodes],
+        }
+    }
+
+    /// The node is down: nothing is collected.
+    pub fn close_down(&mut self) {
+        self.open = None;
+        self.from.clear();
+    }
+
+    /// Collect for step `k`, the node's own measurement `own`; measurements held for `k` are collected now.
+    pub fn open(&mut self, k: u64, own: Option<Measurement>) {
+        self.open = Some(k);
+        self.from.clear();
+        self.own = own;
+        for (step, src, rows, values) in std::mem::take(&mut self.early) {
+            if step == k {
+                self.collect(src, rows, &values);
+            } else if step > k {
+                self.early.push((step, src, rows, values));
+            } else {
+                self.rx[src].late += 1;
+            }
+        }
+    }
+
+    pub fn own(&self) -> Option<&Measurement> {
+        self.own.as_ref()
+    }
+
+    /// A measurement of `src` for `step`.
+    pub fn receive(&mut self, src: usize, step: u64, rows: u64, values: Vec<f64>) -> Received {
+        match self.open {
+            Some(k) if step == k => {
+                self.collect(src, rows, &values);
+                Received::Collected
+            }
+            Some(k) if step > k && self.early.len() < EARLY_CAP => {
+                self.early.push((step, src, rows, values));
+                Received::Held
+            }
+            _ => {
+                self.rx[src].late += 1;
+                Received::Late
+            }
+        }
+    }
+
+    fn collect(&mut self, src: usize, rows: u64, values: &[f64]) {
+        let m = self.m;
+        let entry = self.from.entry(src).or_insert_with(|| Measurement::empty(m));
+        if entry.merge(rows, values) {
+            self.rx[src].delivered += 1;
+        } else {
+            self.rx[src].duplicates += 1;
+        }
+    }
+
+    /// Close step `k`: what arrived from each source, counting the steps of `expected` sources that missed it.
+    /// `None` when `k` is not the open step.
+    pub fn close(&mut self, k: u64, expected: &[usize]) -> Option<BTreeMap<usize, Measurement>> {
+        if self.open != Some(k) {
+            return None;
+        }
+        self.open = None;
+        let from = std::mem::take(&mut self.from);
+        for &j in expected {
+            self.rx[j].steps += 1;
+            if !from.contains_key(&j) {
+                self.rx[j].missing_steps += 1;
+            }
+        }
+        Some(from)
+    }
+}
