@@ -34,6 +34,8 @@ pub enum NetError {
     Bind(std::io::Error),
     #[error("node task {0} stopped unexpectedly")]
     TaskLost(usize),
+    #[error(transparent)]
+    Scenario(#[from] crate::scenario::ScenarioError),
 }
 
 pub struct RunOptions {
@@ -65,6 +67,7 @@ pub async fn run(
     mut opts: RunOptions,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<RunResults, NetError> {
+    topo.check_recordings()?;
     let n = topo.nodes.len();
     let mut sockets = Vec::with_capacity(n);
     for _ in 0..n {

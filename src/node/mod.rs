@@ -1,111 +1,56 @@
-//! One node as a sans-IO state machine: it never touches a socket or a clock. Inputs: `handle_step(k)` (sense,
-//! predict, queue datagrams), `handle_datagram(from, bytes)`, `handle_deadline(k)` (update with what arrived).
-//! Output: `poll_transmit(now)` hands out datagrams whose simulated delivery time has come.
+//! One node as a sans-IO state machine: it never touches a socket or a clock, so the same node runs in memory
+//! ([`crate::sim::Sim`]), over UDP on the virtual or the wall clock ([`crate::net`]) and one per process
+//! (`simnet node`).
 //!
-//! A node holds two filters fed by the same IMU: the networked one (consensus over whatever arrived, LMI-guarded)
-//! and the independent twin that uses only the node's own measurement — the baseline of Sequeira (2023).
+//! # Call order and time
+//!
+//! Time is simulated seconds; step k begins at t_k = k·Δt and closes at its deadline t_k + D (D ≤ Δt).
+//!
+//! 1. [`Node::handle_step`]`(k)` at t_k: the node senses, predicts both filters to t_k, and queues this step's
+//!    datagrams on its outgoing links (the link layer decides loss, delay, duplication and corruption).
+//! 2. [`Node::poll_transmit`]`(now)` until it returns `None`: every queued copy whose delivery time is ≤ `now`, in
+//!    delivery order; [`Node::poll_timeout`] says when the next one is due. The shell sends each to `to`.
+//! 3. [`Node::handle_datagram`]`(from, bytes)` for every datagram that arrives, in any order, `from` the sender's
+//!    node index when the shell knows it by address. A measurement for the open step is collected; one for a later
+//!    step is held (bounded); one for a closed step counts as late.
+//! 4. [`Node::handle_deadline`]`(k)` at t_k + D: both filters update with what arrived; the estimate goes to the
+//!    observer, the step's trace rows to [`Node::take_trace`].
+//!
+//! A node whose step k is skipped (down, or joining late) keeps its counters honest: a crash drops what arrives,
+//! a restart re-initialises both filters.
+//!
+//! | file | owns |
+//! |---|---|
+//! | `inbox.rs` | step collection, the early buffer, receive counters |
+//! | `filters.rs` | the networked and independent filters' update over any [`crate::model::Model`] |
+//! | `session.rs` | neighbours heard from and the highest step they reported (the multi-host handshake) |
+//! | `events.rs` | what a node reports: trace rows, step estimates, counters |
 #![allow(non_snake_case)]
 
+mod events;
 mod filters;
 mod inbox;
+mod session;
 
 use std::collections::HashMap;
 use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::estimate::{nees, EstimateError, Gaussian, LmiTerms, MissingChannels, Observation};
+use crate::estimate::{nees, EstimateError, Gaussian, MissingChannels, Observation};
 pub use crate::imu_csv::ImuRow;
 pub use crate::link::Transmit;
-use crate::link::{Egress, Link, LinkCounters};
+use crate::link::{Egress, Link};
 use crate::model::{Measurement, Model, Truth};
-use crate::report::metrics::{FilterMetrics, RxCounters};
+use crate::report::metrics::FilterMetrics;
 use crate::scenario::{Role, Scenario};
 use crate::sensor::{ImuInterval, ImuSample, Sensor};
 use crate::wire::{Datagram, Header, Payload, WireError};
 use filters::Filters;
 use inbox::{Inbox, Received};
+use session::Session;
 
-/// One row of `trace.csv`.
-#[derive(Debug, Clone)]
-pub struct TraceRow {
-    pub step: u64,
-    pub t: f64,
-    pub node: u32,
-    pub networked: bool,
-    pub truth: Vec<f64>,
-    pub est: Vec<f64>,
-    pub trace_p_prior: f64,
-    pub trace_p_post: f64,
-    /// Source ids whose measurements were used.
-    pub received: Vec<u32>,
-    pub feasible: bool,
-    pub nees: f64,
-    /// The step's error figure ([`Model::error`]); NaN where the truth is unknown.
-    pub error: f64,
-    /// The posterior variances of the reported columns (±3σ bands).
-    pub var: Vec<f64>,
-    /// The filter has diverged at or before this step.
-    pub diverged: bool,
-}
-
-/// What a node hands the observer after each update (for fusion and plots).
-#[derive(Debug, Clone)]
-pub struct StepEstimate {
-    pub node: usize,
-    pub step: u64,
-    pub truth: DVector<f64>,
-    /// The coordinate frame of `truth` and `networked` (see `Truth::frame`).
-    pub frame: u64,
-    pub networked: Gaussian,
-    pub diverged: bool,
-}
-
-/// A datagram the node accepted as coming from a neighbour (its shell learns addresses and step timing from it).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Arrival {
-    pub src: usize,
-    pub step: u64,
-    pub measurement: bool,
-}
-
-/// Datagram counters not tied to a link.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct NodeCounters {
-    pub datagrams_in: u64,
-    /// Undecodable datagrams other than checksum failures (garbage, wrong magic, unknown source, …).
-    pub malformed: u64,
-    /// Checksum failures of datagrams from known peers.
-    pub corrupted: u64,
-    /// Measurements for a step this node has not reached yet, held until it does.
-    pub early: u64,
-    pub restarts: u64,
-    pub steps_down: u64,
-    /// Networked updates whose LMI terms could not be computed for a protocol search (left out of it).
-    #[serde(default)]
-    pub lmi_failures: u64,
-    /// The first step this node ran (0 unless it joined a running network late).
-    pub first_step: u64,
-    pub steps_run: u64,
-}
-
-/// Everything a node reports at the end of a run.
-#[derive(Debug, Clone)]
-pub struct NodeReport {
-    pub index: usize,
-    pub id: u32,
-    pub role: Role,
-    pub networked: Option<FilterMetrics>,
-    pub independent: Option<FilterMetrics>,
-    /// Outgoing links (sender-side counters).
-    pub links_out: Vec<(usize, LinkCounters)>,
-    /// Per-source receive counters, indexed by node index.
-    pub rx: Vec<RxCounters>,
-    pub counters: NodeCounters,
-    pub trace: Vec<TraceRow>,
-    /// The IMU samples with the true pose, when traces are recorded (pose model, sensing nodes).
-    pub imu: Vec<ImuRow>,
-}
+pub use events::{Arrival, LmiStep, NodeCounters, NodeReport, StepEstimate, TraceRow};
 
 pub struct Node {
     index: usize,
@@ -134,27 +79,14 @@ pub struct Node {
     m_ind: FilterMetrics,
     trace: Option<Vec<TraceRow>>,
     started: bool,
-    /// Neighbours (either direction), and which of them this node has heard from.
-    neighbours: Vec<usize>,
-    heard: Vec<bool>,
-    /// The highest step a neighbour reported (in a measurement or a hello).
-    max_peer_step: Option<u64>,
+    /// Neighbours, which of them were heard from, the highest step they reported.
+    session: Session,
     /// Sources whose measurements this node expects each step.
     in_sources: Vec<usize>,
     /// The β-independent LMI terms of every networked update, when a protocol search asked for them.
     lmi_log: Option<Vec<LmiStep>>,
     imu_log: Option<Vec<ImuRow>>,
 }
-
-/// One networked update's LMI terms with the node index of each source (own measurement included), in the order of
-/// `terms.kz`.
-#[derive(Debug, Clone)]
-pub struct LmiStep {
-    pub k: u64,
-    pub sources: Vec<usize>,
-    pub terms: LmiTerms,
-}
-
 
 impl Node {
     /// `record_trace` keeps one row per step and filter (needed for `trace.csv` and the plots).
@@ -221,26 +153,7 @@ impl Node {
             trace: record_trace.then(Vec::new),
             imu_log: record_trace.then(Vec::new),
             started: false,
-            neighbours: {
-                let mut v: Vec<usize> = topo
-                    .links
-                    .iter()
-                    .filter_map(|l| {
-                        if l.from == index {
-                            Some(l.to)
-                        } else if l.to == index {
-                            Some(l.from)
-                        } else {
-                            None
-                        }
-                    })
-                    .collect();
-                v.sort_unstable();
-                v.dedup();
-                v
-            },
-            heard: vec![false; n],
-            max_peer_step: None,
+            session: Session::new(&topo, index),
             in_sources: topo
                 .in_links(index)
                 .map(|l| l.from)
@@ -415,14 +328,11 @@ impl Node {
             self.counters.malformed += 1;
             return None;
         }
-        self.heard[src] = true;
         let peer_step = match &dg.payload {
             Payload::Hello { running } => *running,
             Payload::Measurement { .. } => Some(dg.header.step),
         };
-        if let Some(p) = peer_step {
-            self.max_peer_step = Some(self.max_peer_step.map_or(p, |m| m.max(p)));
-        }
+        self.session.heard_from(src, peer_step);
         let arrival = Arrival {
             src,
             step: dg.header.step,
@@ -592,17 +502,17 @@ impl Node {
 
     /// Neighbours in either direction (node indices).
     pub fn neighbours(&self) -> &[usize] {
-        &self.neighbours
+        &self.session.neighbours
     }
 
     /// Whether every neighbour has been heard from (a hello or a measurement).
     pub fn heard_all(&self) -> bool {
-        self.neighbours.iter().all(|&j| self.heard[j])
+        self.session.heard_all()
     }
 
     /// The highest step any neighbour has reported.
     pub fn max_peer_step(&self) -> Option<u64> {
-        self.max_peer_step
+        self.session.max_peer_step
     }
 
     /// Hello datagrams for every neighbour (control traffic of the start handshake: not subject to the link layer).
@@ -614,6 +524,7 @@ impl Node {
         self.seq = self.seq.wrapping_add(1);
         match dg.encode() {
             Ok(bytes) => self
+                .session
                 .neighbours
                 .iter()
                 .map(|&to| Transmit {

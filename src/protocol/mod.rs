@@ -6,7 +6,7 @@
 //! σ = 1 keeps every row a weighted average of innovations; then P̄ of (9) is positive semidefinite, so (19) holds
 //! for any u, and (17) fails only if α is below ‖K S Kᵀ‖. A larger σ lets the gain grow until (19) or (17) bind.
 //!
-//! Each candidate is scored by whole runs of in-memory nodes ([`crate::node::step_in_memory`], the same state
+//! Each candidate is scored by whole runs of in-memory nodes ([`crate::sim::Sim`], the same state
 //! machines the sockets drive), on several seeds: a protocol is feasible when no node's guard rejected a single
 //! update on any seed. The feasibility boundary along the family is found by bisection between the grid points that
 //! bracket it. Among feasible protocols the search returns the one with the most exchanged weight

@@ -69,7 +69,7 @@ fn recording_problems(sim: &SimConfig, nodes: &[NodeConfig]) -> Vec<Problem> {
 }
 
 impl Scenario {
-    /// After [`Scenario::apply`]: every recorded IMU covers the run.
+    /// Every recorded IMU covers the run (checked by [`Scenario::with`] and before a run starts).
     pub fn check_recordings(&self) -> Result<(), ScenarioError> {
         let problems = recording_problems(&self.sim, &self.nodes);
         if problems.is_empty() {
