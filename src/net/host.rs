@@ -44,6 +44,67 @@ pub struct HostOutput {
     pub wall_s: f64,
 }
 
+/// Where node `index` finds its neighbours: each at its `addr` (or `node<ID>:7000`), unless `given` (id →
+/// "host:port") says otherwise. A given id that is not a neighbour is an error naming it.
+pub fn neighbour_addrs(
+    topo: &Scenario,
+    index: usize,
+    given: &[(u32, String)],
+) -> Result<HashMap<usize, String>, String> {
+    let mut peers: HashMap<usize, String> = HashMap::new();
+    for l in &topo.links {
+        for j in [l.from, l.to] {
+            if (l.from == index || l.to == index) && j != index {
+                peers.insert(j, crate::compose::node_addr(topo, j));
+            }
+        }
+    }
+    for (id, addr) in given {
+        let j = topo
+            .index_of(*id)
+            .ok_or_else(|| format!("--peer {id}=…: no [[node]] has id {id}"))?;
+        if !peers.contains_key(&j) {
+            return Err(format!(
+                "--peer {id}=…: node {id} is not a neighbour of node {}",
+                topo.nodes[index].id
+            ));
+        }
+        peers.insert(j, addr.clone());
+    }
+    Ok(peers)
+}
+
+impl HostOutput {
+    /// This node's part of a multi-host run (`node-ID.json`): its summary with the counters `simnet collect` joins
+    /// into per-link figures. One end of a link cannot tell its loss, so the part carries no link table.
+    pub fn part(&self, topo: &Scenario, index: usize) -> crate::report::summary::Summary {
+        let mut s = crate::report::summary::Summary::build(
+            topo,
+            "realtime",
+            std::slice::from_ref(&self.report),
+            None,
+            self.steps_done,
+            self.interrupted,
+            self.wall_s,
+            0,
+        );
+        let id_of = |j: usize| topo.nodes[j].id;
+        s.part = Some(crate::report::parts::PartInfo {
+            node: topo.nodes[index].id,
+            first_step: self.report.counters.first_step,
+            steps_done: self.steps_done,
+            links_out: self.report.links_out.iter().map(|(to, c)| (id_of(*to), *c)).collect(),
+            rx: topo
+                .in_links(index)
+                .map(|l| (id_of(l.from), self.report.rx[l.from]))
+                .collect(),
+            fusion: topo.model.get().fusion(),
+        });
+        s.links.clear();
+        s
+    }
+}
+
 const HELLO_PERIOD: Duration = Duration::from_millis(100);
 const GRACE: Duration = Duration::from_millis(300);
 /// Fraction of the measured phase offset corrected per step.

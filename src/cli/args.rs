@@ -1,0 +1,156 @@
+//! `simnet run`'s options (shared by `node`, `protocol` and `reproduce`): value parsers, the overrides they
+//! make and the scenario they select.
+
+use super::*;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum LossKind {
+    Bernoulli,
+    GilbertElliott,
+}
+
+#[derive(Args, Debug, Clone, Default)]
+pub struct RunArgs {
+    /// Built-in name, `./topologies/NAME.toml`, or a path.
+    #[arg(long, short = 't')]
+    pub topology: Option<String>,
+    /// Packet loss probability on every link (stationary loss for Gilbert–Elliott); unset: the topology's own.
+    #[arg(long, env = "SIMNET_LOSS", allow_hyphen_values = true, value_parser = probability)]
+    pub loss: Option<f64>,
+    /// Loss process for --loss.
+    #[arg(long, env = "SIMNET_LOSS_MODEL", value_enum, requires = "loss")]
+    pub loss_model: Option<LossKind>,
+    /// Mean loss run in packets (Gilbert–Elliott: r = 1/B, p = L·r/(1−L)).
+    #[arg(long, env = "SIMNET_BURST", allow_hyphen_values = true, value_parser = at_least_one)]
+    pub burst: Option<f64>,
+    /// Constant one-way delay on every link, ms.
+    #[arg(long, env = "SIMNET_DELAY", allow_hyphen_values = true, value_parser = non_negative)]
+    pub delay: Option<f64>,
+    /// Jitter on every link, ms (uniform ± unless the topology says normal).
+    #[arg(long, env = "SIMNET_JITTER", allow_hyphen_values = true, value_parser = non_negative)]
+    pub jitter: Option<f64>,
+    /// Probability that a link delivers a datagram twice.
+    #[arg(long, env = "SIMNET_DUPLICATE", allow_hyphen_values = true, value_parser = probability)]
+    pub duplicate: Option<f64>,
+    /// Probability that a link flips one bit of a datagram (the receiver's checksum must catch it).
+    #[arg(long, env = "SIMNET_CORRUPT", allow_hyphen_values = true, value_parser = probability)]
+    pub corrupt: Option<f64>,
+    /// Simulated duration, s.
+    #[arg(long, env = "SIMNET_DURATION", allow_hyphen_values = true, value_parser = positive)]
+    pub duration: Option<f64>,
+    /// Step rate, Hz.
+    #[arg(long, env = "SIMNET_RATE", allow_hyphen_values = true, value_parser = positive)]
+    pub rate: Option<f64>,
+    /// Run seed (every random stream derives from it).
+    #[arg(allow_hyphen_values = true, long, env = "SIMNET_SEED")]
+    pub seed: Option<u64>,
+    /// Pace steps by the wall clock instead of the virtual lockstep clock.
+    #[arg(long)]
+    pub realtime: bool,
+    /// Write summary.json, trace.csv, links.csv and SVG plots here.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print summary.json on stdout instead of the table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub(super) fn parse_f64(s: &str) -> Result<f64, String> {
+    s.parse::<f64>().map_err(|_| format!("`{s}` is not a number"))
+}
+
+pub(super) fn probability(s: &str) -> Result<f64, String> {
+    let v = parse_f64(s)?;
+    if (0.0..=1.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("must be a probability in [0, 1], got {v}"))
+    }
+}
+
+pub(super) fn positive(s: &str) -> Result<f64, String> {
+    let v = parse_f64(s)?;
+    if v > 0.0 && v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("must be a positive number, got {v}"))
+    }
+}
+
+pub(super) fn non_negative(s: &str) -> Result<f64, String> {
+    let v = parse_f64(s)?;
+    if v >= 0.0 && v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("must be a non-negative number, got {v}"))
+    }
+}
+
+pub(super) fn at_least_one(s: &str) -> Result<f64, String> {
+    let v = parse_f64(s)?;
+    if v >= 1.0 && v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("a mean loss run is at least 1 packet, got {v}"))
+    }
+}
+
+/// The longest run accepted (as for `sim.duration_s` in a topology file).
+pub(super) const MAX_STEPS: f64 = 1e8;
+
+impl RunArgs {
+    pub fn overrides(&self) -> Result<Overrides, UsageError> {
+        let loss = match (self.loss, self.loss_model.unwrap_or(LossKind::Bernoulli), self.burst) {
+            (None, _, Some(_)) => {
+                return Err(UsageError::Option(
+                    "--burst needs --loss (and --loss-model gilbert-elliott)".into(),
+                ))
+            }
+            (None, _, None) => None,
+            (Some(p), LossKind::Bernoulli, None) => Some(LossModel::Bernoulli { p }),
+            (Some(_), LossKind::Bernoulli, Some(_)) => {
+                return Err(UsageError::Option(
+                    "--burst applies to --loss-model gilbert-elliott only".into(),
+                ))
+            }
+            (Some(l), LossKind::GilbertElliott, burst) => {
+                let b = burst.ok_or_else(|| {
+                    UsageError::Option("--loss-model gilbert-elliott needs --burst B (mean loss run)".into())
+                })?;
+                Some(
+                    LossModel::gilbert_elliott_from(l, b)
+                        .map_err(|e| UsageError::Option(format!("--loss/--burst: {e}")))?,
+                )
+            }
+        };
+        Ok(Overrides {
+            loss,
+            delay_ms: self.delay,
+            jitter_ms: self.jitter,
+            duplicate: self.duplicate,
+            corrupt: self.corrupt,
+            duration_s: self.duration,
+            rate_hz: self.rate,
+            seed: self.seed,
+        })
+    }
+
+    /// The topology with the command-line overrides applied.
+    pub fn topology(&self) -> Result<Scenario, UsageError> {
+        let name = self
+            .topology
+            .as_deref()
+            .ok_or_else(|| UsageError::Option("--topology NAME|PATH is required (see `simnet topologies`)".into()))?;
+        let t = Scenario::resolve(name)?.with(&self.overrides()?)?;
+        for w in t.warnings() {
+            tracing::warn!("{}: {w}", t.name);
+        }
+        if t.sim.duration_s * t.sim.rate_hz > MAX_STEPS {
+            return Err(UsageError::Option(format!(
+                "--duration/--rate: {} s at {} Hz is more than {MAX_STEPS:e} steps",
+                t.sim.duration_s, t.sim.rate_hz
+            )));
+        }
+        Ok(t)
+    }
+}

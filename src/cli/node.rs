@@ -1,0 +1,194 @@
+//! Multi-host runs: `simnet node` (one node of a scenario per process), `simnet collect` (merging their parts),
+//! `simnet compose` (the docker compose file).
+
+use super::*;
+
+#[derive(Args, Debug, Clone)]
+#[command(mut_arg("out", |a| a.help("Write this node's part here: node-ID.json, trace-ID.csv, estimates-ID.csv (for `simnet collect`)").long_help(None)))]
+pub struct NodeArgs {
+    /// This node's id in the topology.
+    #[arg(long)]
+    pub id: u32,
+    /// Address to bind (default 0.0.0.0 and the port of the node's `addr`, or 7000).
+    #[arg(long)]
+    pub bind: Option<std::net::SocketAddr>,
+    /// A neighbour's address, overriding the topology (`addr`, default `node<ID>:7000`). Repeatable.
+    #[arg(allow_hyphen_values = true, long = "peer", value_name = "ID=HOST:PORT", value_parser = peer)]
+    pub peers: Vec<(u32, String)>,
+    /// Seconds to wait for every neighbour before starting alone.
+    #[arg(allow_hyphen_values = true, long, default_value_t = 30.0, value_parser = positive)]
+    pub handshake_timeout: f64,
+    #[command(flatten)]
+    pub run: RunArgs,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct CollectArgs {
+    /// Directories holding node-*.json parts.
+    #[arg(required = true)]
+    pub dirs: Vec<PathBuf>,
+    /// Where to write the merged summary.json, trace.csv, links.csv and plots (default: the first directory).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print the merged summary.json instead of the table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct ComposeArgs {
+    /// Built-in name or path of the topology to run, one container per node.
+    #[arg(long, short = 't')]
+    pub topology: String,
+    /// Image name of the simnet image.
+    #[arg(long, default_value = "simnet:latest")]
+    pub image: String,
+}
+
+pub(super) fn peer(s: &str) -> Result<(u32, String), String> {
+    let (id, addr) = s
+        .split_once('=')
+        .ok_or_else(|| format!("expected ID=HOST:PORT, got `{s}`"))?;
+    let id = id.parse::<u32>().map_err(|_| format!("`{id}` is not a node id"))?;
+    if !addr.contains(':') {
+        return Err(format!("`{addr}` needs a port (HOST:PORT)"));
+    }
+    Ok((id, addr.to_string()))
+}
+
+pub(super) fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode> {
+    use crate::net::host::{run_node, HostConfig};
+    let topo = Arc::new(args.run.topology()?);
+    let index = topo
+        .index_of(args.id)
+        .ok_or_else(|| UsageError::Option(format!("--id {}: no [[node]] has this id in `{}`", args.id, topo.name)))?;
+    let peers = crate::net::host::neighbour_addrs(&topo, index, &args.peers).map_err(UsageError::Option)?;
+    let own = crate::compose::node_addr(&topo, index);
+    let port = own
+        .rsplit_once(':')
+        .and_then(|(_, p)| p.parse::<u16>().ok())
+        .ok_or_else(|| UsageError::Option(format!("node {}: address `{own}` has no port", args.id)))?;
+    let bind = args
+        .bind
+        .unwrap_or_else(|| std::net::SocketAddr::from(([0, 0, 0, 0], port)));
+    let out_dir = args.run.out.as_deref().map(OutDir::prepare).transpose()?;
+    let steps = topo.sim.steps();
+    let progress = (!quiet && !args.run.json).then(|| progress_bar(steps));
+    let cfg = HostConfig {
+        bind,
+        peers,
+        handshake_timeout: std::time::Duration::from_secs_f64(args.handshake_timeout),
+        record_trace: args.run.out.is_some(),
+        progress: progress
+            .clone()
+            .map(|pb| -> net::Progress { Arc::new(move |d, _| pb.set_position(d)) }),
+    };
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()?;
+    let out = rt.block_on(run_node(topo.clone(), index, cfg, shutdown_signal()))?;
+    if let Some(pb) = progress {
+        pb.finish_and_clear();
+    }
+    let s = out.part(&topo, index);
+    if let Some(d) = &out_dir {
+        let mut buf = Vec::new();
+        crate::report::trace::write_trace(&mut buf, &topo.model.get().columns(), &out.report.trace)?;
+        d.put(&format!("trace-{}.csv", args.id), &buf)?;
+        let mut buf = Vec::new();
+        crate::report::parts::write_estimates(&mut buf, &out.estimates)?;
+        d.put(&format!("estimates-{}.csv", args.id), &buf)?;
+        // The part last: its presence means the node finished writing.
+        d.put(&format!("node-{}.json", args.id), s.to_json().as_bytes())?;
+    }
+    print_summary(
+        &s,
+        args.run.json,
+        Some("(per-link figures: `simnet collect` on the parts of every node)"),
+    )?;
+    Ok(exit_code(s.interrupted))
+}
+
+pub(super) fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
+    use crate::report::parts::{merge, read_estimates, read_trace, PartError};
+    use anyhow::Context;
+    use std::collections::BTreeMap;
+    let mut parts = Vec::new();
+    let mut estimates = BTreeMap::new();
+    let mut rows = Vec::new();
+    let mut columns = Vec::new();
+    for dir in &args.dirs {
+        let entries = std::fs::read_dir(dir).map_err(|e| UsageError::Option(format!("{}: {e}", dir.display())))?;
+        let mut names: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).collect();
+        names.sort();
+        for p in names {
+            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_string();
+            let Some(id) = name.strip_prefix("node-").and_then(|n| n.strip_suffix(".json")) else {
+                continue;
+            };
+            let text = std::fs::read_to_string(&p).with_context(|| format!("cannot read {}", p.display()))?;
+            let s: summary::Summary = serde_json::from_str(&text)
+                .map_err(|e| UsageError::Option(format!("{}: not a node part: {e}", p.display())))?;
+            let node_index = parts.len();
+            parts.push(s);
+            let est = dir.join(format!("estimates-{id}.csv"));
+            if let Ok(f) = std::fs::File::open(&est) {
+                let es = read_estimates(std::io::BufReader::new(f), node_index, &est.display().to_string())
+                    .map_err(|e| UsageError::Option(e.to_string()))?;
+                estimates.insert(id.parse::<u32>().unwrap_or(u32::MAX), es);
+            }
+            let tr = dir.join(format!("trace-{id}.csv"));
+            if let Ok(f) = std::fs::File::open(&tr) {
+                let (names, r) = read_trace(std::io::BufReader::new(f), &tr.display().to_string())
+                    .map_err(|e| UsageError::Option(e.to_string()))?;
+                if columns.is_empty() {
+                    columns = names;
+                }
+                rows.extend(r);
+            }
+        }
+    }
+    if parts.is_empty() {
+        let dirs: Vec<String> = args.dirs.iter().map(|d| d.display().to_string()).collect();
+        return Err(UsageError::Option(PartError::Empty(dirs.join(", ")).to_string()).into());
+    }
+    let (s, mut observer) = merge(&parts, &estimates).map_err(|e| UsageError::Option(e.to_string()))?;
+    let d = OutDir::prepare(args.out.as_deref().unwrap_or(&args.dirs[0]))?;
+    rows.sort_by_key(|r| (r.step, r.node, !r.networked));
+    let dt = 1.0 / s.rate_hz;
+    let path = d.dir.join(TRACE_TMP);
+    let f = std::fs::File::create(&path)
+        .map_err(|e| UsageError::Option(format!("cannot write {}: {e}", path.display())))?;
+    let mut rec =
+        TraceRecorder::new(columns, observer.layout(), dt, s.steps).to_writer(Box::new(std::io::BufWriter::new(f)));
+    // Fused rows go after the node rows of their step.
+    let mut fused = observer.drain_rows().into_iter().peekable();
+    for chunk in rows.chunk_by(|a, b| a.step == b.step) {
+        rec.rows(chunk.to_vec());
+        let step = chunk[0].step;
+        let mut now = Vec::new();
+        while let Some(f) = fused.next_if(|f| f.step <= step) {
+            now.push(f);
+        }
+        rec.fused(now);
+    }
+    rec.fused(fused.collect());
+    let (rows, fused) = d.finish_trace(Some(rec))?;
+    let wrote = write_files(&d.dir, &s, dt, &rows, &fused)?;
+    print_summary(&s, args.json, None)?;
+    if !args.json {
+        println!("\nwrote {}/{{{}}}", d.dir.display(), wrote.join(", "));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+pub(super) fn compose(args: &ComposeArgs) -> anyhow::Result<ExitCode> {
+    let topo = Scenario::resolve(&args.topology).map_err(UsageError::from)?;
+    let builtin = builtin::get(&args.topology).is_some();
+    print!(
+        "{}",
+        crate::compose::compose_file(&topo, &args.topology, builtin, &args.image)
+    );
+    Ok(ExitCode::SUCCESS)
+}
