@@ -17,20 +17,22 @@
 //! | [`wire`] | the datagram format: postcard + CRC-32, checked decode |
 //! | [`link`] | per-datagram verdicts: Bernoulli / Gilbert–Elliott loss, delay, jitter, duplication, corruption, fault schedules |
 //! | [`node`] | one node's sans-IO state machine: `handle_step`, `handle_datagram`, `handle_deadline`, `poll_transmit`, over any [`model::Model`]; simulated or recorded IMU |
+//! | [`observe`] | what is measured as a run goes: per-filter metrics, receive counters |
+//! | [`sim`] | whole runs in memory: [`Sim`] steps every node in lockstep and returns [`RunResults`], the same as over UDP |
+//! | [`net`] | the only I/O: one tokio task and UDP socket per node, virtual and realtime clocks, shutdown; `net::host` runs one node per process (`simnet node`) |
+//! | [`report`] | `summary.json` (with the settings that made it), the table, `trace.csv` and IMU files streamed as a run goes (`report::trace`), `links.csv`, SVG plots |
 //! | [`protocol`] | β protocol search over whole in-memory runs: the paper's family by bisection on (17)/(19); all β by SDP (feature `sdp`) |
 //! | [`reconstruct`] | position from a recorded IMU file as a boundary value problem (FEM), trapezoid for comparison, sensor-error model |
 //! | [`reproduce`] | the source documents' experiments rerun: claims tables with simnet's figures, and plots |
-//! | [`report`] | metrics, `summary.json` (with the settings that made it), the table, `trace.csv` and IMU files streamed as a run goes (`report::trace`), `links.csv`, SVG plots |
-//! | [`net`] | the only I/O: one tokio task and UDP socket per node, virtual and realtime clocks, shutdown; `net::host` runs one node per process (`simnet node`) |
-//! | [`cli`] | clap definitions, exit codes, tracing setup |
-//! | [`compose`] | the docker compose file of a topology (one container per node) |
+//! | `cli` (crate-private) | clap definitions, exit codes, tracing setup |
+//! | `compose` (crate-private) | the docker compose file of a topology (one container per node) |
 //!
 //! Support: [`geom`] (Euler ZYX attitude), [`rng`] (seeded streams), [`stats`] (quantiles for tests and reports),
-//! [`par`] (jobs over every core), [`imu_csv`] (recorded IMU files: `simnet run --out` writes them, `imu_csv` on a
+//! `par` (jobs over every core, crate-private), [`imu_csv`] (recorded IMU files: `simnet run --out` writes them, `imu_csv` on a
 //! node and `simnet reconstruct` read them).
 
-pub mod cli;
-pub mod compose;
+mod cli;
+mod compose;
 pub mod estimate;
 pub mod geom;
 pub mod imu_csv;
@@ -39,7 +41,8 @@ pub mod model;
 pub mod motion;
 pub mod net;
 pub mod node;
-pub mod par;
+pub mod observe;
+mod par;
 pub mod protocol;
 pub mod reconstruct;
 pub mod report;
@@ -52,6 +55,11 @@ pub mod stats;
 pub mod wire;
 
 pub use report::summary::Summary;
+
+/// The `simnet` command line (the binary's `main`).
+pub fn cli_main() -> std::process::ExitCode {
+    cli::main()
+}
 pub use scenario::{LinkSpec, Overrides, Scenario, ScenarioBuilder};
 pub use sim::{RunResults, Sim};
 

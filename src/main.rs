@@ -1,3 +1,3 @@
 fn main() -> std::process::ExitCode {
-    simnet::cli::main()
+    simnet::cli_main()
 }

@@ -23,7 +23,7 @@ mod reproduce;
 mod run;
 
 use args::*;
-pub use args::{LossKind, RunArgs};
+pub use args::RunArgs;
 use bounds::bounds;
 pub use bounds::BoundsArgs;
 use node::{collect, compose, run_node};

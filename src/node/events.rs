@@ -4,7 +4,7 @@
 use crate::estimate::{Gaussian, LmiTerms};
 use crate::imu_csv::ImuRow;
 use crate::link::LinkCounters;
-use crate::report::metrics::{FilterMetrics, RxCounters};
+use crate::observe::metrics::{FilterMetrics, RxCounters};
 use crate::scenario::Role;
 use nalgebra::DVector;
 

@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use crate::model::Measurement;
-use crate::report::metrics::RxCounters;
+use crate::observe::metrics::RxCounters;
 
 /// Most early measurements a node holds.
 pub(super) const EARLY_CAP: usize = 256;

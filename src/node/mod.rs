@@ -42,7 +42,7 @@ pub use crate::imu_csv::ImuRow;
 pub use crate::link::Transmit;
 use crate::link::{Egress, Link};
 use crate::model::{Measurement, Model, Truth};
-use crate::report::metrics::FilterMetrics;
+use crate::observe::metrics::FilterMetrics;
 use crate::scenario::{Role, Scenario};
 use crate::sensor::{ImuInterval, ImuSample, Sensor};
 use crate::wire::{Datagram, Header, Payload, WireError};

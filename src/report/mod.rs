@@ -1,6 +1,5 @@
-//! Results: metrics, `summary.json`, the stdout table, `trace.csv`, `links.csv` and plots. Writers take `impl Write`.
+//! Results: `summary.json`, the stdout table, `trace.csv`, `links.csv` and plots. Writers take `impl Write`.
 
-pub mod metrics;
 pub mod observer;
 pub mod parts;
 pub mod plot;

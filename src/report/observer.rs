@@ -10,7 +10,7 @@ use crate::estimate::fusion::{cascade, CentredMedian, Omega};
 use crate::estimate::Gaussian;
 use crate::model::FusionLayout;
 use crate::node::StepEstimate;
-use crate::report::metrics::FilterMetrics;
+use crate::observe::metrics::FilterMetrics;
 
 /// The trace-optimal cascade runs a line search per stage; above this many nodes it is skipped.
 pub const OPTIMAL_FUSION_MAX_NODES: usize = 16;

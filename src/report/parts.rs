@@ -6,28 +6,12 @@ use std::collections::BTreeMap;
 use std::io::{self, BufRead, Write};
 
 use nalgebra::{DMatrix, DVector};
-use serde::{Deserialize, Serialize};
 
-use super::metrics::RxCounters;
 use super::observer::Observer;
+pub use super::summary::PartInfo;
 use super::summary::{LinkSummary, Summary};
 use crate::estimate::Gaussian;
-use crate::link::LinkCounters;
 use crate::node::{StepEstimate, TraceRow};
-
-/// What a part adds to the summary schema.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct PartInfo {
-    pub node: u32,
-    pub first_step: u64,
-    pub steps_done: u64,
-    /// Sender-side counters of each outgoing link, by destination id.
-    pub links_out: Vec<(u32, LinkCounters)>,
-    /// Receiver-side counters, by source id.
-    pub rx: Vec<(u32, RxCounters)>,
-    /// How the observer fuses this run's estimates.
-    pub fusion: crate::model::FusionLayout,
-}
 
 #[derive(Debug, thiserror::Error)]
 pub enum PartError {

@@ -4,10 +4,10 @@ use std::io::{self, Write};
 
 use serde::{Deserialize, Serialize};
 
-use super::metrics::{FilterSummary, RxCounters};
 use super::observer::FusedSummary;
 use crate::link::LinkCounters;
 use crate::node::NodeReport;
+use crate::observe::metrics::{FilterSummary, RxCounters};
 use crate::scenario::Scenario;
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -140,7 +140,7 @@ pub struct Summary {
     pub settings: Option<Settings>,
     /// Set in the part a `simnet node` writes; absent from whole-run summaries.
     #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub part: Option<super::parts::PartInfo>,
+    pub part: Option<PartInfo>,
 }
 
 impl Summary {
@@ -385,4 +385,18 @@ pub fn write_links(w: &mut impl Write, links: &[LinkSummary]) -> io::Result<()> 
         )?;
     }
     Ok(())
+}
+
+/// What a part adds to the summary schema.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct PartInfo {
+    pub node: u32,
+    pub first_step: u64,
+    pub steps_done: u64,
+    /// Sender-side counters of each outgoing link, by destination id.
+    pub links_out: Vec<(u32, crate::link::LinkCounters)>,
+    /// Receiver-side counters, by source id.
+    pub rx: Vec<(u32, crate::observe::metrics::RxCounters)>,
+    /// How the observer fuses this run's estimates.
+    pub fusion: crate::model::FusionLayout,
 }
