@@ -22,8 +22,8 @@ mod reconstruct;
 mod reproduce;
 mod run;
 
-use args::*;
 pub use args::RunArgs;
+use args::*;
 use bounds::bounds;
 pub use bounds::BoundsArgs;
 use node::{collect, compose, run_node};

@@ -6,13 +6,13 @@
 //! node crashes over simulated time.
 
 mod egress;
+pub mod rules;
 mod schedule;
 
 pub use egress::{Egress, Transmit};
+use rules::{rules_of, Context};
+pub use rules::{Delivery, Rule};
 pub use schedule::{FaultSchedule, ScheduledFault};
-
-use rand::Rng as _;
-use rand_distr::StandardNormal;
 
 use crate::rng::Rng;
 
@@ -110,15 +110,6 @@ pub enum DropCause {
     Down,
 }
 
-/// One copy to deliver.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Delivery {
-    /// Seconds after sending.
-    pub delay: f64,
-    /// Bit to flip, if this copy is corrupted.
-    pub flip_bit: Option<usize>,
-}
-
 #[derive(Debug, Clone, PartialEq)]
 pub enum Verdict {
     Drop(DropCause),
@@ -153,15 +144,13 @@ impl LinkCounters {
     }
 }
 
-/// A directed link's state: configuration, RNG stream, Gilbert–Elliott state, counters.
-#[derive(Debug, Clone)]
+/// A directed link: its rules ([`rules::rules_of`]), its seeded stream, its counters.
+#[derive(Debug)]
 pub struct Link {
     pub from: usize,
     pub to: usize,
-    config: LinkConfig,
+    rules: Vec<Box<dyn Rule>>,
     rng: Rng,
-    /// Gilbert–Elliott: currently in the Bad state.
-    bad: bool,
     counters: LinkCounters,
 }
 
@@ -170,9 +159,8 @@ impl Link {
         Link {
             from,
             to,
-            config,
+            rules: rules_of(&config),
             rng,
-            bad: false,
             counters: LinkCounters::default(),
         }
     }
@@ -181,75 +169,51 @@ impl Link {
         &self.counters
     }
 
-    /// Decide the fate of one datagram of `len` bytes sent at simulated time `now` (seconds).
-    pub fn verdict(&mut self, now: f64, len: usize, schedule: &FaultSchedule) -> Verdict {
+    /// Decide the fate of one datagram of `len` bytes sent at simulated time `now` (seconds): the first rule that
+    /// drops it wins; otherwise every copy is shaped by every rule, copy after copy.
+    pub fn verdict(&mut self, now: f64, len: usize, faults: &FaultSchedule) -> Verdict {
+        let cx = Context {
+            from: self.from,
+            to: self.to,
+            now,
+            len,
+            faults,
+        };
         self.counters.sent += 1;
-        if !schedule.link_up(self.from, self.to, now) {
-            // Scheduled outages do not advance the loss chain: it models the channel, not the outage.
-            self.record_loss();
-            self.counters.lost_down += 1;
-            return Verdict::Drop(DropCause::Down);
-        }
-        if self.lose() {
-            self.record_loss();
-            self.counters.lost_random += 1;
-            return Verdict::Drop(DropCause::Random);
+        for rule in &mut self.rules {
+            if let Some(cause) = rule.admit(&cx, &mut self.rng) {
+                self.counters.current_run += 1;
+                match cause {
+                    DropCause::Down => self.counters.lost_down += 1,
+                    DropCause::Random => self.counters.lost_random += 1,
+                }
+                return Verdict::Drop(cause);
+            }
         }
         self.end_run();
-        let copies = if self.config.duplicate > 0.0 && self.rng.gen::<f64>() < self.config.duplicate {
+        let mut copies = 1;
+        for rule in &mut self.rules {
+            copies += rule.copies(&cx, &mut self.rng);
+        }
+        if copies > 1 {
             self.counters.duplicated += 1;
-            2
-        } else {
-            1
-        };
+        }
         let out = (0..copies)
             .map(|_| {
-                let delay = self.delay();
-                let flip_bit = if self.config.corrupt > 0.0 && len > 0 && self.rng.gen::<f64>() < self.config.corrupt {
-                    self.counters.corrupted += 1;
-                    Some(self.rng.gen_range(0..len * 8))
-                } else {
-                    None
+                let mut d = Delivery {
+                    delay: 0.0,
+                    flip_bit: None,
                 };
-                Delivery { delay, flip_bit }
+                for rule in &mut self.rules {
+                    rule.shape(&cx, &mut d, &mut self.rng);
+                }
+                if d.flip_bit.is_some() {
+                    self.counters.corrupted += 1;
+                }
+                d
             })
             .collect();
         Verdict::Deliver(out)
-    }
-
-    fn lose(&mut self) -> bool {
-        match self.config.loss {
-            LossModel::Bernoulli { p } => p > 0.0 && self.rng.gen::<f64>() < p,
-            LossModel::GilbertElliott {
-                p,
-                r,
-                one_minus_h,
-                one_minus_k,
-            } => {
-                let loss_p = if self.bad { one_minus_h } else { one_minus_k };
-                let lost = loss_p > 0.0 && self.rng.gen::<f64>() < loss_p;
-                let u: f64 = self.rng.gen();
-                self.bad = if self.bad { u >= r } else { u < p };
-                lost
-            }
-        }
-    }
-
-    fn delay(&mut self) -> f64 {
-        let c = &self.config;
-        let j = if c.jitter_ms > 0.0 {
-            match c.jitter {
-                Jitter::Uniform => self.rng.gen_range(-c.jitter_ms..=c.jitter_ms),
-                Jitter::Normal => c.jitter_ms * self.rng.sample::<f64, _>(StandardNormal),
-            }
-        } else {
-            0.0
-        };
-        ((c.delay_ms + j) / 1000.0).max(0.0)
-    }
-
-    fn record_loss(&mut self) {
-        self.counters.current_run += 1;
     }
 
     fn end_run(&mut self) {
