@@ -29,9 +29,14 @@ pub enum Trajectory {
 
 pub const TRAJECTORIES: &[&str] = &["spiral", "circle", "line", "rest", "piecewise", "figure8", "tumble"];
 
+/// A trajectory name that is not one of [`TRAJECTORIES`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("expected one of {all}, got `{0}`", all = TRAJECTORIES.join(" | "))]
+pub struct UnknownTrajectory(pub String);
+
 impl FromStr for Trajectory {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownTrajectory;
+    fn from_str(s: &str) -> Result<Self, UnknownTrajectory> {
         Ok(match s {
             "spiral" => Trajectory::Spiral,
             "circle" => Trajectory::Circle,
@@ -40,7 +45,7 @@ impl FromStr for Trajectory {
             "piecewise" => Trajectory::Piecewise,
             "figure8" => Trajectory::Figure8,
             "tumble" => Trajectory::Tumble,
-            other => return Err(format!("expected one of {}, got `{other}`", TRAJECTORIES.join(" | "))),
+            other => return Err(UnknownTrajectory(other.to_string())),
         })
     }
 }

@@ -62,7 +62,8 @@ pub(super) fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode>
     let index = topo
         .index_of(args.id)
         .ok_or_else(|| UsageError::Option(format!("--id {}: no [[node]] has this id in `{}`", args.id, topo.name)))?;
-    let peers = crate::net::host::neighbour_addrs(&topo, index, &args.peers).map_err(UsageError::Option)?;
+    let peers =
+        crate::net::host::neighbour_addrs(&topo, index, &args.peers).map_err(|e| UsageError::Option(e.to_string()))?;
     let own = crate::compose::node_addr(&topo, index);
     let port = own
         .rsplit_once(':')

@@ -87,7 +87,11 @@ pub struct SequeiraArgs {
 }
 
 /// A whole run over UDP (virtual clock), with its trace rows when `record`.
-fn run_over_udp(rt: &tokio::runtime::Runtime, topo: &Scenario, record: bool) -> anyhow::Result<RunResult> {
+fn run_over_udp(
+    rt: &tokio::runtime::Runtime,
+    topo: &Scenario,
+    record: bool,
+) -> Result<RunResult, crate::reproduce::ReproduceError> {
     let topo = Arc::new(topo.clone());
     let opts = RunOptions {
         trace: record.then(|| TraceRecorder::for_topology(&topo).keep_all()),

@@ -31,21 +31,30 @@ pub enum LossModel {
     },
 }
 
+/// A Gilbert–Elliott channel that target loss and burst cannot make.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LossError {
+    #[error("loss must be in [0, 1) for gilbert-elliott, got {0}")]
+    Loss(f64),
+    #[error("mean burst must be ≥ 1 packet, got {0}")]
+    Burst(f64),
+    #[error("loss {loss} with burst {burst} needs P(Good→Bad) = {p:.3} > 1; use a longer burst")]
+    BurstTooShort { loss: f64, burst: f64, p: f64 },
+}
+
 impl LossModel {
     /// Target loss L and mean burst B: r = 1/B, p = L·r/(1−L), 1−h = 1, 1−k = 0.
-    pub fn gilbert_elliott_from(loss: f64, burst: f64) -> Result<LossModel, String> {
+    pub fn gilbert_elliott_from(loss: f64, burst: f64) -> Result<LossModel, LossError> {
         if !(0.0..1.0).contains(&loss) {
-            return Err(format!("loss must be in [0, 1) for gilbert-elliott, got {loss}"));
+            return Err(LossError::Loss(loss));
         }
         if burst.is_nan() || burst < 1.0 {
-            return Err(format!("mean burst must be ≥ 1 packet, got {burst}"));
+            return Err(LossError::Burst(burst));
         }
         let r = 1.0 / burst;
         let p = loss * r / (1.0 - loss);
         if p > 1.0 {
-            return Err(format!(
-                "loss {loss} with burst {burst} needs P(Good→Bad) = {p:.3} > 1; use a longer burst"
-            ));
+            return Err(LossError::BurstTooShort { loss, burst, p });
         }
         Ok(LossModel::GilbertElliott {
             p,

@@ -44,13 +44,22 @@ pub struct HostOutput {
     pub wall_s: f64,
 }
 
+/// A `--peer ID=HOST:PORT` that names no neighbour.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PeerError {
+    #[error("--peer {0}=…: no [[node]] has id {0}")]
+    Unknown(u32),
+    #[error("--peer {id}=…: node {id} is not a neighbour of node {of}")]
+    NotNeighbour { id: u32, of: u32 },
+}
+
 /// Where node `index` finds its neighbours: each at its `addr` (or `node<ID>:7000`), unless `given` (id →
 /// "host:port") says otherwise. A given id that is not a neighbour is an error naming it.
 pub fn neighbour_addrs(
     topo: &Scenario,
     index: usize,
     given: &[(u32, String)],
-) -> Result<HashMap<usize, String>, String> {
+) -> Result<HashMap<usize, String>, PeerError> {
     let mut peers: HashMap<usize, String> = HashMap::new();
     for l in &topo.links {
         for j in [l.from, l.to] {
@@ -60,14 +69,12 @@ pub fn neighbour_addrs(
         }
     }
     for (id, addr) in given {
-        let j = topo
-            .index_of(*id)
-            .ok_or_else(|| format!("--peer {id}=…: no [[node]] has id {id}"))?;
+        let j = topo.index_of(*id).ok_or(PeerError::Unknown(*id))?;
         if !peers.contains_key(&j) {
-            return Err(format!(
-                "--peer {id}=…: node {id} is not a neighbour of node {}",
-                topo.nodes[index].id
-            ));
+            return Err(PeerError::NotNeighbour {
+                id: *id,
+                of: topo.nodes[index].id,
+            });
         }
         peers.insert(j, addr.clone());
     }

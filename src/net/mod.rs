@@ -34,6 +34,8 @@ pub enum NetError {
     Bind(std::io::Error),
     #[error("node task {0} stopped unexpectedly")]
     TaskLost(usize),
+    #[error("a node task stopped before it replied")]
+    NoReply,
     #[error(transparent)]
     Scenario(#[from] crate::scenario::ScenarioError),
 }
@@ -259,7 +261,7 @@ async fn run_virtual(
                         expected[to] += c;
                     }
                 }
-                _ => return Err(NetError::TaskLost(usize::MAX)),
+                _ => return Err(NetError::NoReply),
             }
         }
         for (i, tx) in cmd_txs.iter().enumerate() {
@@ -284,7 +286,7 @@ async fn run_virtual(
                         t.imu(imu.0, &imu.1);
                     }
                 }
-                _ => return Err(NetError::TaskLost(usize::MAX)),
+                _ => return Err(NetError::NoReply),
             }
         }
         observer.push(estimates);
@@ -333,7 +335,7 @@ async fn finish(
         match reply_rx.recv().await {
             Some(Reply::Report(r)) => reports.push(*r),
             Some(_) => {}
-            None => return Err(NetError::TaskLost(usize::MAX)),
+            None => return Err(NetError::NoReply),
         }
     }
     reports.sort_by_key(|r| r.index);

@@ -392,8 +392,8 @@ pub fn topology_text(
     description: &str,
     beta: &[Vec<f64>],
     imu_files: &[Option<String>],
-) -> Result<String, String> {
-    let mut doc: toml::Table = toml::from_str(base).map_err(|e| e.to_string())?;
+) -> Result<String, TextError> {
+    let mut doc: toml::Table = toml::from_str(base)?;
     if let Some(nodes) = doc.get_mut("node").and_then(|n| n.as_array_mut()) {
         for (node, file) in nodes.iter_mut().zip(imu_files) {
             if let (Some(node), Some(file)) = (node.as_table_mut(), file) {
@@ -407,7 +407,7 @@ pub fn topology_text(
         .entry("consensus")
         .or_insert_with(|| toml::Value::Table(toml::Table::new()))
         .as_table_mut()
-        .ok_or("`consensus` is not a table")?;
+        .ok_or(TextError::NotATable("consensus"))?;
     let rows = beta
         .iter()
         .map(|r| toml::Value::Array(r.iter().map(|b| toml::Value::Float(*b)).collect()))
@@ -419,7 +419,18 @@ pub fn topology_text(
     if let Some(lmi) = consensus.get_mut("lmi").and_then(|l| l.as_table_mut()) {
         lmi.insert("enabled".into(), toml::Value::Boolean(true));
     }
-    toml::to_string(&doc).map_err(|e| e.to_string())
+    Ok(toml::to_string(&doc)?)
+}
+
+/// Why [`topology_text`] could not write a topology.
+#[derive(Debug, thiserror::Error)]
+pub enum TextError {
+    #[error("the base topology: {0}")]
+    Parse(#[from] toml::de::Error),
+    #[error("`{0}` is not a table")]
+    NotATable(&'static str),
+    #[error("writing TOML: {0}")]
+    Write(#[from] toml::ser::Error),
 }
 
 #[cfg(test)]

@@ -194,7 +194,7 @@ pub struct Output {
 }
 
 /// Run the scenario on `seeds` and judge the slides' claims.
-pub fn run(cfg: &Config, seeds: &[u64]) -> anyhow::Result<Output> {
+pub fn run(cfg: &Config, seeds: &[u64]) -> Result<Output, super::ReproduceError> {
     let mut conv_all = Vec::new();
     let mut gaps = (0.0_f64, 0.0_f64);
     let mut final_err = Vec::new();

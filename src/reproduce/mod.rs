@@ -34,7 +34,30 @@ pub struct RunResult {
 }
 
 /// Runs a topology (over UDP, in the CLI); `record` keeps the per-step rows for plots.
-pub type Runner<'a> = &'a dyn Fn(&Scenario, bool) -> anyhow::Result<RunResult>;
+pub type Runner<'a> = &'a dyn Fn(&Scenario, bool) -> Result<RunResult, ReproduceError>;
+
+#[derive(Debug, thiserror::Error)]
+pub enum ReproduceError {
+    #[error(transparent)]
+    Scenario(#[from] crate::scenario::ScenarioError),
+    #[error(transparent)]
+    Sim(#[from] crate::sim::SimError),
+    #[error(transparent)]
+    Net(#[from] crate::net::NetError),
+    #[error(transparent)]
+    Protocol(#[from] crate::protocol::ProtocolError),
+    #[error(transparent)]
+    Plot(#[from] crate::report::plot::PlotError),
+    #[error(transparent)]
+    Estimate(#[from] crate::estimate::EstimateError),
+    #[error(transparent)]
+    Bvp(#[from] crate::estimate::bvp::BvpError),
+    #[error(transparent)]
+    Io(#[from] std::io::Error),
+    /// An experiment that cannot be set up as asked (its message says why).
+    #[error("{0}")]
+    Setup(String),
+}
 
 /// The claims as a Markdown table.
 pub fn markdown(title: &str, claims: &[Claim]) -> String {

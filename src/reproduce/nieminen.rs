@@ -216,7 +216,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// Both tests on `seeds` seeds from `s.seed`; the table shows the first seed, the claims are judged on every seed.
-pub fn run(s: &Sensor, seeds: u64) -> anyhow::Result<Output> {
+pub fn run(s: &Sensor, seeds: u64) -> Result<Output, super::ReproduceError> {
     let seeds = seeds.max(1);
     let mut per_seed: Vec<Vec<TestResult>> = Vec::new();
     let mut tracks: Vec<Tracks> = Vec::new();

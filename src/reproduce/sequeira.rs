@@ -128,8 +128,8 @@ fn with_drift(mut t: Scenario) -> Scenario {
 }
 
 /// Run every experiment; `tick(what)` before each.
-pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> anyhow::Result<Output> {
-    let load = |name: &str, seed: u64| -> anyhow::Result<Scenario> {
+pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> Result<Output, super::ReproduceError> {
+    let load = |name: &str, seed: u64| -> Result<Scenario, super::ReproduceError> {
         let mut t = Scenario::resolve(name)?;
         t.sim.seed = seed;
         if let Some(d) = cfg.duration_s {

@@ -37,7 +37,7 @@ impl Checks {
                     return match LossModel::gilbert_elliott_from(rate, burst) {
                         Ok(m) => m,
                         Err(e) => {
-                            self.bad(format!("{key}.rate"), e);
+                            self.bad(format!("{key}.rate"), e.to_string());
                             LossModel::Bernoulli { p: 0.0 }
                         }
                     };

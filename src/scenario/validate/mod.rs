@@ -208,7 +208,7 @@ impl Checks {
         let trajectory = match s.trajectory.as_deref().unwrap_or("spiral").parse::<Trajectory>() {
             Ok(t) => t,
             Err(e) => {
-                self.bad("sim.trajectory", e);
+                self.bad("sim.trajectory", e.to_string());
                 Trajectory::Spiral
             }
         };
