@@ -32,6 +32,16 @@ pub fn run_with(topo: Scenario, opts: RunOptions) -> (Summary, RunResults) {
     (s, out)
 }
 
+/// A whole run in memory ([`simnet::Sim`]): the same figures as over sockets, for properties of the estimators.
+pub fn simulate(topo: Scenario) -> Summary {
+    simnet::Sim::new(&topo)
+        .expect("a valid scenario")
+        .run()
+        .expect("run")
+        .summary()
+}
+
+/// A whole run over loopback UDP sockets (virtual clock).
 pub fn run(topo: Scenario) -> Summary {
     run_with(topo, RunOptions::default()).0
 }

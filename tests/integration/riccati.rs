@@ -109,7 +109,7 @@ fn prior_covariance_converges_to_the_dare() {
         "P_(k|k-1) differs from the DARE solution by {rel:e} (relative)"
     );
 
-    let s = common::run(t);
+    let s = common::simulate(t);
     let est = s.nodes.iter().find(|n| n.role == "estimator").unwrap();
     let mean_prior = est.networked.as_ref().unwrap().mean_trace_p_prior.unwrap();
     let rel = (mean_prior - X.trace()).abs() / X.trace();
@@ -150,7 +150,7 @@ fn sinopoli_scalar_bounds_hold_and_divergence_is_reported() {
             duration_s: Some(duration),
             ..common::bernoulli(1.0 - lambda, 1)
         };
-        let s = common::run(common::topology("sinopoli-scalar", o));
+        let s = common::simulate(common::topology("sinopoli-scalar", o));
         let est = s.nodes.iter().find(|n| n.role == "estimator").unwrap();
         let net = est.networked.as_ref().unwrap();
         let mean = net.mean_trace_p_prior.unwrap();
@@ -165,7 +165,7 @@ fn sinopoli_scalar_bounds_hold_and_divergence_is_reported() {
         let sigma = (lambda * (1.0 - lambda) / s.links[0].sent as f64).sqrt();
         assert!((delivered - lambda).abs() < 3.0 * sigma, "delivered {delivered}");
     }
-    let s = common::run(common::topology("sinopoli-scalar", common::bernoulli(0.8, 1)));
+    let s = common::simulate(common::topology("sinopoli-scalar", common::bernoulli(0.8, 1)));
     let est = s.nodes.iter().find(|n| n.role == "estimator").unwrap();
     assert!(
         est.networked.as_ref().unwrap().diverged,
