@@ -225,6 +225,7 @@ pub fn run_in_memory(topo: &Scenario, seed: u64, record_lmi: bool) -> Result<Run
     })?;
     let opts = SimOptions {
         record_lmi,
+        no_fusion: true,
         ..Default::default()
     };
     Ok(Sim::with_options(&t, opts)?.run()?)

@@ -80,7 +80,7 @@ impl Role {
     }
 }
 
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct SimConfig {
     pub rate_hz: f64,
     pub duration_s: f64,
@@ -109,14 +109,14 @@ impl SimConfig {
     }
 }
 
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LmiConfig {
     pub alpha: f64,
     pub gamma: f64,
     pub enabled: bool,
 }
 
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct ConsensusConfig {
     pub beta0: f64,
     /// `beta[i][j]`: weight node i gives the measurement of node j (row i = receiving node, by position in the file).
@@ -168,6 +168,17 @@ pub struct Scenario {
     pub applied: Overrides,
     /// The file as written, with every change since: what a change re-validates.
     pub(crate) raw: toml::RawTopology,
+    /// The settings as `raw` validated to: a field changed in place since then is carried into `raw` when the
+    /// scenario is validated again ([`Scenario::with`]).
+    pub(crate) validated: Validated,
+}
+
+/// The typed settings a validation produced, to tell edits made in place from the file's values.
+#[derive(Debug, Clone)]
+pub(crate) struct Validated {
+    pub sim: SimConfig,
+    pub consensus: ConsensusConfig,
+    pub sensors: Vec<SensorProfile>,
 }
 impl Scenario {
     /// Index of the node whose file id is `id`.

@@ -189,3 +189,19 @@ impl From<crate::link::LossModel> for RawLoss {
         }
     }
 }
+
+impl From<&crate::sensor::SensorProfile> for RawSensor {
+    fn from(p: &crate::sensor::SensorProfile) -> RawSensor {
+        RawSensor {
+            accel_noise: Some(p.accel_noise),
+            gyro_noise: Some(p.gyro_noise),
+            accel_bias: Some(p.accel_bias),
+            gyro_bias: Some(p.gyro_bias),
+            accel_drift: Some(p.accel_drift),
+            gyro_drift: Some(p.gyro_drift),
+            pos_noise: Some(p.pos_noise),
+            att_noise: Some(p.att_noise),
+            mag_noise: Some(p.mag_noise),
+        }
+    }
+}

@@ -42,13 +42,15 @@ pub struct SimOptions {
     pub progress: Option<Progress>,
     /// Keep every node's per-step LMI terms (for a protocol search).
     pub record_lmi: bool,
+    /// Do not fuse the nodes' estimates (a search that scores the nodes alone saves the observer's work).
+    pub no_fusion: bool,
 }
 
 /// The lockstep driver: [`Sim::step`] runs one step of every node, [`Sim::run`] the rest of the run.
 pub struct Sim {
     scenario: Arc<Scenario>,
     nodes: Vec<Node>,
-    observer: Observer,
+    observer: Option<Observer>,
     trace: Option<TraceRecorder>,
     progress: Option<Progress>,
     record_lmi: bool,
@@ -72,7 +74,7 @@ impl Sim {
             nodes.iter_mut().for_each(Node::record_lmi);
         }
         Ok(Sim {
-            observer: observer_for(&scenario, record),
+            observer: (!opts.no_fusion).then(|| observer_for(&scenario, record)),
             scenario,
             nodes,
             trace: opts.trace,
@@ -120,11 +122,15 @@ impl Sim {
                 t.imu(n.id(), &imu);
             }
         }
-        self.observer.push(estimates.clone());
+        if let Some(o) = self.observer.as_mut() {
+            o.push(estimates.clone());
+        }
         if let Some(t) = self.trace.as_mut() {
             rows.sort_by_key(|r| (r.node, !r.networked));
             t.rows(rows);
-            t.fused(self.observer.drain_rows());
+            if let Some(o) = self.observer.as_mut() {
+                t.fused(o.drain_rows());
+            }
         }
         self.next = k + 1;
         if let Some(p) = &self.progress {
@@ -141,9 +147,11 @@ impl Sim {
 
     /// The results of the steps run so far.
     pub fn finish(mut self) -> RunResults {
-        self.observer.finish();
-        if let Some(t) = self.trace.as_mut() {
-            t.fused(self.observer.drain_rows());
+        if let Some(o) = self.observer.as_mut() {
+            o.finish();
+            if let Some(t) = self.trace.as_mut() {
+                t.fused(o.drain_rows());
+            }
         }
         let lmi = if self.record_lmi {
             self.nodes.iter_mut().map(Node::take_lmi_log).collect()

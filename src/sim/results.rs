@@ -29,7 +29,8 @@ pub struct RunResults {
     pub scenario: Arc<Scenario>,
     pub clock: Clock,
     pub reports: Vec<NodeReport>,
-    pub observer: Observer,
+    /// The fusion of the nodes' estimates (none when the run was asked not to fuse).
+    pub observer: Option<Observer>,
     pub steps_done: u64,
     pub interrupted: bool,
     pub wall_s: f64,
@@ -48,7 +49,7 @@ impl RunResults {
             &self.scenario,
             self.clock.as_str(),
             &self.reports,
-            self.observer.summary(),
+            self.observer.as_ref().and_then(Observer::summary),
             self.steps_done,
             self.interrupted,
             self.wall_s,
