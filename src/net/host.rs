@@ -87,7 +87,7 @@ impl HostOutput {
     pub fn part(&self, topo: &Scenario, index: usize) -> crate::report::summary::Summary {
         let mut s = crate::report::summary::Summary::build(
             topo,
-            "realtime",
+            crate::sim::Clock::Realtime,
             std::slice::from_ref(&self.report),
             None,
             self.steps_done,

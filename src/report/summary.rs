@@ -13,7 +13,7 @@ use crate::scenario::Scenario;
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct NodeSummary {
     pub id: u32,
-    pub role: String,
+    pub role: crate::scenario::Role,
     pub networked: Option<FilterSummary>,
     pub independent: Option<FilterSummary>,
     /// networked mean error / independent mean error.
@@ -126,7 +126,7 @@ pub struct Summary {
     pub source: String,
     pub model: crate::model::Kind,
     pub seed: u64,
-    pub clock: String,
+    pub clock: crate::sim::Clock,
     pub rate_hz: f64,
     pub steps: u64,
     pub burn_in_steps: u64,
@@ -159,7 +159,7 @@ impl Summary {
     #[allow(clippy::too_many_arguments)]
     pub fn build(
         topo: &Scenario,
-        clock: &'static str,
+        clock: crate::sim::Clock,
         reports: &[NodeReport],
         fused: Option<FusedSummary>,
         steps: u64,
@@ -183,7 +183,7 @@ impl Summary {
                 };
                 NodeSummary {
                     id: r.id,
-                    role: r.role.as_str().to_string(),
+                    role: r.role,
                     networked,
                     independent,
                     error_ratio,
@@ -211,7 +211,7 @@ impl Summary {
             source: topo.source.clone(),
             model: topo.model.get().kind(),
             seed: topo.sim.seed,
-            clock: clock.to_string(),
+            clock,
             rate_hz: topo.sim.rate_hz,
             steps,
             burn_in_steps: topo.sim.burn_in_steps(),
@@ -280,7 +280,7 @@ impl Summary {
             if a.diverged {
                 status.push("networked DIVERGED");
             }
-            if n.role == "estimator" {
+            if n.role == crate::scenario::Role::Estimator {
                 status.push("no own sensor: independent = prediction only");
             } else if b.diverged {
                 status.push("independent DIVERGED");

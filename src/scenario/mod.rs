@@ -21,6 +21,7 @@ mod resolve;
 pub(crate) mod toml;
 mod validate;
 
+use std::fmt;
 use std::sync::Arc;
 
 use crate::imu_csv::ImuRecording;
@@ -53,7 +54,7 @@ pub enum ScenarioError {
     Invalid { file: String, problems: Vec<Problem> },
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Role {
     /// Senses and estimates.
@@ -62,6 +63,12 @@ pub enum Role {
     Sensor,
     /// Estimates from what it receives; has no sensor of its own.
     Estimator,
+}
+
+impl fmt::Display for Role {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.pad(self.as_str())
+    }
 }
 
 impl Role {

@@ -8,12 +8,15 @@ use crate::report::summary::Summary;
 use crate::report::trace::TraceRecorder;
 use crate::scenario::Scenario;
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Clock {
     /// Lockstep: each step's datagrams are exchanged before it closes (in memory or over sockets).
     Virtual,
     /// Every node paces itself on the wall clock; delay and jitter are real waits.
     Realtime,
+    /// One node per process, each on its own wall clock (`simnet node`, merged by `simnet collect`).
+    MultiHost,
 }
 
 impl Clock {
@@ -21,7 +24,14 @@ impl Clock {
         match self {
             Clock::Virtual => "virtual",
             Clock::Realtime => "realtime",
+            Clock::MultiHost => "multi-host",
         }
+    }
+}
+
+impl std::fmt::Display for Clock {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(self.as_str())
     }
 }
 
@@ -47,7 +57,7 @@ impl RunResults {
     pub fn summary(&self) -> Summary {
         Summary::build(
             &self.scenario,
-            self.clock.as_str(),
+            self.clock,
             &self.reports,
             self.observer.as_ref().and_then(Observer::summary),
             self.steps_done,

@@ -110,7 +110,11 @@ fn prior_covariance_converges_to_the_dare() {
     );
 
     let s = common::simulate(t);
-    let est = s.nodes.iter().find(|n| n.role == "estimator").unwrap();
+    let est = s
+        .nodes
+        .iter()
+        .find(|n| n.role == simnet::scenario::Role::Estimator)
+        .unwrap();
     let mean_prior = est.networked.as_ref().unwrap().mean_trace_p_prior.unwrap();
     let rel = (mean_prior - X.trace()).abs() / X.trace();
     assert!(
@@ -151,7 +155,11 @@ fn sinopoli_scalar_bounds_hold_and_divergence_is_reported() {
             ..common::bernoulli(1.0 - lambda, 1)
         };
         let s = common::simulate(common::topology("sinopoli-scalar", o));
-        let est = s.nodes.iter().find(|n| n.role == "estimator").unwrap();
+        let est = s
+            .nodes
+            .iter()
+            .find(|n| n.role == simnet::scenario::Role::Estimator)
+            .unwrap();
         let net = est.networked.as_ref().unwrap();
         let mean = net.mean_trace_p_prior.unwrap();
         println!("λ = {lambda}: S̄ = {s_bar:.4} ≤ measured {mean:.4} ≤ V̄ = {v_bar:.4}");
@@ -166,7 +174,11 @@ fn sinopoli_scalar_bounds_hold_and_divergence_is_reported() {
         assert!((delivered - lambda).abs() < 3.0 * sigma, "delivered {delivered}");
     }
     let s = common::simulate(common::topology("sinopoli-scalar", common::bernoulli(0.8, 1)));
-    let est = s.nodes.iter().find(|n| n.role == "estimator").unwrap();
+    let est = s
+        .nodes
+        .iter()
+        .find(|n| n.role == simnet::scenario::Role::Estimator)
+        .unwrap();
     assert!(
         est.networked.as_ref().unwrap().diverged,
         "λ = 0.2 < λc must be reported as diverged"
