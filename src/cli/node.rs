@@ -112,48 +112,13 @@ pub(super) fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode>
 }
 
 pub(super) fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
-    use crate::report::parts::{merge, read_estimates, read_trace, PartError};
-    use anyhow::Context;
-    use std::collections::BTreeMap;
-    let mut parts = Vec::new();
-    let mut estimates = BTreeMap::new();
-    let mut rows = Vec::new();
-    let mut columns = Vec::new();
-    for dir in &args.dirs {
-        let entries = std::fs::read_dir(dir).map_err(|e| UsageError::Option(format!("{}: {e}", dir.display())))?;
-        let mut names: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).collect();
-        names.sort();
-        for p in names {
-            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_string();
-            let Some(id) = name.strip_prefix("node-").and_then(|n| n.strip_suffix(".json")) else {
-                continue;
-            };
-            let text = std::fs::read_to_string(&p).with_context(|| format!("cannot read {}", p.display()))?;
-            let s: summary::Summary = serde_json::from_str(&text)
-                .map_err(|e| UsageError::Option(format!("{}: not a node part: {e}", p.display())))?;
-            let node_index = parts.len();
-            parts.push(s);
-            let est = dir.join(format!("estimates-{id}.csv"));
-            if let Ok(f) = std::fs::File::open(&est) {
-                let es = read_estimates(std::io::BufReader::new(f), node_index, &est.display().to_string())
-                    .map_err(|e| UsageError::Option(e.to_string()))?;
-                estimates.insert(id.parse::<u32>().unwrap_or(u32::MAX), es);
-            }
-            let tr = dir.join(format!("trace-{id}.csv"));
-            if let Ok(f) = std::fs::File::open(&tr) {
-                let (names, r) = read_trace(std::io::BufReader::new(f), &tr.display().to_string())
-                    .map_err(|e| UsageError::Option(e.to_string()))?;
-                if columns.is_empty() {
-                    columns = names;
-                }
-                rows.extend(r);
-            }
-        }
-    }
-    if parts.is_empty() {
-        let dirs: Vec<String> = args.dirs.iter().map(|d| d.display().to_string()).collect();
-        return Err(UsageError::Option(PartError::Empty(dirs.join(", ")).to_string()).into());
-    }
+    use crate::report::parts::{merge, read_parts, Parts};
+    let Parts {
+        summaries: parts,
+        estimates,
+        mut rows,
+        columns,
+    } = read_parts(&args.dirs).map_err(|e| UsageError::Option(e.to_string()))?;
     let (s, mut observer) = merge(&parts, &estimates).map_err(|e| UsageError::Option(e.to_string()))?;
     let d = OutDir::prepare(args.out.as_deref().unwrap_or(&args.dirs[0]))?;
     rows.sort_by_key(|r| (r.step, r.node, !r.networked));

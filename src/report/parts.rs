@@ -21,6 +21,8 @@ pub enum PartError {
     Empty(String),
     #[error("parts disagree: {0}")]
     Mismatch(String),
+    #[error("{file}: cannot read: {source}")]
+    Io { file: String, source: io::Error },
 }
 
 /// `estimates-<id>.csv`: step, frame, truth, x and P (row-major) of the networked filter.
@@ -216,4 +218,64 @@ pub fn merge(
         part: None,
     };
     Ok((merged, observer))
+}
+
+/// The parts found in some folders: each node's summary, its estimates and its trace rows.
+#[derive(Debug, Default)]
+pub struct Parts {
+    pub summaries: Vec<Summary>,
+    /// Networked estimates by node id.
+    pub estimates: BTreeMap<u32, Vec<StepEstimate>>,
+    pub rows: Vec<TraceRow>,
+    /// The reported columns of the trace files.
+    pub columns: Vec<String>,
+}
+
+/// Every `node-ID.json` in `dirs` (in name order) with the `estimates-ID.csv` and `trace-ID.csv` beside it.
+pub fn read_parts(dirs: &[std::path::PathBuf]) -> Result<Parts, PartError> {
+    let io_err = |p: &std::path::Path| {
+        let file = p.display().to_string();
+        move |source| PartError::Io { file, source }
+    };
+    let mut out = Parts::default();
+    for dir in dirs {
+        let mut names: Vec<std::path::PathBuf> = std::fs::read_dir(dir)
+            .map_err(io_err(dir))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .collect();
+        names.sort();
+        for p in names {
+            let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_string();
+            let Some(id) = name.strip_prefix("node-").and_then(|n| n.strip_suffix(".json")) else {
+                continue;
+            };
+            let bad = |message: String| PartError::Bad {
+                file: p.display().to_string(),
+                message,
+            };
+            let id: u32 = id.parse().map_err(|_| bad(format!("`{id}` is not a node id")))?;
+            let text = std::fs::read_to_string(&p).map_err(io_err(&p))?;
+            let s: Summary = serde_json::from_str(&text).map_err(|e| bad(format!("not a node part: {e}")))?;
+            let node_index = out.summaries.len();
+            out.summaries.push(s);
+            let est = dir.join(format!("estimates-{id}.csv"));
+            if let Ok(f) = std::fs::File::open(&est) {
+                let es = read_estimates(io::BufReader::new(f), node_index, &est.display().to_string())?;
+                out.estimates.insert(id, es);
+            }
+            let tr = dir.join(format!("trace-{id}.csv"));
+            if let Ok(f) = std::fs::File::open(&tr) {
+                let (names, r) = read_trace(io::BufReader::new(f), &tr.display().to_string())?;
+                if out.columns.is_empty() {
+                    out.columns = names;
+                }
+                out.rows.extend(r);
+            }
+        }
+    }
+    if out.summaries.is_empty() {
+        let dirs: Vec<String> = dirs.iter().map(|d| d.display().to_string()).collect();
+        return Err(PartError::Empty(dirs.join(", ")));
+    }
+    Ok(out)
 }
