@@ -1,0 +1,128 @@
+//! A summary from a run's node reports and fusion.
+
+use super::*;
+use crate::link::LinkCounters;
+use crate::node::NodeReport;
+use crate::observe::metrics::RxCounters;
+use crate::scenario::Scenario;
+
+impl LinkSummary {
+    /// Join the sender's link counters with what the receiver saw from that sender.
+    pub fn join(from: u32, to: u32, tx: &LinkCounters, rx: &RxCounters) -> LinkSummary {
+        let usable_or_seen = rx.delivered + rx.late + rx.corrupted + rx.while_down;
+        // Copies (duplicates) can only make the receiver's counts larger than what was sent once.
+        let lost = tx.sent.saturating_sub(usable_or_seen.min(tx.sent));
+        let frac = |x: u64| (tx.sent > 0).then(|| x as f64 / tx.sent as f64);
+        LinkSummary {
+            from,
+            to,
+            sent: tx.sent,
+            delivered: rx.delivered,
+            lost: lost + rx.while_down,
+            lost_random: tx.lost_random,
+            lost_down: tx.lost_down + rx.while_down,
+            late: rx.late,
+            duplicated: tx.duplicated,
+            corrupted: rx.corrupted,
+            loss_rate: frac(lost + rx.while_down),
+            delivered_fraction: frac(rx.delivered),
+            arrival_rate: (rx.steps > 0).then(|| 1.0 - rx.missing_steps as f64 / rx.steps as f64),
+            mean_loss_run: tx.mean_loss_run(),
+            longest_loss_run: tx.longest_loss_run.max(tx.current_run),
+        }
+    }
+}
+
+impl Settings {
+    pub fn of(topo: &Scenario) -> Settings {
+        Settings {
+            duration_s: topo.sim.duration_s,
+            burn_in_s: topo.sim.burn_in_s,
+            deadline_s: topo.sim.deadline_s,
+            trajectory: topo.sim.trajectory,
+            split_channels: topo.sim.split_channels,
+            overrides: topo.applied.clone(),
+            links: topo
+                .links
+                .iter()
+                .map(|l| LinkSetting {
+                    from: topo.nodes[l.from].id,
+                    to: topo.nodes[l.to].id,
+                    config: l.config,
+                })
+                .collect(),
+        }
+    }
+}
+
+impl Summary {
+    #[allow(clippy::too_many_arguments)]
+    pub fn build(
+        topo: &Scenario,
+        clock: crate::sim::Clock,
+        reports: &[NodeReport],
+        fused: Option<FusedSummary>,
+        steps: u64,
+        interrupted: bool,
+        wall_s: f64,
+        socket_losses: u64,
+    ) -> Summary {
+        let nodes = reports
+            .iter()
+            .map(|r| {
+                let networked = r.networked.as_ref().map(|m| m.summary(true));
+                let independent = r.independent.as_ref().map(|m| m.summary(false));
+                // An estimator has no measurement of its own: its twin only predicts, and a ratio means nothing.
+                let error_ratio = match (&networked, &independent) {
+                    _ if r.role == crate::scenario::Role::Estimator => None,
+                    (Some(a), Some(b)) => match (a.mean_error, b.mean_error) {
+                        (Some(x), Some(y)) if y > 0.0 => Some(x / y),
+                        _ => None,
+                    },
+                    _ => None,
+                };
+                NodeSummary {
+                    id: r.id,
+                    role: r.role,
+                    networked,
+                    independent,
+                    error_ratio,
+                    malformed: r.counters.malformed,
+                    corrupted: r.counters.corrupted,
+                    restarts: r.counters.restarts,
+                    steps_down: r.counters.steps_down,
+                }
+            })
+            .collect();
+        let mut links = Vec::new();
+        for r in reports {
+            for (to, tx) in &r.links_out {
+                let rx = reports
+                    .iter()
+                    .find(|x| x.index == *to)
+                    .map(|x| x.rx[r.index])
+                    .unwrap_or_default();
+                links.push(LinkSummary::join(r.id, topo.nodes[*to].id, tx, &rx));
+            }
+        }
+        Summary {
+            simnet_version: env!("CARGO_PKG_VERSION").to_string(),
+            topology: topo.name.clone(),
+            source: topo.source.clone(),
+            model: topo.model.get().kind(),
+            seed: topo.sim.seed,
+            clock,
+            rate_hz: topo.sim.rate_hz,
+            steps,
+            burn_in_steps: topo.sim.burn_in_steps(),
+            interrupted,
+            wall_s,
+            socket_losses,
+            nodes,
+            links,
+            fused,
+            settings: Some(Settings::of(topo)),
+            part: None,
+        }
+    }
+}

@@ -1,0 +1,129 @@
+//! The `summary.json` schema. `build.rs` makes a summary from a run, `table.rs` prints it, `csv.rs` writes
+//! `links.csv`.
+
+mod build;
+mod csv;
+mod table;
+
+pub use csv::write_links;
+
+use serde::{Deserialize, Serialize};
+
+use super::observer::FusedSummary;
+use crate::observe::metrics::FilterSummary;
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct NodeSummary {
+    pub id: u32,
+    pub role: crate::scenario::Role,
+    pub networked: Option<FilterSummary>,
+    pub independent: Option<FilterSummary>,
+    /// networked mean error / independent mean error.
+    pub error_ratio: Option<f64>,
+    pub malformed: u64,
+    pub corrupted: u64,
+    pub restarts: u64,
+    pub steps_down: u64,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct LinkSummary {
+    pub from: u32,
+    pub to: u32,
+    pub sent: u64,
+    pub delivered: u64,
+    /// Never usable: dropped by the loss model or a scheduled fault, or lost in the socket layer.
+    pub lost: u64,
+    pub lost_random: u64,
+    pub lost_down: u64,
+    pub late: u64,
+    pub duplicated: u64,
+    pub corrupted: u64,
+    pub loss_rate: Option<f64>,
+    pub delivered_fraction: Option<f64>,
+    /// γ: the fraction of the receiver's steps in which a measurement from the sender arrived in time (Sinopoli's
+    /// arrival rate).
+    pub arrival_rate: Option<f64>,
+    pub mean_loss_run: f64,
+    pub longest_loss_run: u64,
+}
+
+/// How a run was set up, so that a result file says how it was made.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Settings {
+    pub duration_s: f64,
+    pub burn_in_s: f64,
+    pub deadline_s: f64,
+    pub trajectory: crate::motion::Trajectory,
+    pub split_channels: bool,
+    /// The command-line (or environment) overrides applied to the file.
+    pub overrides: crate::scenario::Overrides,
+    /// Every directed link's resolved settings (loss model, delay, jitter, duplication, corruption).
+    pub links: Vec<LinkSetting>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct LinkSetting {
+    pub from: u32,
+    pub to: u32,
+    #[serde(flatten)]
+    pub config: crate::link::LinkConfig,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct Summary {
+    /// The simnet version that made this file.
+    #[serde(default)]
+    pub simnet_version: String,
+    pub topology: String,
+    pub source: String,
+    pub model: crate::model::Kind,
+    pub seed: u64,
+    pub clock: crate::sim::Clock,
+    pub rate_hz: f64,
+    pub steps: u64,
+    pub burn_in_steps: u64,
+    pub interrupted: bool,
+    pub wall_s: f64,
+    pub socket_losses: u64,
+    pub nodes: Vec<NodeSummary>,
+    pub links: Vec<LinkSummary>,
+    pub fused: Option<FusedSummary>,
+    #[serde(default)]
+    pub settings: Option<Settings>,
+    /// Set in the part a `simnet node` writes; absent from whole-run summaries.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub part: Option<PartInfo>,
+}
+
+impl Summary {
+    /// (networked, independent) scored errors of every estimating node whose error was measured
+    /// ([`FilterSummary::scored_error`]).
+    pub fn scored_errors(&self) -> Vec<(f64, f64)> {
+        self.nodes
+            .iter()
+            .filter_map(|n| {
+                let (a, b) = (n.networked.as_ref()?, n.independent.as_ref()?);
+                Some((a.scored_error()?, b.scored_error()?))
+            })
+            .collect()
+    }
+
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a summary always serialises")
+    }
+}
+
+/// What a part adds to the summary schema.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct PartInfo {
+    pub node: u32,
+    pub first_step: u64,
+    pub steps_done: u64,
+    /// Sender-side counters of each outgoing link, by destination id.
+    pub links_out: Vec<(u32, crate::link::LinkCounters)>,
+    /// Receiver-side counters, by source id.
+    pub rx: Vec<(u32, crate::observe::metrics::RxCounters)>,
+    /// How the observer fuses this run's estimates.
+    pub fusion: crate::model::FusionLayout,
+}

@@ -1,0 +1,134 @@
+//! The table printed on stdout.
+
+use super::*;
+use std::io::{self, Write};
+
+impl Summary {
+    /// The human-readable table printed on stdout.
+    pub fn write_table(&self, w: &mut impl Write) -> io::Result<()> {
+        let f = |v: Option<f64>| {
+            v.map_or("—".to_string(), |x| {
+                if x.abs() < 1e4 {
+                    format!("{x:.4}")
+                } else {
+                    format!("{x:.3e}")
+                }
+            })
+        };
+        let e = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{x:.3e}"));
+        let pct = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{:.1} %", 100.0 * x));
+        writeln!(
+            w,
+            "simnet · {} ({} model) · seed {} · {} clock · {} steps at {} Hz{} · {:.2} s wall",
+            self.topology,
+            self.model,
+            self.seed,
+            self.clock,
+            self.steps,
+            self.rate_hz,
+            if self.interrupted { " · INTERRUPTED" } else { "" },
+            self.wall_s
+        )?;
+        let unit = self.model.error_text().legend;
+        writeln!(
+            w,
+            "{unit} (after the burn-in); trP: mean trace of the posterior covariance"
+        )?;
+        writeln!(w)?;
+        writeln!(
+            w,
+            "{:>5} {:>9} │ {:>10} {:>10} {:>7} │ {:>10} {:>10} │ {:>8} │ status",
+            "node", "role", "net err", "ind err", "ratio", "net trP", "ind trP", "LMI ok"
+        )?;
+        writeln!(w, "{}", "─".repeat(100))?;
+        for n in &self.nodes {
+            let (Some(a), Some(b)) = (&n.networked, &n.independent) else {
+                writeln!(
+                    w,
+                    "{:>5} {:>9} │ {:^48} │ {:>8} │",
+                    n.id, n.role, "senses and sends only", ""
+                )?;
+                continue;
+            };
+            let mut status = Vec::new();
+            if a.diverged {
+                status.push("networked DIVERGED");
+            }
+            if n.role == crate::scenario::Role::Estimator {
+                status.push("no own sensor: independent = prediction only");
+            } else if b.diverged {
+                status.push("independent DIVERGED");
+            }
+            if n.restarts > 0 {
+                status.push("restarted");
+            }
+            writeln!(
+                w,
+                "{:>5} {:>9} │ {:>10} {:>10} {:>7} │ {:>10} {:>10} │ {:>8} │ {}",
+                n.id,
+                n.role,
+                f(a.mean_error),
+                f(b.mean_error),
+                n.error_ratio.map_or("—".into(), |r| format!("{r:.3}")),
+                e(a.mean_trace_p_post),
+                e(b.mean_trace_p_post),
+                pct(a.lmi_feasible_fraction),
+                if status.is_empty() {
+                    "ok".to_string()
+                } else {
+                    status.join(", ")
+                }
+            )?;
+        }
+        writeln!(w)?;
+        if !self.links.is_empty() {
+            writeln!(
+                w,
+                "links: sent = delivered + late + corrupted + lost; dup = extra copies (not in sent); γ = steps in which a measurement arrived in time"
+            )?;
+            writeln!(
+                w,
+                "{:>9} │ {:>7} {:>9} {:>6} {:>6} {:>7} │ {:>6} │ {:>8} {:>8} {:>9}",
+                "link", "sent", "delivered", "late", "corr", "lost", "dup", "loss", "γ", "mean run"
+            )?;
+            writeln!(w, "{}", "─".repeat(98))?;
+        }
+        for l in &self.links {
+            writeln!(
+                w,
+                "{:>9} │ {:>7} {:>9} {:>6} {:>6} {:>7} │ {:>6} │ {:>8} {:>8} {:>9.2}",
+                format!("{} → {}", l.from, l.to),
+                l.sent,
+                l.delivered,
+                l.late,
+                l.corrupted,
+                l.lost,
+                l.duplicated,
+                pct(l.loss_rate),
+                pct(l.arrival_rate),
+                l.mean_loss_run
+            )?;
+        }
+        if let Some(fu) = &self.fused {
+            writeln!(w)?;
+            writeln!(
+                w,
+                "fused ({}, covariance intersection): ω = 0.5 error {} (median-filtered {}), trace P {}; trace-optimal ω error {}, trace P {}",
+                crate::scenario::count(fu.nodes, "node"),
+                f(fu.mean_error),
+                f(fu.median_mean_error),
+                e(fu.mean_trace_p),
+                f(fu.optimal_mean_error),
+                e(fu.optimal_mean_trace_p)
+            )?;
+        }
+        if self.socket_losses > 0 {
+            writeln!(
+                w,
+                "note: {} delivered by the link layer lost in the socket layer",
+                crate::scenario::count(self.socket_losses as usize, "datagram")
+            )?;
+        }
+        Ok(())
+    }
+}
