@@ -27,10 +27,11 @@
 //! | `cli` (crate-private) | clap definitions, exit codes, tracing setup |
 //! | `compose` (crate-private) | the docker compose file of a topology (one container per node) |
 //!
-//! Support: [`geom`] (Euler ZYX attitude), [`rng`] (seeded streams), [`stats`] (quantiles for tests and reports),
+//! Support: [`checks`] (the validator's shared checks, each problem keyed), [`geom`] (Euler ZYX attitude), [`rng`] (seeded streams), [`stats`] (quantiles for tests and reports),
 //! `par` (jobs over every core, crate-private), [`imu_csv`] (recorded IMU files: `simnet run --out` writes them, `imu_csv` on a
 //! node and `simnet reconstruct` read them).
 
+pub mod checks;
 mod cli;
 mod compose;
 pub mod estimate;

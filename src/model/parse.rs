@@ -3,8 +3,36 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::{Attitude, Linear, ModelConfig, Pose};
-use crate::scenario::toml::RawModel;
-use crate::scenario::Checks;
+use serde::Deserialize;
+
+use crate::checks::Checks;
+
+/// The `[model]` table as written (`deny_unknown_fields`: a misspelt key is an error naming it).
+#[derive(Debug, Deserialize, Default, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct RawModel {
+    pub kind: Option<String>,
+    // pose
+    pub q_pos: Option<f64>,
+    pub q_vel: Option<f64>,
+    pub q_att: Option<f64>,
+    pub r_pos: Option<f64>,
+    pub r_att: Option<f64>,
+    pub p0_pos: Option<f64>,
+    pub p0_vel: Option<f64>,
+    pub p0_att: Option<f64>,
+    // attitude
+    pub r_acc: Option<f64>,
+    pub r_mag: Option<f64>,
+    pub mag_field: Option<[f64; 3]>,
+    // linear
+    pub a: Option<Vec<Vec<f64>>>,
+    pub c: Option<Vec<Vec<f64>>>,
+    pub q: Option<Vec<Vec<f64>>>,
+    pub r: Option<Vec<Vec<f64>>>,
+    pub x0: Option<Vec<f64>>,
+    pub p0: Option<Vec<Vec<f64>>>,
+}
 
 /// The validated model of a `[model]` table; problems go to `ck` with their keys.
 pub(crate) fn parse(m: RawModel, ck: &mut Checks) -> ModelConfig {

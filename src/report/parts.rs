@@ -204,7 +204,7 @@ pub fn merge(
         source: first.source.clone(),
         model: first.model,
         seed: first.seed,
-        clock: crate::sim::Clock::MultiHost,
+        clock: crate::report::summary::Clock::MultiHost,
         rate_hz: first.rate_hz,
         steps: infos.iter().map(|i| i.steps_done).max().unwrap_or(0),
         burn_in_steps: first.burn_in_steps,

@@ -5,7 +5,6 @@
 //! | file | owns |
 //! |---|---|
 //! | `toml.rs` | the file as written: serde mirrors with `deny_unknown_fields` |
-//! | `checks.rs` | [`Problem`] and the shared checks |
 //! | `validate/` | raw → typed: sim, nodes, links, consensus (`mod.rs`), loss, link settings and faults (`link.rs`) |
 //! | `resolve.rs` | names → paths → built-ins: the only place a topology file is read |
 //! | `load.rs` | recorded IMU files named by `imu_csv` |
@@ -14,7 +13,6 @@
 
 pub mod builder;
 pub mod builtin;
-mod checks;
 mod load;
 mod overrides;
 mod resolve;
@@ -30,8 +28,8 @@ use crate::model::ModelConfig;
 use crate::motion::Trajectory;
 use crate::sensor::SensorProfile;
 
+pub use crate::checks::{Checks, Problem};
 pub use builder::{LinkSpec, ScenarioBuilder};
-pub use checks::{Checks, Problem};
 pub use overrides::Overrides;
 
 /// "1 node", "3 nodes".

@@ -3,6 +3,8 @@
 
 use serde::Deserialize;
 
+pub use crate::model::RawModel;
+
 #[derive(Debug, Deserialize, Clone, Default)]
 #[serde(deny_unknown_fields)]
 pub struct RawTopology {
@@ -32,32 +34,6 @@ pub struct RawSim {
     pub deadline_ms: Option<f64>,
     pub split_channels: Option<bool>,
     pub divergence_trace: Option<f64>,
-}
-
-#[derive(Debug, Deserialize, Default, Clone)]
-#[serde(deny_unknown_fields)]
-pub struct RawModel {
-    pub kind: Option<String>,
-    // pose
-    pub q_pos: Option<f64>,
-    pub q_vel: Option<f64>,
-    pub q_att: Option<f64>,
-    pub r_pos: Option<f64>,
-    pub r_att: Option<f64>,
-    pub p0_pos: Option<f64>,
-    pub p0_vel: Option<f64>,
-    pub p0_att: Option<f64>,
-    // attitude
-    pub r_acc: Option<f64>,
-    pub r_mag: Option<f64>,
-    pub mag_field: Option<[f64; 3]>,
-    // linear
-    pub a: Option<Vec<Vec<f64>>>,
-    pub c: Option<Vec<Vec<f64>>>,
-    pub q: Option<Vec<Vec<f64>>>,
-    pub r: Option<Vec<Vec<f64>>>,
-    pub x0: Option<Vec<f64>>,
-    pub p0: Option<Vec<Vec<f64>>>,
 }
 
 #[derive(Debug, Deserialize, Default, Clone)]

@@ -4,36 +4,10 @@ use std::sync::Arc;
 
 use crate::node::{LmiStep, NodeReport};
 use crate::report::observer::Observer;
+pub use crate::report::summary::Clock;
 use crate::report::summary::Summary;
 use crate::report::trace::TraceRecorder;
 use crate::scenario::Scenario;
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Clock {
-    /// Lockstep: each step's datagrams are exchanged before it closes (in memory or over sockets).
-    Virtual,
-    /// Every node paces itself on the wall clock; delay and jitter are real waits.
-    Realtime,
-    /// One node per process, each on its own wall clock (`simnet node`, merged by `simnet collect`).
-    MultiHost,
-}
-
-impl Clock {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Clock::Virtual => "virtual",
-            Clock::Realtime => "realtime",
-            Clock::MultiHost => "multi-host",
-        }
-    }
-}
-
-impl std::fmt::Display for Clock {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.pad(self.as_str())
-    }
-}
 
 pub struct RunResults {
     pub scenario: Arc<Scenario>,

@@ -59,7 +59,7 @@ impl Summary {
     #[allow(clippy::too_many_arguments)]
     pub fn build(
         topo: &Scenario,
-        clock: crate::sim::Clock,
+        clock: crate::report::summary::Clock,
         reports: &[NodeReport],
         fused: Option<FusedSummary>,
         steps: u64,

@@ -79,7 +79,7 @@ pub struct Summary {
     pub source: String,
     pub model: crate::model::Kind,
     pub seed: u64,
-    pub clock: crate::sim::Clock,
+    pub clock: Clock,
     pub rate_hz: f64,
     pub steps: u64,
     pub burn_in_steps: u64,
@@ -126,4 +126,32 @@ pub struct PartInfo {
     pub rx: Vec<(u32, crate::observe::metrics::RxCounters)>,
     /// How the observer fuses this run's estimates.
     pub fusion: crate::model::FusionLayout,
+}
+
+/// How a run's steps were clocked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Clock {
+    /// Lockstep: each step's datagrams are exchanged before it closes (in memory or over sockets).
+    Virtual,
+    /// Every node paces itself on the wall clock; delay and jitter are real waits.
+    Realtime,
+    /// One node per process, each on its own wall clock (`simnet node`, merged by `simnet collect`).
+    MultiHost,
+}
+
+impl Clock {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Clock::Virtual => "virtual",
+            Clock::Realtime => "realtime",
+            Clock::MultiHost => "multi-host",
+        }
+    }
+}
+
+impl std::fmt::Display for Clock {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(self.as_str())
+    }
 }

@@ -1,5 +1,5 @@
-//! The checks every part of validation shares: each records a [`Problem`] naming its key and returns a usable
-//! default, so that one pass reports every problem of a file.
+//! The checks every part of validation shares (a topology file, a `[model]` table, overrides): each records a
+//! [`Problem`] naming its key and returns a usable default, so that one pass reports every problem of a file.
 
 use std::fmt;
 
