@@ -15,7 +15,7 @@
 //! | [`sensor`] | accelerometer/gyro (noise, bias, Wiener drift), magnetometer, pose fixes, linear measurements |
 //! | [`estimate`] | pure maths: Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKF, the rigid-pair EKF, the FEM boundary-value solver |
 //! | [`wire`] | the datagram format: postcard + CRC-32, checked decode |
-//! | [`link`] | per-datagram verdicts: Bernoulli / Gilbert–Elliott loss, delay, jitter, duplication, corruption, fault schedules |
+//! | [`link`] | per-datagram rules (outage, Bernoulli / Gilbert–Elliott loss, duplication, delay and jitter, corruption), the egress queue, fault schedules |
 //! | [`node`] | one node's sans-IO state machine: `handle_step`, `handle_datagram`, `handle_deadline`, `poll_transmit`, over any [`model::Model`]; simulated or recorded IMU |
 //! | [`observe`] | what is measured as a run goes: per-filter metrics, receive counters |
 //! | [`sim`] | whole runs in memory: [`Sim`] steps every node in lockstep and returns [`RunResults`], the same as over UDP |
@@ -27,9 +27,13 @@
 //! | `cli` (crate-private) | clap definitions, exit codes, tracing setup |
 //! | `compose` (crate-private) | the docker compose file of a topology (one container per node) |
 //!
-//! Support: [`checks`] (the validator's shared checks, each problem keyed), [`geom`] (Euler ZYX attitude), [`rng`] (seeded streams), [`stats`] (quantiles for tests and reports),
-//! `par` (jobs over every core, crate-private), [`imu_csv`] (recorded IMU files: `simnet run --out` writes them, `imu_csv` on a
-//! node and `simnet reconstruct` read them).
+//! Support: [`checks`] (the validator's shared checks, each problem keyed), [`geom`] (Euler ZYX attitude),
+//! [`rng`] (seeded streams), [`stats`] (quantiles for tests and reports), `par` (jobs over every core,
+//! crate-private), [`imu_csv`] (recorded IMU files: `simnet run --out` writes them, `imu_csv` on a node and
+//! `simnet reconstruct` read them).
+//!
+//! The library API: build or load a [`Scenario`] ([`Scenario::builder`], [`Scenario::resolve`], [`Scenario::with`]),
+//! run it with [`Sim`] (in memory) or [`net::run`] (over UDP), read [`RunResults::summary`].
 
 pub mod checks;
 mod cli;
