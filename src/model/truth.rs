@@ -98,13 +98,6 @@ impl Truth {
         }
     }
 
-    /// The current step.
-    pub fn step(&self) -> u64 {
-        match self {
-            Truth::Motion { k, .. } | Truth::Recorded { k, .. } | Truth::Linear { k, .. } => *k,
-        }
-    }
-
     /// Which coordinate frame the current states are in (changes at each re-basing).
     pub fn frame(&self) -> u64 {
         match self {

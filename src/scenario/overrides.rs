@@ -309,6 +309,11 @@ mod tests {
         assert_eq!(u.nodes[1].sensor.accel_drift, [0.05; 3]);
         let v = u.with_beta(&t.consensus.beta, true).unwrap();
         assert_eq!((v.sim.duration_s, v.consensus.beta0), (12.0, 0.0));
+        let w = v.with_trajectory(crate::motion::Trajectory::Circle).unwrap();
+        assert_eq!(
+            (w.sim.trajectory, w.sim.duration_s),
+            (crate::motion::Trajectory::Circle, 12.0)
+        );
         t.sim.rate_hz = f64::NAN;
         let e = t.with(&seed).unwrap_err().to_string();
         assert!(e.contains("sim.rate_hz"), "{e}");

@@ -17,6 +17,8 @@ pub struct RunResults {
     pub observer: Option<Observer>,
     pub steps_done: u64,
     pub interrupted: bool,
+    /// Wall-clock seconds the run took, where its driver measured them (0 for [`super::Sim`], which reads no
+    /// clock).
     pub wall_s: f64,
     /// Datagrams the link layer delivered that never came out of a socket in time (virtual clock over sockets).
     pub socket_losses: u64,
