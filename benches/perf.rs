@@ -96,7 +96,7 @@ fn end_to_end(name: &str, duration: f64) -> (f64, f64, f64) {
         .block_on(net::run(topo.clone(), RunOptions::default(), std::future::pending()))
         .unwrap();
     let datagrams: u64 = out.reports.iter().map(|r| r.counters.datagrams_in).sum();
-    let node_steps = out.steps_done as f64 * topo.nodes.len() as f64;
+    let node_steps = out.steps_done as f64 * topo.nodes().len() as f64;
     (node_steps / out.wall_s, datagrams as f64 / out.wall_s, out.wall_s)
 }
 

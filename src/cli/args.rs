@@ -143,12 +143,13 @@ impl RunArgs {
             .ok_or_else(|| UsageError::Option("--topology NAME|PATH is required (see `simnet topologies`)".into()))?;
         let t = Scenario::resolve(name)?.with(&self.overrides()?)?;
         for w in t.warnings() {
-            tracing::warn!("{}: {w}", t.name);
+            tracing::warn!("{}: {w}", t.name());
         }
-        if t.sim.duration_s * t.sim.rate_hz > MAX_STEPS {
+        if t.sim().duration_s * t.sim().rate_hz > MAX_STEPS {
             return Err(UsageError::Option(format!(
                 "--duration/--rate: {} s at {} Hz is more than {MAX_STEPS:e} steps",
-                t.sim.duration_s, t.sim.rate_hz
+                t.sim().duration_s,
+                t.sim().rate_hz
             )));
         }
         Ok(t)

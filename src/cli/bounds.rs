@@ -82,13 +82,13 @@ pub(super) fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
         None => None,
     };
     let (A, C, Q, R) = match (&topo, &args.a, &args.c, &args.q, &args.r) {
-        (Some(t), None, None, None, None) => match t.model.as_linear() {
+        (Some(t), None, None, None, None) => match t.model().as_linear() {
             Some(m) => (m.A().clone(), m.C().clone(), m.Q().clone(), m.R().clone()),
             None => {
                 return Err(UsageError::Option(format!(
                     "`{}` has a {} model: bounds need kind = \"linear\"",
-                    t.name,
-                    t.model.get().kind()
+                    t.name(),
+                    t.model().get().kind()
                 ))
                 .into())
             }
@@ -116,7 +116,7 @@ pub(super) fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
     if args.measure && topo.is_none() {
         return Err(UsageError::Option("--measure runs a topology: give --topology".into()).into());
     }
-    let link_loss = topo.as_ref().and_then(|t| t.links.first().map(|l| l.config.loss));
+    let link_loss = topo.as_ref().and_then(|t| t.links().first().map(|l| l.config.loss));
     let lambda = args
         .lambda
         .unwrap_or_else(|| link_loss.map_or(0.5, |l| 1.0 - l.stationary_loss()));
@@ -148,7 +148,7 @@ pub(super) fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
             ..Default::default()
         })?;
         let estimators: Vec<u32> = t
-            .nodes
+            .nodes()
             .iter()
             .filter(|n| n.role == crate::scenario::Role::Estimator)
             .map(|n| n.id)
@@ -156,7 +156,7 @@ pub(super) fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
         if estimators.is_empty() {
             return Err(UsageError::Option(format!(
                 "--measure: `{}` has no estimator node fed over the network",
-                t.name
+                t.name()
             ))
             .into());
         }
@@ -269,7 +269,7 @@ pub(super) fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
             lbar,
             &format!(
                 "covariance bounds against the arrival rate{}",
-                topo.as_ref().map_or(String::new(), |t| format!(" — {}", t.name))
+                topo.as_ref().map_or(String::new(), |t| format!(" — {}", t.name()))
             ),
         )?;
         write_atomic(&args.out.join("bounds.svg"), svg.as_bytes())?;

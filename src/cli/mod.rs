@@ -171,7 +171,7 @@ pub fn main() -> ExitCode {
 fn list_topologies() {
     for (name, text) in builtin::ALL {
         let d = Scenario::from_toml(text, name)
-            .map(|t| t.description)
+            .map(|t| t.description().to_string())
             .unwrap_or_else(|e| format!("(invalid: {e})"));
         println!("{name:<16} {d}");
     }
@@ -184,11 +184,11 @@ fn validate(files: &[PathBuf]) -> ExitCode {
             Ok(t) => println!(
                 "{}: ok — `{}`, {}, {}, {} model, {} steps",
                 f.display(),
-                t.name,
-                crate::scenario::count(t.nodes.len(), "node"),
-                crate::scenario::count(t.links.len(), "directed link"),
-                t.model.get().kind(),
-                t.sim.steps()
+                t.name(),
+                crate::scenario::count(t.nodes().len(), "node"),
+                crate::scenario::count(t.links().len(), "directed link"),
+                t.model().get().kind(),
+                t.sim().steps()
             ),
             Err(e) => {
                 bad = true;

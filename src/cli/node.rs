@@ -59,9 +59,13 @@ pub(super) fn peer(s: &str) -> Result<(u32, String), String> {
 pub(super) fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     use crate::net::host::{run_node, HostConfig};
     let topo = Arc::new(args.run.topology()?);
-    let index = topo
-        .index_of(args.id)
-        .ok_or_else(|| UsageError::Option(format!("--id {}: no [[node]] has this id in `{}`", args.id, topo.name)))?;
+    let index = topo.index_of(args.id).ok_or_else(|| {
+        UsageError::Option(format!(
+            "--id {}: no [[node]] has this id in `{}`",
+            args.id,
+            topo.name()
+        ))
+    })?;
     let peers =
         crate::net::host::neighbour_addrs(&topo, index, &args.peers).map_err(|e| UsageError::Option(e.to_string()))?;
     let own = crate::compose::node_addr(&topo, index);
@@ -73,7 +77,7 @@ pub(super) fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode>
         .bind
         .unwrap_or_else(|| std::net::SocketAddr::from(([0, 0, 0, 0], port)));
     let out_dir = args.run.out.as_deref().map(OutDir::prepare).transpose()?;
-    let steps = topo.sim.steps();
+    let steps = topo.sim().steps();
     let progress = (!quiet && !args.run.json).then(|| progress_bar(steps));
     let cfg = HostConfig {
         bind,
@@ -95,7 +99,7 @@ pub(super) fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode>
     let s = out.part(&topo, index);
     if let Some(d) = &out_dir {
         let mut buf = Vec::new();
-        crate::report::trace::write_trace(&mut buf, &topo.model.get().columns(), &out.report.trace)?;
+        crate::report::trace::write_trace(&mut buf, &topo.model().get().columns(), &out.report.trace)?;
         d.put(&format!("trace-{}.csv", args.id), &buf)?;
         let mut buf = Vec::new();
         crate::report::parts::write_estimates(&mut buf, &out.estimates)?;

@@ -90,7 +90,7 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let name = args.run.topology.clone().unwrap_or_default();
     let (base_text, _) = Scenario::resolve_text(&name).map_err(UsageError::from)?;
     let cfg = SearchConfig {
-        seeds: (0..args.seeds).map(|s| topo.sim.seed + s).collect(),
+        seeds: (0..args.seeds).map(|s| topo.sim().seed + s).collect(),
         grid: args.grid as usize,
         bisect: args.bisect as usize,
         max_row_sum: args.max_row_sum,
@@ -104,7 +104,7 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         .run
         .out
         .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("out/protocol-{}", topo.name)));
+        .unwrap_or_else(|| PathBuf::from(format!("out/protocol-{}", topo.name())));
     super::check_out(&out_dir)?;
     let pb = (!quiet && !args.run.json).then(|| {
         progress_bar_of(
@@ -124,10 +124,10 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     }
     let (beta, found, sdp_note) = choose(&topo, &cfg, &result, args.solver)?;
 
-    let found_name = format!("{}-protocol", topo.name);
+    let found_name = format!("{}-protocol", topo.name());
     let description = format!(
         "β found by `simnet protocol` on {} ({}, σ = {}, {} seeds): exchange {:.3}",
-        topo.name,
+        topo.name(),
         match args.solver {
             SolverArg::Family => "family",
             SolverArg::Sdp => "sdp",
@@ -138,7 +138,7 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     );
     // Recorded IMU files by absolute path: the written topology lives in the output folder.
     let imu_files: Vec<Option<String>> = topo
-        .nodes
+        .nodes()
         .iter()
         .map(|n| {
             let r = n.recording.as_ref()?;
@@ -184,21 +184,26 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         (result.reference.exchange, result.reference.mean_error),
         (found.exchange, found.mean_error),
         boundary_exchange,
-        topo.model.get().kind().error_text().label,
-        &format!("{}: mean error against exchanged weight", topo.name),
+        topo.model().get().kind().error_text().label,
+        &format!("{}: mean error against exchanged weight", topo.name()),
     )?;
     write_atomic(&out_dir.join("protocol.svg"), svg.as_bytes())?;
 
     // A fresh run over UDP with a seed the search never saw: the found protocol and the topology's own.
-    let verify_seed = args.verify_seed.unwrap_or(topo.sim.seed + 1000);
+    let verify_seed = args.verify_seed.unwrap_or(topo.sim().seed + 1000);
     let over = Overrides {
         seed: Some(verify_seed),
         ..args.run.overrides()?
     };
     let found_topo = found_topo.with(&over).map_err(UsageError::from)?;
-    let mut own = topo.clone();
-    own.sim.seed = verify_seed;
-    own.consensus.lmi.enabled = true;
+    let seed_only = Overrides {
+        seed: Some(verify_seed),
+        ..Default::default()
+    };
+    let own = topo
+        .with(&seed_only)
+        .and_then(|t| t.with_guard(true))
+        .map_err(UsageError::from)?;
     let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
     let verify = |t: Scenario| -> anyhow::Result<crate::report::summary::Summary> {
         let t = Arc::new(t);
@@ -208,13 +213,13 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let fresh_found = verify(found_topo)?;
     let fresh_own = verify(own)?;
     let json = serde_json::json!({
-        "topology": topo.name,
+        "topology": topo.name(),
         "objective": cfg.objective,
         "solver": match args.solver { SolverArg::Family => "family", SolverArg::Sdp => "sdp" },
         "max_row_sum": cfg.max_row_sum,
         "seeds": cfg.seeds,
-        "alpha": topo.consensus.lmi.alpha,
-        "gamma": topo.consensus.lmi.gamma,
+        "alpha": topo.consensus().lmi.alpha,
+        "gamma": topo.consensus().lmi.gamma,
         "search": result,
         "found": { "beta": beta, "evaluation": found, "file": toml_path },
         "fresh_run": {
@@ -242,7 +247,7 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             o.mean_error,
             o.infeasible_steps,
             f.independent_error,
-            u = topo.model.get().kind().error_text().unit
+            u = topo.model().get().kind().error_text().unit
         )?;
         writeln!(
             stdout,
@@ -277,7 +282,7 @@ fn choose(
                 r.steps_as_cones,
                 r.evaluation.exchange,
                 r.evaluation.mean_error,
-                topo.model.get().kind().error_text().unit,
+                topo.model().get().kind().error_text().unit,
                 r.evaluation.infeasible_steps
             );
             Ok((r.beta, r.evaluation, Some(note)))
@@ -321,10 +326,10 @@ fn print_table(
     writeln!(
         o,
         "protocol search on {} ({}; α = {}, γ = {}; σ = {}; seeds {}..{}; objective {:?})",
-        topo.name,
-        crate::scenario::count(topo.nodes.len(), "node"),
-        topo.consensus.lmi.alpha,
-        topo.consensus.lmi.gamma,
+        topo.name(),
+        crate::scenario::count(topo.nodes().len(), "node"),
+        topo.consensus().lmi.alpha,
+        topo.consensus().lmi.gamma,
         cfg.max_row_sum,
         cfg.seeds[0],
         cfg.seeds[cfg.seeds.len() - 1],
@@ -335,7 +340,7 @@ fn print_table(
         "{:>8} {:>9} {:>11} {:>11} {:>12} {:>11}",
         "u",
         "exchange",
-        format!("mean err{}", topo.model.get().kind().error_text().unit),
+        format!("mean err{}", topo.model().get().kind().error_text().unit),
         "worst seed",
         "independent",
         "infeasible"
@@ -370,7 +375,7 @@ fn print_table(
         "topology's own protocol: exchange {:.4}, mean error {:.5}{} ({} infeasible steps)",
         r.reference.exchange,
         r.reference.mean_error,
-        topo.model.get().kind().error_text().unit,
+        topo.model().get().kind().error_text().unit,
         r.reference.infeasible_steps
     )?;
     if let Some(n) = sdp_note {
@@ -381,7 +386,7 @@ fn print_table(
         "found: exchange {:.4}, mean error {:.5}{} — {:.1} % below the own protocol, {:.1} % below independent nodes",
         found.exchange,
         found.mean_error,
-        topo.model.get().kind().error_text().unit,
+        topo.model().get().kind().error_text().unit,
         pct(found.mean_error, r.reference.mean_error),
         pct(found.mean_error, found.independent_error)
     )

@@ -6,8 +6,8 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let topo = Arc::new(args.topology()?);
     // A bad --out fails now, not after the run.
     let out_dir = args.out.as_deref().map(OutDir::prepare).transpose()?;
-    let steps = topo.sim.steps();
-    tracing::info!(topology = %topo.name, seed = topo.sim.seed, steps, "starting");
+    let steps = topo.sim().steps();
+    tracing::info!(topology = %topo.name(), seed = topo.sim().seed, steps, "starting");
     let progress = (!quiet && !args.json).then(|| progress_bar(steps));
     let opts = RunOptions {
         clock: if args.realtime { Clock::Realtime } else { Clock::Virtual },
@@ -32,7 +32,7 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         // Each sensing node's IMU samples with the true pose (input for `simnet reconstruct`), streamed too.
         let imu = out.trace.as_ref().map(|t| t.imu_nodes()).unwrap_or_default();
         let (rows, fused) = d.finish_trace(out.trace.take())?;
-        wrote = write_files(&d.dir, &s, topo.sim.dt(), &rows, &fused)?;
+        wrote = write_files(&d.dir, &s, topo.sim().dt(), &rows, &fused)?;
         for id in imu {
             let name = format!("imu-{id}.csv");
             d.rename_tmp(&name)?;

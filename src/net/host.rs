@@ -61,7 +61,7 @@ pub fn neighbour_addrs(
     given: &[(u32, String)],
 ) -> Result<HashMap<usize, String>, PeerError> {
     let mut peers: HashMap<usize, String> = HashMap::new();
-    for l in &topo.links {
+    for l in topo.links() {
         for j in [l.from, l.to] {
             if (l.from == index || l.to == index) && j != index {
                 peers.insert(j, crate::compose::node_addr(topo, j));
@@ -73,7 +73,7 @@ pub fn neighbour_addrs(
         if !peers.contains_key(&j) {
             return Err(PeerError::NotNeighbour {
                 id: *id,
-                of: topo.nodes[index].id,
+                of: topo.nodes()[index].id,
             });
         }
         peers.insert(j, addr.clone());
@@ -95,9 +95,9 @@ impl HostOutput {
             self.wall_s,
             0,
         );
-        let id_of = |j: usize| topo.nodes[j].id;
+        let id_of = |j: usize| topo.nodes()[j].id;
         s.part = Some(crate::report::parts::PartInfo {
-            node: topo.nodes[index].id,
+            node: topo.nodes()[index].id,
             first_step: self.report.counters.first_step,
             steps_done: self.steps_done,
             links_out: self.report.links_out.iter().map(|(to, c)| (id_of(*to), *c)).collect(),
@@ -105,7 +105,7 @@ impl HostOutput {
                 .in_links(index)
                 .map(|l| (id_of(l.from), self.report.rx[l.from]))
                 .collect(),
-            fusion: topo.model.get().fusion(),
+            fusion: topo.model().get().fusion(),
         });
         s.links.clear();
         s
@@ -183,7 +183,7 @@ pub async fn run_node(
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<HostOutput, NetError> {
     let socket = UdpSocket::bind(cfg.bind).await.map_err(NetError::Bind)?;
-    tracing::info!(node = topo.nodes[index].id, bind = %cfg.bind, "listening");
+    tracing::info!(node = topo.nodes()[index].id, bind = %cfg.bind, "listening");
     let (stop_tx, mut stop) = watch::channel(false);
     tokio::spawn(async move {
         shutdown.await;
@@ -197,9 +197,9 @@ pub async fn run_node(
         last_lookup: None,
     };
     let mut buf = vec![0u8; MAX_DATAGRAM + 1];
-    let steps = topo.sim.steps();
-    let dt = Duration::from_secs_f64(topo.sim.dt());
-    let deadline = Duration::from_secs_f64(topo.sim.deadline_s);
+    let steps = topo.sim().steps();
+    let dt = Duration::from_secs_f64(topo.sim().dt());
+    let deadline = Duration::from_secs_f64(topo.sim().deadline_s);
 
     // Handshake.
     let t_start = Instant::now();

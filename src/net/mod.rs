@@ -70,7 +70,7 @@ pub async fn run(
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<RunResults, NetError> {
     topo.check_recordings()?;
-    let n = topo.nodes.len();
+    let n = topo.nodes().len();
     let mut sockets = Vec::with_capacity(n);
     for _ in 0..n {
         sockets.push(UdpSocket::bind("127.0.0.1:0").await.map_err(NetError::Bind)?);
@@ -212,7 +212,7 @@ async fn run_virtual(
     opts: &mut RunOptions,
     stop: watch::Receiver<bool>,
 ) -> Result<RunResults, NetError> {
-    let n = topo.nodes.len();
+    let n = topo.nodes().len();
     let addrs_arc = Arc::new(addrs.clone());
     let (reply_tx, mut reply_rx) = mpsc::channel::<Reply>(n.max(1) * 2);
     let mut cmd_txs = Vec::with_capacity(n);
@@ -231,8 +231,8 @@ async fn run_virtual(
         cmd_txs.push(tx);
     }
     drop(reply_tx);
-    let steps = topo.sim.steps();
-    let dt = topo.sim.dt();
+    let steps = topo.sim().steps();
+    let dt = topo.sim().dt();
     let mut expected = vec![0u64; n];
     let mut trace = opts.trace.take();
     let mut observer = observer_for(&topo, trace.is_some());
@@ -248,7 +248,7 @@ async fn run_virtual(
         let window_end = if k + 1 == steps {
             f64::INFINITY
         } else {
-            k as f64 * dt + topo.sim.deadline_s
+            k as f64 * dt + topo.sim().deadline_s
         };
         for (i, tx) in cmd_txs.iter().enumerate() {
             tx.send(Cmd::Step { k, window_end })
@@ -425,9 +425,9 @@ async fn run_realtime(
     opts: &mut RunOptions,
     stop: watch::Receiver<bool>,
 ) -> Result<RunResults, NetError> {
-    let n = topo.nodes.len();
+    let n = topo.nodes().len();
     let addrs_arc = Arc::new(addrs.clone());
-    let steps = topo.sim.steps();
+    let steps = topo.sim().steps();
     let (est_tx, mut est_rx) = mpsc::unbounded_channel();
     // A short lead so that every task is waiting before step 0.
     let t0 = Instant::now() + Duration::from_millis(50);
@@ -440,8 +440,8 @@ async fn run_realtime(
             addrs_arc.clone(),
             t0,
             steps,
-            topo.sim.dt(),
-            topo.sim.deadline_s,
+            topo.sim().dt(),
+            topo.sim().deadline_s,
             stop.clone(),
             est_tx.clone(),
             opts.progress.clone(),
@@ -452,7 +452,7 @@ async fn run_realtime(
     let mut observer = observer_for(&topo, trace.is_some());
     // Steps are fused (and their rows written) in order once every task is well past them: the tasks share one
     // wall clock, so a step this far behind the newest has all its estimates.
-    let lag = (2.0 * topo.sim.rate_hz).ceil().max(100.0) as usize;
+    let lag = (2.0 * topo.sim().rate_hz).ceil().max(100.0) as usize;
     let mut by_step: BTreeMap<u64, Vec<StepOut>> = BTreeMap::new();
     let close = |outs: Vec<StepOut>, observer: &mut Observer, trace: &mut Option<TraceRecorder>| {
         let mut rows = Vec::new();

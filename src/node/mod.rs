@@ -91,13 +91,13 @@ pub struct Node {
 impl Node {
     /// `record_trace` keeps one row per step and filter (needed for `trace.csv` and the plots).
     pub fn new(topo: Arc<Scenario>, index: usize, record_trace: bool) -> Node {
-        let cfg = &topo.nodes[index];
-        let seed = topo.sim.seed;
-        let dt = topo.sim.dt();
-        let model = topo.model.shared();
+        let cfg = &topo.nodes()[index];
+        let seed = topo.sim().seed;
+        let dt = topo.sim().dt();
+        let model = topo.model().shared();
         let Q = model.process_noise(cfg.role.senses().then_some(&cfg.sensor), dt);
         let obs = model.observation();
-        let policy = MissingChannels::for_noise(&obs.R, topo.consensus.inflation);
+        let policy = MissingChannels::for_noise(&obs.R, topo.consensus().inflation);
         let sensor = cfg.role.senses().then(|| {
             Sensor::new(
                 cfg.sensor.clone(),
@@ -121,10 +121,10 @@ impl Node {
             .recording
             .as_ref()
             .filter(|_| cfg.role.senses())
-            .map(|r| Arc::new(r.data.at_steps(dt, topo.sim.steps())));
-        let truth = model.truth(topo.sim.trajectory, dt, seed, recorded);
-        let id_to_index = topo.nodes.iter().enumerate().map(|(i, n)| (n.id, i)).collect();
-        let n = topo.nodes.len();
+            .map(|r| Arc::new(r.data.at_steps(dt, topo.sim().steps())));
+        let truth = model.truth(topo.sim().trajectory, dt, seed, recorded);
+        let id_to_index = topo.nodes().iter().enumerate().map(|(i, n)| (n.id, i)).collect();
+        let n = topo.nodes().len();
         let obs_dim = obs.dim();
         let mut node = Node {
             index,
@@ -157,7 +157,7 @@ impl Node {
             in_sources: topo
                 .in_links(index)
                 .map(|l| l.from)
-                .filter(|&j| topo.nodes[j].role.senses())
+                .filter(|&j| topo.nodes()[j].role.senses())
                 .collect(),
             lmi_log: None,
             topo,
@@ -184,18 +184,18 @@ impl Node {
             let mag = rec.mag.as_ref().and_then(|v| v.get(k));
             rec.imu.get(k).map(|s| (s, mag))
         });
-        let mut rng = crate::rng::stream(self.topo.sim.seed, "init", self.index as u64, restart);
+        let mut rng = crate::rng::stream(self.topo.sim().seed, "init", self.index as u64, restart);
         self.model.initial(&self.truth.state(&*self.model), first, &mut rng)
     }
 
     /// Step k begins at t = k·Δt: sense, predict, queue this step's datagrams, open collection for step k.
     pub fn handle_step(&mut self, k: u64) {
-        let dt = self.topo.sim.dt();
+        let dt = self.topo.sim().dt();
         let t = k as f64 * dt;
         self.truth.advance_to(k);
         let shift = self.truth.take_shift();
         let was_up = self.up;
-        self.up = self.topo.faults.node_up(self.index, t);
+        self.up = self.topo.faults().node_up(self.index, t);
         if !self.up {
             self.counters.steps_down += 1;
             self.inbox.close_down();
@@ -207,7 +207,7 @@ impl Node {
             self.counters.first_step = k;
         }
         self.counters.steps_run += 1;
-        let restarted = joining || (k > 0 && (!was_up || self.topo.faults.restarts_between(self.index, t - dt, t)));
+        let restarted = joining || (k > 0 && (!was_up || self.topo.faults().restarts_between(self.index, t - dt, t)));
         if restarted {
             // Restart, or a late join: no state, the filters start from a fresh prior at the current truth.
             if !joining {
@@ -261,7 +261,7 @@ impl Node {
     fn send(&mut self, k: u64, t: f64, own: &Measurement) {
         let (z, m) = (&own.z, own.z.len());
         let have = (0..m).filter(|&r| own.present[r]).fold(0u64, |acc, r| acc | 1 << r);
-        let groups: Vec<u64> = if self.topo.sim.split_channels {
+        let groups: Vec<u64> = if self.topo.sim().split_channels {
             // The channels travel separately so that loss can be partial.
             let mut g = vec![0u64; self.obs.channels()];
             for (row, ch) in self.obs.channel_of_row.iter().enumerate() {
@@ -283,7 +283,7 @@ impl Node {
                 };
                 self.seq = self.seq.wrapping_add(1);
                 match dg.encode() {
-                    Ok(bytes) => self.egress.push(li, t, &bytes, &self.topo.faults),
+                    Ok(bytes) => self.egress.push(li, t, &bytes, self.topo.faults()),
                     Err(e) => tracing::error!(node = self.id, "cannot encode a measurement: {e}"),
                 }
             }
@@ -361,7 +361,7 @@ impl Node {
         let inbox = self.inbox.close(k, &self.in_sources)?;
         let filters = self.filters.as_mut()?;
         let topo = &self.topo;
-        let c = &topo.consensus;
+        let c = topo.consensus();
         let beta = &c.beta[self.index];
         let priors = filters.clone();
 
@@ -403,11 +403,11 @@ impl Node {
         let (networked, independent, feasible) = (updated.networked, updated.independent, updated.feasible);
         let model = &*self.model;
         let truth = self.truth.state(model);
-        let counted = k >= topo.sim.burn_in_steps();
+        let counted = k >= topo.sim().burn_in_steps();
         let angle = model.angle_states();
-        let received: Vec<u32> = used.iter().map(|(s, _)| topo.nodes[*s].id).collect();
-        let t = k as f64 * topo.sim.dt();
-        let limit = topo.sim.divergence_trace;
+        let received: Vec<u32> = used.iter().map(|(s, _)| topo.nodes()[*s].id).collect();
+        let t = k as f64 * topo.sim().dt();
+        let limit = topo.sim().divergence_trace;
         let initial = &self.initial;
         let record = |post: Result<Gaussian, EstimateError>,
                       prior: &Gaussian,
@@ -569,7 +569,7 @@ mod tests {
 
     /// One lockstep step with the scenario's deadline.
     fn step_in_memory(nodes: &mut [Node], k: u64) {
-        let sim = &nodes[0].topo.sim;
+        let sim = &nodes[0].topo.sim();
         let window_end = k as f64 * sim.dt() + sim.deadline_s;
         crate::sim::lockstep(nodes, k, window_end);
     }
@@ -601,11 +601,11 @@ mod tests {
         let text = "[sim]\nrate_hz = 100.0\nduration_s = 5.0\ntrajectory = \"tumble\"\n[model]\nkind = \"attitude\"\n\
                     [[node]]\nid = 0\n";
         let topo = Arc::new(Scenario::from_toml(text, "t.toml").unwrap());
-        let ModelConfig::Attitude(cfg) = &topo.model else {
+        let ModelConfig::Attitude(cfg) = topo.model() else {
             unreachable!()
         };
-        let dt = topo.sim.dt();
-        let sg = topo.nodes[0].sensor.gyro_noise;
+        let dt = topo.sim().dt();
+        let sg = topo.nodes()[0].sensor.gyro_noise;
         let model = AttitudeModel {
             g: Vector3::new(0.0, 0.0, -crate::geom::GRAVITY),
             h: Vector3::from(cfg.mag_field),
@@ -613,7 +613,7 @@ mod tests {
             R: DMatrix::from_diagonal(&DVector::from_vec(vec![
                 cfg.r_acc, cfg.r_acc, cfg.r_acc, cfg.r_mag, cfg.r_mag, cfg.r_mag,
             ])),
-            lambda: topo.consensus.inflation,
+            lambda: topo.consensus().inflation,
         };
         let mut node = Node::new(topo.clone(), 0, true);
         let x0 = &node.initial.x;

@@ -15,7 +15,7 @@ pub(super) struct Session {
 impl Session {
     pub fn new(topo: &Scenario, index: usize) -> Session {
         let mut neighbours: Vec<usize> = topo
-            .links
+            .links()
             .iter()
             .filter_map(|l| {
                 if l.from == index {
@@ -31,7 +31,7 @@ impl Session {
         neighbours.dedup();
         Session {
             neighbours,
-            heard: vec![false; topo.nodes.len()],
+            heard: vec![false; topo.nodes().len()],
             max_peer_step: None,
         }
     }

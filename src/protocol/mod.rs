@@ -142,7 +142,7 @@ pub fn sources_of(topo: &Scenario, i: usize) -> Vec<usize> {
     let mut v: Vec<usize> = topo
         .in_links(i)
         .map(|l| l.from)
-        .filter(|&j| j != i && topo.nodes[j].role.senses())
+        .filter(|&j| j != i && topo.nodes()[j].role.senses())
         .collect();
     v.sort_unstable();
     v.dedup();
@@ -151,9 +151,9 @@ pub fn sources_of(topo: &Scenario, i: usize) -> Vec<usize> {
 
 /// Nodes whose β row the search sets: they measure, estimate and hear at least one neighbour.
 fn exchanging(topo: &Scenario) -> Vec<usize> {
-    (0..topo.nodes.len())
+    (0..topo.nodes().len())
         .filter(|&i| {
-            let r = topo.nodes[i].role;
+            let r = topo.nodes()[i].role;
             r.senses() && r.estimates() && !sources_of(topo, i).is_empty()
         })
         .collect()
@@ -177,7 +177,7 @@ pub fn u_row_sum_one(topo: &Scenario) -> f64 {
 
 /// The family's β at parameter u; rows of other nodes are kept from the topology.
 pub fn family(topo: &Scenario, u: f64, max_row_sum: f64) -> Vec<Vec<f64>> {
-    let mut beta = topo.consensus.beta.clone();
+    let mut beta = topo.consensus().beta.clone();
     for i in exchanging(topo) {
         let src = sources_of(topo, i);
         let d = src.len() as f64;
@@ -307,12 +307,12 @@ pub fn search(topo: &Scenario, cfg: &SearchConfig, tick: &(dyn Fn() + Sync)) -> 
     }
     let umax = u_max(topo, cfg.max_row_sum);
     if umax <= 0.0 {
-        return Err(ProtocolError::NoExchange(topo.name.clone()));
+        return Err(ProtocolError::NoExchange(topo.name().to_string()));
     }
-    let reference = evaluate(topo, &topo.consensus.beta, f64::NAN, &cfg.seeds)?;
+    let reference = evaluate(topo, &topo.consensus().beta, f64::NAN, &cfg.seeds)?;
     tick();
     if reference.scored_nodes == 0 {
-        return Err(ProtocolError::NoReference(topo.name.clone()));
+        return Err(ProtocolError::NoReference(topo.name().to_string()));
     }
     let us: Vec<f64> = (0..cfg.grid).map(|k| umax * k as f64 / (cfg.grid - 1) as f64).collect();
     let mut curve = evaluate_many(topo, &us, cfg, tick)?;
@@ -322,8 +322,8 @@ pub fn search(topo: &Scenario, cfg: &SearchConfig, tick: &(dyn Fn() + Sync)) -> 
     let boundary = match first_bad {
         Some(0) => {
             return Err(ProtocolError::NoneFeasible {
-                alpha: topo.consensus.lmi.alpha,
-                gamma: topo.consensus.lmi.gamma,
+                alpha: topo.consensus().lmi.alpha,
+                gamma: topo.consensus().lmi.gamma,
             })
         }
         None => Boundary::NotReached { u_max: umax },
@@ -364,8 +364,8 @@ pub fn search(topo: &Scenario, cfg: &SearchConfig, tick: &(dyn Fn() + Sync)) -> 
         .max_by(|a, b| a.u.total_cmp(&b.u))
         .cloned()
         .ok_or(ProtocolError::NoneFeasible {
-            alpha: topo.consensus.lmi.alpha,
-            gamma: topo.consensus.lmi.gamma,
+            alpha: topo.consensus().lmi.alpha,
+            gamma: topo.consensus().lmi.gamma,
         })?;
     let beta = round_beta(&family(topo, chosen.u, cfg.max_row_sum));
     Ok(SearchResult {
@@ -463,13 +463,13 @@ mod tests {
         // pair2-paper gives a matrix, ring3 uniform `self`/`neighbor` weights.
         for name in ["pair2-paper", "ring3"] {
             let text = crate::scenario::builtin::get(name).unwrap();
-            let n = Scenario::from_toml(text, name).unwrap().nodes.len();
+            let n = Scenario::from_toml(text, name).unwrap().nodes().len();
             let beta = vec![vec![1.0 / n as f64; n]; n];
             let out = topology_text(text, "found", "found", &beta, &[]).unwrap();
             let t = Scenario::from_toml(&out, "test").unwrap();
-            assert_eq!(t.name, "found");
-            assert_eq!(t.consensus.beta, beta);
-            assert!(t.consensus.lmi.enabled);
+            assert_eq!(t.name(), "found");
+            assert_eq!(t.consensus().beta, beta);
+            assert!(t.consensus().lmi.enabled);
         }
     }
 

@@ -242,7 +242,7 @@ pub fn search(
     start: &[Vec<f64>],
     max_rounds: usize,
 ) -> Result<SdpResult, SdpError> {
-    let n = topo.nodes.len();
+    let n = topo.nodes().len();
     let mut pool: Vec<Vec<LmiStep>> = vec![Vec::new(); n];
     let mut beta = start.to_vec();
     let mut last = None;
@@ -257,7 +257,7 @@ pub fn search(
         let mut next = beta.clone();
         let mut cones = 0;
         for i in 0..n {
-            let role = topo.nodes[i].role;
+            let role = topo.nodes()[i].role;
             let src = sources_of(topo, i);
             if !(role.senses() && role.estimates()) || src.is_empty() {
                 continue;

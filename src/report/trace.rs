@@ -83,10 +83,10 @@ impl TraceRecorder {
     /// The recorder of a run of `topo`.
     pub fn for_topology(topo: &crate::scenario::Scenario) -> TraceRecorder {
         TraceRecorder::new(
-            topo.model.get().columns(),
-            &topo.model.get().fusion(),
-            topo.sim.dt(),
-            topo.sim.steps(),
+            topo.model().get().columns(),
+            &topo.model().get().fusion(),
+            topo.sim().dt(),
+            topo.sim().steps(),
         )
     }
 

@@ -22,7 +22,7 @@ use crate::motion::Trajectory;
 use crate::protocol::{run_in_memory, with_protocol};
 use crate::report::plot;
 use crate::rng;
-use crate::scenario::Scenario;
+use crate::scenario::{Overrides, Scenario};
 use crate::sensor::ImuInterval;
 use crate::sensor::{Sensor, SensorProfile};
 
@@ -120,22 +120,24 @@ fn error_series(r: &RunResult, id: u32, networked: bool) -> Vec<(f64, f64)> {
         .collect()
 }
 
-fn with_drift(mut t: Scenario) -> Scenario {
-    for n in &mut t.nodes {
-        n.sensor.accel_drift = [DRIFT; 3];
+fn with_drift(mut t: Scenario) -> Result<Scenario, super::ReproduceError> {
+    for i in 0..t.nodes().len() {
+        let mut s = t.nodes()[i].sensor.clone();
+        s.accel_drift = [DRIFT; 3];
+        t = t.with_sensor(i, &s)?;
     }
-    t
+    Ok(t)
 }
 
 /// Run every experiment; `tick(what)` before each.
 pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> Result<Output, super::ReproduceError> {
     let load = |name: &str, seed: u64| -> Result<Scenario, super::ReproduceError> {
-        let mut t = Scenario::resolve(name)?;
-        t.sim.seed = seed;
-        if let Some(d) = cfg.duration_s {
-            t.sim.duration_s = d;
-        }
-        Ok(t)
+        let o = Overrides {
+            seed: Some(seed),
+            duration_s: cfg.duration_s,
+            ..Default::default()
+        };
+        Ok(Scenario::resolve(name)?.with(&o)?)
     };
     let first = cfg.seeds[0];
     let mut claims = Vec::new();
@@ -144,8 +146,8 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> Result<Outp
     // §2: dead reckoning and the single node's EKF (node 0 of the three-node network, independent filter).
     tick("dead reckoning");
     let base = load("tri3-paper", first)?;
-    let profile = base.nodes[0].sensor.clone();
-    let (rate, steps, traj) = (base.sim.rate_hz, base.sim.steps(), base.sim.trajectory);
+    let profile = base.nodes()[0].sensor.clone();
+    let (rate, steps, traj) = (base.sim().rate_hz, base.sim().steps(), base.sim().trajectory);
     let drift_x = SensorProfile {
         accel_drift: [DRIFT, 0.0, 0.0],
         ..profile.clone()
@@ -169,8 +171,8 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> Result<Outp
         tick("three-node network");
         let r = runner(&load("tri3-paper", seed)?, seed == first)?;
         tick("three-node network with drift on every node");
-        let rd = runner(&with_drift(load("tri3-paper", seed)?), seed == first)?;
-        let burn = base.sim.burn_in_steps() as usize;
+        let rd = runner(&with_drift(load("tri3-paper", seed)?)?, seed == first)?;
+        let burn = base.sim().burn_in_steps() as usize;
         let ind0 = |r: &RunResult| r.summary.nodes[0].independent.as_ref().and_then(|f| f.mean_error);
         let dr_mean = mean(&dr[burn.min(dr.len())..]);
         let dra_mean = mean(&dra[burn.min(dra.len())..]);
@@ -244,9 +246,8 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> Result<Outp
     let mut g_min = Vec::new();
     for &seed in &cfg.seeds {
         let t = load("tri3-paper", seed)?;
-        let n = t.nodes.len();
-        let mut ind = with_protocol(&t, &identity(n))?;
-        ind.consensus.beta0 = 0.0;
+        let n = t.nodes().len();
+        let ind = with_protocol(&t, &identity(n))?.with_beta0(0.0)?;
         let logs = run_in_memory(&ind, seed, true)?.lmi;
         let mut series = Vec::new();
         let mut lowest = f64::INFINITY;
@@ -259,7 +260,7 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> Result<Outp
                 .iter()
                 .map(|p| p.1)
                 .fold(lowest, |a, b| if b.is_nan() { f64::NAN } else { a.min(b) });
-            series.push((format!("node {}", t.nodes[i].id), s));
+            series.push((format!("node {}", t.nodes()[i].id), s));
         }
         g_min.push(lowest);
         if seed == first {
@@ -354,20 +355,20 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> Result<Outp
     let (mut max_z, mut min_eig) = (0.0_f64, f64::INFINITY);
     {
         let t = load("tri3-paper", first)?;
-        let logs = run_in_memory(&with_protocol(&t, &t.consensus.beta)?, first, true)?.lmi;
+        let logs = run_in_memory(&with_protocol(&t, &t.consensus().beta)?, first, true)?.lmi;
         let (mut zs, mut es) = (Vec::new(), Vec::new());
         for (i, log) in logs.iter().enumerate() {
             let (mut z, mut e) = (Vec::new(), Vec::new());
             for st in log {
-                let w: Vec<f64> = st.sources.iter().map(|&j| t.consensus.beta[i][j]).collect();
+                let w: Vec<f64> = st.sources.iter().map(|&j| t.consensus().beta[i][j]).collect();
                 let c = st.terms.check(&w);
                 max_z = max_z.max(c.norm_z);
                 min_eig = min_eig.min(c.min_eig);
                 z.push((st.k as f64 / rate, c.norm_z));
                 e.push((st.k as f64 / rate, c.min_eig));
             }
-            zs.push((format!("node {}", t.nodes[i].id), z));
-            es.push((format!("node {}", t.nodes[i].id), e));
+            zs.push((format!("node {}", t.nodes()[i].id), z));
+            es.push((format!("node {}", t.nodes()[i].id), e));
         }
         plots.push((
             "feasibility_norm_z.svg".into(),
@@ -405,8 +406,7 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> Result<Outp
     let mut piece = Vec::new();
     for &seed in &cfg.seeds {
         tick("piecewise-linear trajectory with drift");
-        let mut t = with_drift(load("tri3-paper", seed)?);
-        t.sim.trajectory = Trajectory::Piecewise;
+        let t = with_drift(load("tri3-paper", seed)?)?.with_trajectory(Trajectory::Piecewise)?;
         piece.push(runner(&t, seed == first)?);
     }
     claims.push(ratio_claim(

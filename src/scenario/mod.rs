@@ -157,34 +157,62 @@ pub struct DirectedLink {
     pub config: LinkConfig,
 }
 
+/// A validated scenario. Its fields are read through accessors and changed only through `with*`, which validate the
+/// result again: a `Scenario` value is valid by construction.
 #[derive(Debug, Clone)]
 pub struct Scenario {
-    pub name: String,
-    pub description: String,
+    name: String,
+    description: String,
     /// Where it came from: a path or `builtin:NAME`.
-    pub source: String,
-    pub sim: SimConfig,
-    pub model: ModelConfig,
-    pub consensus: ConsensusConfig,
-    pub nodes: Vec<NodeConfig>,
-    pub links: Vec<DirectedLink>,
-    pub faults: FaultSchedule,
+    source: String,
+    sim: SimConfig,
+    model: ModelConfig,
+    consensus: ConsensusConfig,
+    nodes: Vec<NodeConfig>,
+    links: Vec<DirectedLink>,
+    faults: FaultSchedule,
     /// The overrides applied since the file was read (the last value of each wins).
-    pub applied: Overrides,
-    /// The file as written, with every change since: what a change re-validates.
-    pub(crate) raw: toml::RawTopology,
-    /// The settings as `raw` validated to: a field changed in place since then is carried into `raw` when the
-    /// scenario is validated again ([`Scenario::with`]).
-    pub(crate) validated: Validated,
+    applied: Overrides,
+    /// The file as written, with every change since: what a change validates again.
+    raw: toml::RawTopology,
 }
 
-/// The typed settings a validation produced, to tell edits made in place from the file's values.
-#[derive(Debug, Clone)]
-pub(crate) struct Validated {
-    pub sim: SimConfig,
-    pub consensus: ConsensusConfig,
-    pub sensors: Vec<SensorProfile>,
+impl Scenario {
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+    pub fn description(&self) -> &str {
+        &self.description
+    }
+    /// Where it came from: a path or `builtin:NAME`.
+    pub fn source(&self) -> &str {
+        &self.source
+    }
+    pub fn sim(&self) -> &SimConfig {
+        &self.sim
+    }
+    pub fn model(&self) -> &ModelConfig {
+        &self.model
+    }
+    pub fn consensus(&self) -> &ConsensusConfig {
+        &self.consensus
+    }
+    /// The nodes in file order; a node's index is its position here.
+    pub fn nodes(&self) -> &[NodeConfig] {
+        &self.nodes
+    }
+    pub fn links(&self) -> &[DirectedLink] {
+        &self.links
+    }
+    pub fn faults(&self) -> &FaultSchedule {
+        &self.faults
+    }
+    /// The overrides applied since the file was read (the last value of each wins).
+    pub fn applied(&self) -> &Overrides {
+        &self.applied
+    }
 }
+
 impl Scenario {
     /// Index of the node whose file id is `id`.
     pub fn index_of(&self, id: u32) -> Option<usize> {

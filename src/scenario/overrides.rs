@@ -1,7 +1,7 @@
 //! Command-line overrides on top of a file.
 
 use super::toml::{RawLoss, RawTopology};
-use super::{Checks, Scenario, ScenarioError};
+use super::{Checks, Problem, Scenario, ScenarioError};
 use crate::link::LossModel;
 
 /// Command-line overrides applied on top of a file (as `summary.json` records them: unset ones left out).
@@ -87,7 +87,7 @@ impl Scenario {
                 problems: c.problems,
             });
         }
-        let mut raw = self.raw_now();
+        let mut raw = self.raw.clone();
         let l = raw.link.get_or_insert_with(Default::default);
         o.on_link(
             &mut l.loss,
@@ -138,7 +138,7 @@ impl Scenario {
     /// This scenario with another consensus weight matrix (row i = receiving node i), validated again.
     /// `guard` turns the LMI guard of (17)/(19) on or off.
     pub fn with_beta(&self, beta: &[Vec<f64>], guard: bool) -> Result<Scenario, ScenarioError> {
-        let mut raw = self.raw_now();
+        let mut raw = self.raw.clone();
         let c = raw.consensus.get_or_insert_with(Default::default);
         c.matrix = Some(beta.to_vec());
         (c.self_weight, c.neighbor) = (None, None);
@@ -146,61 +146,45 @@ impl Scenario {
         self.revalidate(raw, self.checks())
     }
 
-    /// This scenario with another trajectory, validated again.
-    pub fn with_trajectory(&self, t: crate::motion::Trajectory) -> Result<Scenario, ScenarioError> {
-        let mut raw = self.raw_now();
-        raw.sim.get_or_insert_with(Default::default).trajectory = Some(t.to_string());
+    /// This scenario with another β₀ (the weight of a node's own measurement, Sequeira 2023 eq. 9), validated again.
+    pub fn with_beta0(&self, beta0: f64) -> Result<Scenario, ScenarioError> {
+        let mut raw = self.raw.clone();
+        raw.consensus.get_or_insert_with(Default::default).beta0 = Some(beta0);
         self.revalidate(raw, self.checks())
     }
 
-    /// The file as written with every field changed in place since it was validated (the simulation settings, the
-    /// consensus weights, a node's sensor) written into it, so that validating it again keeps those changes and
-    /// checks them.
-    pub(crate) fn raw_now(&self) -> RawTopology {
+    /// This scenario with the LMI guard of (17)/(19) on or off, validated again.
+    pub fn with_guard(&self, enabled: bool) -> Result<Scenario, ScenarioError> {
         let mut raw = self.raw.clone();
-        let (s, v) = (&self.sim, &self.validated.sim);
-        if s != v {
-            let r = raw.sim.get_or_insert_with(Default::default);
-            macro_rules! sync {
-                ($($f:ident),*) => { $( if s.$f != v.$f { r.$f = Some(s.$f.clone()); } )* };
-            }
-            sync!(rate_hz, duration_s, burn_in_s, seed, split_channels, divergence_trace);
-            if s.trajectory != v.trajectory {
-                r.trajectory = Some(s.trajectory.to_string());
-            }
-            if s.deadline_s != v.deadline_s {
-                r.deadline_ms = Some(s.deadline_s * 1000.0);
-            }
-        }
-        let (c, v) = (&self.consensus, &self.validated.consensus);
-        if c != v {
-            let r = raw.consensus.get_or_insert_with(Default::default);
-            if c.beta != v.beta {
-                r.matrix = Some(c.beta.clone());
-                (r.self_weight, r.neighbor) = (None, None);
-            }
-            if c.beta0 != v.beta0 {
-                r.beta0 = Some(c.beta0);
-            }
-            if c.inflation != v.inflation {
-                r.inflation = Some(c.inflation);
-            }
-            if c.lmi != v.lmi {
-                r.lmi = Some(super::toml::RawLmi {
-                    alpha: Some(c.lmi.alpha),
-                    gamma: Some(c.lmi.gamma),
-                    enabled: Some(c.lmi.enabled),
-                });
-            }
-        }
-        for (i, (n, v)) in self.nodes.iter().zip(&self.validated.sensors).enumerate() {
-            if n.sensor != *v {
-                if let Some(r) = raw.node.get_mut(i) {
-                    r.sensor = Some(super::toml::RawSensor::from(&n.sensor));
-                }
-            }
-        }
-        raw
+        let c = raw.consensus.get_or_insert_with(Default::default);
+        c.lmi.get_or_insert_with(Default::default).enabled = Some(enabled);
+        self.revalidate(raw, self.checks())
+    }
+
+    /// This scenario with node `i`'s sensor replaced, validated again.
+    pub fn with_sensor(&self, i: usize, sensor: &crate::sensor::SensorProfile) -> Result<Scenario, ScenarioError> {
+        let mut raw = self.raw.clone();
+        let Some(n) = raw.node.get_mut(i) else {
+            return Err(ScenarioError::Invalid {
+                file: self.source.clone(),
+                problems: vec![Problem {
+                    key: format!("node[{i}]"),
+                    message: format!(
+                        "there is no node {i}: the scenario has {}",
+                        super::count(self.nodes.len(), "node")
+                    ),
+                }],
+            });
+        };
+        n.sensor = Some(super::toml::RawSensor::from(sensor));
+        self.revalidate(raw, self.checks())
+    }
+
+    /// This scenario with another trajectory, validated again.
+    pub fn with_trajectory(&self, t: crate::motion::Trajectory) -> Result<Scenario, ScenarioError> {
+        let mut raw = self.raw.clone();
+        raw.sim.get_or_insert_with(Default::default).trajectory = Some(t.to_string());
+        self.revalidate(raw, self.checks())
     }
 
     /// Checks that know this scenario's recordings.
@@ -293,29 +277,46 @@ mod tests {
         assert_eq!(t.applied.rate_hz, Some(50.0));
     }
 
-    /// A field changed in place survives validating the scenario again, and is checked like the file's own.
+    /// Each change keeps the ones before it, and each is checked like the file's own values.
     #[test]
-    fn changes_made_in_place_are_kept_and_checked() {
-        let mut t = ring3();
-        t.sim.duration_s = 12.0;
-        t.consensus.beta0 = 0.0;
-        t.nodes[1].sensor.accel_drift = [0.05; 3];
+    fn changes_keep_each_other_and_are_checked() {
+        let twelve = Overrides {
+            duration_s: Some(12.0),
+            ..Default::default()
+        };
+        let t = ring3().with(&twelve).unwrap().with_beta0(0.0).unwrap();
+        let mut s = t.nodes()[1].sensor.clone();
+        s.accel_drift = [0.05; 3];
+        let t = t.with_sensor(1, &s).unwrap();
         let seed = Overrides {
             seed: Some(5),
             ..Default::default()
         };
         let u = t.with(&seed).unwrap();
-        assert_eq!((u.sim.duration_s, u.sim.seed, u.consensus.beta0), (12.0, 5, 0.0));
-        assert_eq!(u.nodes[1].sensor.accel_drift, [0.05; 3]);
-        let v = u.with_beta(&t.consensus.beta, true).unwrap();
-        assert_eq!((v.sim.duration_s, v.consensus.beta0), (12.0, 0.0));
+        assert_eq!((u.sim().duration_s, u.sim().seed, u.consensus().beta0), (12.0, 5, 0.0));
+        assert_eq!(u.nodes()[1].sensor.accel_drift, [0.05; 3]);
+        let v = u
+            .with_beta(&t.consensus().beta, false)
+            .unwrap()
+            .with_guard(true)
+            .unwrap();
+        assert_eq!(
+            (v.sim().duration_s, v.consensus().beta0, v.consensus().lmi.enabled),
+            (12.0, 0.0, true)
+        );
         let w = v.with_trajectory(crate::motion::Trajectory::Circle).unwrap();
         assert_eq!(
-            (w.sim.trajectory, w.sim.duration_s),
+            (w.sim().trajectory, w.sim().duration_s),
             (crate::motion::Trajectory::Circle, 12.0)
         );
-        t.sim.rate_hz = f64::NAN;
-        let e = t.with(&seed).unwrap_err().to_string();
-        assert!(e.contains("sim.rate_hz"), "{e}");
+        for (e, key) in [
+            (t.with_beta0(f64::NAN).unwrap_err(), "consensus.beta0"),
+            (t.with_sensor(7, &s).unwrap_err(), "node[7]"),
+        ] {
+            assert!(e.to_string().contains(key), "{key}: {e}");
+        }
+        s.gyro_noise = -1.0;
+        let e = t.with_sensor(0, &s).unwrap_err().to_string();
+        assert!(e.contains("node[0].sensor"), "{e}");
     }
 }

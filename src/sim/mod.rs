@@ -66,7 +66,7 @@ impl Sim {
         scenario.check_recordings()?;
         let scenario = Arc::new(scenario.clone());
         let record = opts.trace.is_some();
-        let mut nodes: Vec<Node> = (0..scenario.nodes.len())
+        let mut nodes: Vec<Node> = (0..scenario.nodes().len())
             .map(|i| Node::new(scenario.clone(), i, record))
             .collect();
         if opts.record_lmi {
@@ -105,7 +105,7 @@ impl Sim {
 
     /// One step; the estimates are handed back only when `keep` (else they go to the observer without a copy).
     fn advance(&mut self, keep: bool) -> Option<Vec<StepEstimate>> {
-        let steps = self.scenario.sim.steps();
+        let steps = self.scenario.sim().steps();
         let k = self.next;
         if k >= steps {
             return None;
@@ -114,7 +114,7 @@ impl Sim {
         let window_end = if k + 1 == steps {
             f64::INFINITY
         } else {
-            k as f64 * self.scenario.sim.dt() + self.scenario.sim.deadline_s
+            k as f64 * self.scenario.sim().dt() + self.scenario.sim().deadline_s
         };
         let estimates = lockstep(&mut self.nodes, k, window_end);
         let mut rows = Vec::new();
@@ -162,7 +162,7 @@ impl Sim {
         } else {
             Vec::new()
         };
-        let steps = self.scenario.sim.steps();
+        let steps = self.scenario.sim().steps();
         RunResults {
             reports: self.nodes.iter_mut().map(Node::report).collect(),
             observer: self.observer,
@@ -198,5 +198,5 @@ pub(crate) fn lockstep(nodes: &mut [Node], k: u64, window_end: f64) -> Vec<StepE
 }
 
 pub(crate) fn observer_for(scenario: &Scenario, record: bool) -> Observer {
-    Observer::new(scenario.sim.burn_in_steps(), scenario.model.get().fusion(), record)
+    Observer::new(scenario.sim().burn_in_steps(), scenario.model().get().fusion(), record)
 }

@@ -6,7 +6,7 @@
 use std::process::Command;
 
 use simnet::protocol::{self, SearchConfig};
-use simnet::scenario::Scenario;
+use simnet::scenario::{Overrides, Scenario};
 
 use crate::common::{bernoulli, run, topology};
 
@@ -15,6 +15,14 @@ fn tmp(name: &str) -> std::path::PathBuf {
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
+}
+
+/// `o` with a run of `duration_s`.
+fn short(o: Overrides, duration_s: f64) -> Overrides {
+    Overrides {
+        duration_s: Some(duration_s),
+        ..o
+    }
 }
 
 /// Mean over nodes of the networked mean error, and the guard's rejections, of one run.
@@ -60,15 +68,15 @@ fn found_protocol_is_feasible_on_fresh_runs_and_beats_the_hand_picked_one() {
         let file = dir.join(format!("{name}-protocol.toml"));
         let found = Scenario::from_path(&file).unwrap();
         let hand = Scenario::resolve(name).unwrap();
-        assert!(protocol::exchange(&found, &found.consensus.beta) > protocol::exchange(&hand, &hand.consensus.beta));
+        assert!(
+            protocol::exchange(&found, &found.consensus().beta) > protocol::exchange(&hand, &hand.consensus().beta)
+        );
 
         // Seeds the search never used (it scored seeds 1 and 2).
         let (mut sum_found, mut sum_hand) = (0.0, 0.0);
         for seed in [500, 501, 502] {
-            let mut f = found.with(&bernoulli(0.2, seed)).unwrap();
-            f.sim.duration_s = 12.0;
-            let mut h = topology(name, bernoulli(0.2, seed));
-            h.sim.duration_s = 12.0;
+            let f = found.with(&short(bernoulli(0.2, seed), 12.0)).unwrap();
+            let h = topology(name, short(bernoulli(0.2, seed), 12.0));
             let (ef, bad) = figures(f);
             let (eh, _) = figures(h);
             eprintln!("{name} seed {seed}: found {ef:.5} m ({bad} infeasible steps), hand-picked {eh:.5} m");
@@ -92,8 +100,7 @@ fn found_protocol_is_feasible_on_fresh_runs_and_beats_the_hand_picked_one() {
 #[test]
 fn family_boundary_lies_past_row_sum_one_and_is_bracketed() {
     for name in ["tri3-paper", "pair2-paper"] {
-        let mut topo = topology(name, bernoulli(0.2, 1));
-        topo.sim.duration_s = 12.0;
+        let topo = topology(name, short(bernoulli(0.2, 1), 12.0));
         let cfg = SearchConfig {
             seeds: vec![1, 2],
             grid: 7,
@@ -163,8 +170,7 @@ fn sdp_over_all_beta_is_feasible_tight_and_beats_the_family_on_its_data() {
     use simnet::node::LmiStep;
     use simnet::protocol::sdp::{max_exchange, step_weights};
 
-    let mut topo = topology("tri3-paper", bernoulli(0.2, 3));
-    topo.sim.duration_s = 10.0;
+    let topo = topology("tri3-paper", short(bernoulli(0.2, 3), 10.0));
     let beta = protocol::family(&topo, 0.2, 2.0);
     let logs = protocol::run_in_memory(&protocol::with_protocol(&topo, &beta).unwrap(), 3, true)
         .unwrap()

@@ -67,7 +67,7 @@ fn dare_sda(A: &DMatrix<f64>, C: &DMatrix<f64>, Q: &DMatrix<f64>, R: &DMatrix<f6
 }
 
 fn linear(t: &Scenario) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
-    match t.model.as_linear() {
+    match t.model().as_linear() {
         Some(m) => (m.A().clone(), m.C().clone(), m.Q().clone(), m.R().clone()),
         _ => panic!("linear model expected"),
     }
@@ -203,7 +203,7 @@ fn linear_nees_is_in_its_chi_square_band() {
             sim.step().unwrap();
         }
         let (rows, _) = sim.finish().trace.unwrap().finish().unwrap();
-        let id = t.nodes[1].id;
+        let id = t.nodes()[1].id;
         let row = rows
             .iter()
             .find(|row| row.step == step && row.networked && row.node == id)

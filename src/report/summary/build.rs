@@ -36,18 +36,18 @@ impl LinkSummary {
 impl Settings {
     pub fn of(topo: &Scenario) -> Settings {
         Settings {
-            duration_s: topo.sim.duration_s,
-            burn_in_s: topo.sim.burn_in_s,
-            deadline_s: topo.sim.deadline_s,
-            trajectory: topo.sim.trajectory,
-            split_channels: topo.sim.split_channels,
-            overrides: topo.applied.clone(),
+            duration_s: topo.sim().duration_s,
+            burn_in_s: topo.sim().burn_in_s,
+            deadline_s: topo.sim().deadline_s,
+            trajectory: topo.sim().trajectory,
+            split_channels: topo.sim().split_channels,
+            overrides: topo.applied().clone(),
             links: topo
-                .links
+                .links()
                 .iter()
                 .map(|l| LinkSetting {
-                    from: topo.nodes[l.from].id,
-                    to: topo.nodes[l.to].id,
+                    from: topo.nodes()[l.from].id,
+                    to: topo.nodes()[l.to].id,
                     config: l.config,
                 })
                 .collect(),
@@ -102,19 +102,19 @@ impl Summary {
                     .find(|x| x.index == *to)
                     .map(|x| x.rx[r.index])
                     .unwrap_or_default();
-                links.push(LinkSummary::join(r.id, topo.nodes[*to].id, tx, &rx));
+                links.push(LinkSummary::join(r.id, topo.nodes()[*to].id, tx, &rx));
             }
         }
         Summary {
             simnet_version: env!("CARGO_PKG_VERSION").to_string(),
-            topology: topo.name.clone(),
-            source: topo.source.clone(),
-            model: topo.model.get().kind(),
-            seed: topo.sim.seed,
+            topology: topo.name().to_string(),
+            source: topo.source().to_string(),
+            model: topo.model().get().kind(),
+            seed: topo.sim().seed,
             clock,
-            rate_hz: topo.sim.rate_hz,
+            rate_hz: topo.sim().rate_hz,
             steps,
-            burn_in_steps: topo.sim.burn_in_steps(),
+            burn_in_steps: topo.sim().burn_in_steps(),
             interrupted,
             wall_s,
             socket_losses,

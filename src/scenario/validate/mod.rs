@@ -180,11 +180,6 @@ impl Checks {
                 "only the pose and attitude models have separate channels",
             );
         }
-        let validated = super::Validated {
-            sim: sim.clone(),
-            consensus: consensus.clone(),
-            sensors: nodes.iter().map(|n| n.sensor.clone()).collect(),
-        };
         Some(Scenario {
             name,
             description,
@@ -194,7 +189,6 @@ impl Checks {
             consensus,
             applied: Overrides::default(),
             raw: kept,
-            validated,
             nodes,
             links,
             faults,
