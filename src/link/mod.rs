@@ -12,7 +12,7 @@ mod schedule;
 pub use egress::{Egress, Transmit};
 use rules::{rules_of, Context};
 pub use rules::{Delivery, Rule};
-pub use schedule::{FaultSchedule, ScheduledFault};
+pub use schedule::{FaultSchedule, NodeEvent, ScheduledFault};
 
 use crate::rng::Rng;
 

@@ -16,6 +16,14 @@ pub enum ScheduledFault {
     Crash { node: usize, at: f64, restart: Option<f64> },
 }
 
+/// A change of a node's state between two steps: the crash timeline a driver feeds to the node
+/// ([`crate::node::Node::handle_crash`], [`crate::node::Node::handle_restart`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NodeEvent {
+    Crash,
+    Restart,
+}
+
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct FaultSchedule {
     faults: Vec<ScheduledFault>,
@@ -61,6 +69,19 @@ impl FaultSchedule {
         })
     }
 
+    /// The events due to `node`, now `up` or down, before step k of period `dt`: a crash, a restart, or both when
+    /// it went down and came back since the step before.
+    pub fn node_events(&self, node: usize, k: u64, dt: f64, up: bool) -> &'static [NodeEvent] {
+        let t = k as f64 * dt;
+        let up_now = self.node_up(node, t);
+        match (up, up_now) {
+            (true, false) => &[NodeEvent::Crash],
+            (false, true) => &[NodeEvent::Restart],
+            (true, true) if k > 0 && self.restarts_between(node, t - dt, t) => &[NodeEvent::Crash, NodeEvent::Restart],
+            _ => &[],
+        }
+    }
+
     /// True when `node` restarts in (t0, t1]: it must re-initialise.
     pub fn restarts_between(&self, node: usize, t0: f64, t1: f64) -> bool {
         self.faults.iter().any(|f| match f {
@@ -103,5 +124,16 @@ mod tests {
         assert!(!s.link_up(0, 2, 3.5) && !s.link_up(2, 1, 3.5) && s.link_up(0, 1, 3.5));
         assert!(!s.node_up(1, 5.5) && s.node_up(1, 6.0) && !s.link_up(0, 1, 5.2));
         assert!(s.restarts_between(1, 5.99, 6.0) && !s.restarts_between(1, 6.0, 7.0));
+        use NodeEvent::{Crash, Restart};
+        // At 10 Hz: down at step 50, back at step 60; nothing while it stays either way.
+        let events = |k, up| s.node_events(1, k, 0.1, up);
+        assert_eq!(
+            (events(49, true), events(50, true), events(55, false)),
+            (&[][..], &[Crash][..], &[][..])
+        );
+        assert_eq!((events(60, false), events(61, true)), (&[Restart][..], &[][..]));
+        // Down and back between two steps (at 1 Hz, steps 5 and 6): both at once.
+        assert_eq!(s.node_events(1, 6, 1.0, true), &[Crash, Restart]);
+        assert_eq!(s.node_events(0, 6, 1.0, true), &[]);
     }
 }

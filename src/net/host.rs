@@ -256,7 +256,7 @@ pub async fn run_node(
             let target = ahead.min(steps);
             tracing::info!(from = k, to = target, "catching up with a neighbour");
             while k < target {
-                node.handle_step(k);
+                crate::sim::begin_step(&mut node, k);
                 // Sent all the same: the link layer counted them, and the neighbours count them late.
                 while let Some(tx) = node.poll_transmit(f64::INFINITY) {
                     peers.send(&socket, tx.to, &tx.bytes).await;
@@ -274,7 +274,7 @@ pub async fn run_node(
             _ = tokio::time::sleep_until(start) => {}
             _ = stop.changed() => { interrupted = true; break; }
         }
-        node.handle_step(k);
+        crate::sim::begin_step(&mut node, k);
         let close = start + deadline;
         let mut offsets: Vec<f64> = Vec::new();
         loop {

@@ -142,7 +142,7 @@ async fn virtual_task(
     while let Some(cmd) = cmds.recv().await {
         let reply = match cmd {
             Cmd::Step { k, window_end } => {
-                node.handle_step(k);
+                crate::sim::begin_step(&mut node, k);
                 let mut counts: BTreeMap<usize, u64> = BTreeMap::new();
                 while let Some(tx) = node.poll_transmit(window_end) {
                     match socket.send_to(&tx.bytes, addrs[tx.to]).await {
@@ -375,7 +375,7 @@ async fn realtime_task(
             _ = tokio::time::sleep_until(at(t_k)) => {}
             _ = stop.changed() => break 'steps,
         }
-        node.handle_step(k);
+        crate::sim::begin_step(&mut node, k);
         let close = at(t_k + deadline);
         loop {
             // Send whatever is due now.

@@ -6,6 +6,8 @@
 //!
 //! Time is simulated seconds; step k begins at t_k = k·Δt and closes at its deadline t_k + D (D ≤ Δt).
 //!
+//! 0. [`Node::handle_crash`] / [`Node::handle_restart`] before the step they precede, as the crash timeline
+//!    ([`crate::link::FaultSchedule::node_events`]) says: the node itself never reads the fault schedule.
 //! 1. [`Node::handle_step`]`(k)` at t_k: the node senses, predicts both filters to t_k, and queues this step's
 //!    datagrams on its outgoing links (the link layer decides loss, delay, duplication and corruption).
 //! 2. [`Node::poll_transmit`]`(now)` until it returns `None`: every queued copy whose delivery time is ≤ `now`, in
@@ -40,7 +42,7 @@ use nalgebra::{DMatrix, DVector};
 use crate::estimate::{nees, EstimateError, Gaussian, MissingChannels, Observation};
 pub use crate::imu_csv::ImuRow;
 pub use crate::link::Transmit;
-use crate::link::{Egress, Link};
+use crate::link::{Egress, Link, NodeEvent};
 use crate::model::{Measurement, Model, Truth};
 use crate::observe::metrics::FilterMetrics;
 use crate::scenario::{Role, Scenario};
@@ -73,6 +75,8 @@ pub struct Node {
     egress: Egress,
     seq: u32,
     up: bool,
+    /// Restarted since the last step: the next step re-initialises the filters.
+    restarting: bool,
     inbox: Inbox,
     counters: NodeCounters,
     m_net: FilterMetrics,
@@ -146,6 +150,7 @@ impl Node {
             egress: Egress::new(links),
             seq: 0,
             up: true,
+            restarting: false,
             inbox: Inbox::new(n, obs_dim),
             counters: NodeCounters::default(),
             m_net: FilterMetrics::default(),
@@ -170,6 +175,10 @@ impl Node {
         node
     }
 
+    pub fn scenario(&self) -> &Arc<Scenario> {
+        &self.topo
+    }
+
     pub fn index(&self) -> usize {
         self.index
     }
@@ -188,14 +197,35 @@ impl Node {
         self.model.initial(&self.truth.state(&*self.model), first, &mut rng)
     }
 
+    /// The node stops: it drops what arrives and skips its steps until [`Node::handle_restart`].
+    pub fn handle_crash(&mut self) {
+        self.up = false;
+    }
+
+    /// The node comes back: its next step starts both filters from a fresh prior.
+    pub fn handle_restart(&mut self) {
+        self.up = true;
+        self.restarting = true;
+    }
+
+    /// Apply one event of the crash timeline.
+    pub fn handle_event(&mut self, e: NodeEvent) {
+        match e {
+            NodeEvent::Crash => self.handle_crash(),
+            NodeEvent::Restart => self.handle_restart(),
+        }
+    }
+
+    pub fn is_up(&self) -> bool {
+        self.up
+    }
+
     /// Step k begins at t = k·Δt: sense, predict, queue this step's datagrams, open collection for step k.
     pub fn handle_step(&mut self, k: u64) {
         let dt = self.topo.sim().dt();
         let t = k as f64 * dt;
         self.truth.advance_to(k);
         let shift = self.truth.take_shift();
-        let was_up = self.up;
-        self.up = self.topo.faults().node_up(self.index, t);
         if !self.up {
             self.counters.steps_down += 1;
             self.inbox.close_down();
@@ -207,7 +237,7 @@ impl Node {
             self.counters.first_step = k;
         }
         self.counters.steps_run += 1;
-        let restarted = joining || (k > 0 && (!was_up || self.topo.faults().restarts_between(self.index, t - dt, t)));
+        let restarted = joining || (k > 0 && std::mem::take(&mut self.restarting));
         if restarted {
             // Restart, or a late join: no state, the filters start from a fresh prior at the current truth.
             if !joining {

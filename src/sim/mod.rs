@@ -179,11 +179,23 @@ impl Sim {
     }
 }
 
+/// Step k of one node, after the events the crash timeline has for it (every driver steps a node this way).
+pub fn begin_step(node: &mut Node, k: u64) {
+    let scenario = node.scenario().clone();
+    for &e in scenario
+        .faults()
+        .node_events(node.index(), k, scenario.sim().dt(), node.is_up())
+    {
+        node.handle_event(e);
+    }
+    node.handle_step(k);
+}
+
 /// Step `k` of nodes wired together in memory; datagrams due by `window_end` (simulated s) reach their receivers
 /// before the step closes.
 pub(crate) fn lockstep(nodes: &mut [Node], k: u64, window_end: f64) -> Vec<StepEstimate> {
     for n in nodes.iter_mut() {
-        n.handle_step(k);
+        begin_step(n, k);
     }
     let mut moved = Vec::new();
     for n in nodes.iter_mut() {
