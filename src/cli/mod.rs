@@ -9,7 +9,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 
 use crate::link::LossModel;
 use crate::net::{self, Clock, RunOptions};
-use crate::report::trace::TraceRecorder;
+use crate::report::trace::TraceWriter;
 use crate::report::{plot, summary};
 use crate::scenario::{builtin, Overrides, Scenario, ScenarioError};
 

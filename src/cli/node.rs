@@ -131,7 +131,7 @@ pub(super) fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
     let f = std::fs::File::create(&path)
         .map_err(|e| UsageError::Option(format!("cannot write {}: {e}", path.display())))?;
     let mut rec =
-        TraceRecorder::new(columns, observer.layout(), dt, s.steps).to_writer(Box::new(std::io::BufWriter::new(f)));
+        TraceWriter::new(columns, observer.layout(), dt, s.steps).to_writer(Box::new(std::io::BufWriter::new(f)));
     // Fused rows go after the node rows of their step.
     let mut fused = observer.drain_rows().into_iter().peekable();
     for chunk in rows.chunk_by(|a, b| a.step == b.step) {

@@ -29,22 +29,22 @@ impl OutDir {
     }
 
     /// The recorder that streams `trace.csv` into this directory (under a temporary name until the run ends).
-    pub(super) fn trace(&self, topo: &Scenario) -> Result<TraceRecorder, UsageError> {
+    pub(super) fn trace(&self, topo: &Scenario) -> Result<TraceWriter, UsageError> {
         let path = self.dir.join(TRACE_TMP);
         let f = std::fs::File::create(&path)
             .map_err(|e| UsageError::Option(format!("--out: cannot write {}: {e}", path.display())))?;
-        Ok(TraceRecorder::for_topology(topo).to_writer(Box::new(std::io::BufWriter::new(f))))
+        Ok(TraceWriter::for_topology(topo).to_writer(Box::new(std::io::BufWriter::new(f))))
     }
 
     /// Close the streamed `trace.csv`; the plot sample it kept.
     pub(super) fn finish_trace(
         &self,
-        rec: Option<TraceRecorder>,
-    ) -> anyhow::Result<(Vec<crate::node::TraceRow>, Vec<crate::report::observer::FusedRow>)> {
+        rec: Option<TraceWriter>,
+    ) -> anyhow::Result<(Vec<crate::node::TraceRow>, Vec<crate::observe::fusion::FusedRow>)> {
         use anyhow::Context;
         let path = self.dir.join("trace.csv");
         let sample = rec
-            .map(TraceRecorder::finish)
+            .map(TraceWriter::finish)
             .transpose()
             .with_context(|| format!("cannot write {}", path.display()))?
             .unwrap_or_default();
@@ -117,7 +117,7 @@ pub(super) fn write_files(
     s: &summary::Summary,
     dt: f64,
     rows: &[crate::node::TraceRow],
-    fused: &[crate::report::observer::FusedRow],
+    fused: &[crate::observe::fusion::FusedRow],
 ) -> anyhow::Result<Vec<String>> {
     let d = OutDir { dir: dir.to_path_buf() };
     d.put("summary.json", s.to_json().as_bytes())?;

@@ -9,7 +9,7 @@ use clap::{Args, Subcommand};
 
 use super::{write_atomic, UsageError};
 use crate::net::{self, RunOptions};
-use crate::report::trace::TraceRecorder;
+use crate::report::trace::TraceWriter;
 use crate::reproduce::{self, lesecq, nieminen, rigid_pair, sequeira, RunResult};
 use crate::scenario::Scenario;
 
@@ -94,7 +94,7 @@ fn run_over_udp(
 ) -> Result<RunResult, crate::reproduce::ReproduceError> {
     let topo = Arc::new(topo.clone());
     let opts = RunOptions {
-        trace: record.then(|| TraceRecorder::for_topology(&topo).keep_all()),
+        trace: record.then(|| TraceWriter::for_topology(&topo).keep_all()),
         ..Default::default()
     };
     let out = rt.block_on(net::run(topo.clone(), opts, std::future::pending()))?;

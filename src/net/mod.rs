@@ -19,8 +19,8 @@ use tokio::time::Instant;
 
 use crate::node::{ImuRow, TraceRow};
 use crate::node::{Node, NodeReport, StepEstimate};
-use crate::report::observer::Observer;
-use crate::report::trace::TraceRecorder;
+use crate::observe::fusion::Observer;
+use crate::report::trace::TraceWriter;
 use crate::scenario::Scenario;
 use crate::sim::observer_for;
 pub use crate::sim::{Clock, Progress, RunResults};
@@ -43,7 +43,7 @@ pub enum NetError {
 pub struct RunOptions {
     pub clock: Clock,
     /// Takes the per-step rows for `trace.csv` and the plots as the run goes (none: no rows are made).
-    pub trace: Option<TraceRecorder>,
+    pub trace: Option<TraceWriter>,
     /// How long a virtual step waits for datagrams the link layer delivered before counting them as socket losses.
     pub recv_timeout: Duration,
     pub progress: Option<Progress>,
@@ -454,7 +454,7 @@ async fn run_realtime(
     // wall clock, so a step this far behind the newest has all its estimates.
     let lag = (2.0 * topo.sim().rate_hz).ceil().max(100.0) as usize;
     let mut by_step: BTreeMap<u64, Vec<StepOut>> = BTreeMap::new();
-    let close = |outs: Vec<StepOut>, observer: &mut Observer, trace: &mut Option<TraceRecorder>| {
+    let close = |outs: Vec<StepOut>, observer: &mut Observer, trace: &mut Option<TraceWriter>| {
         let mut rows = Vec::new();
         let mut estimates = Vec::new();
         for o in outs {

@@ -1,47 +1,11 @@
-//! What a node reports: the rows of `trace.csv`, the estimate each step hands the observer, its counters and its
-//! end-of-run report.
+//! What a node reports: the datagrams it accepted, its counters and its end-of-run report (the rows of
+//! `trace.csv`, the step estimates and the LMI terms are [`crate::observe`]'s).
 
-use crate::estimate::{Gaussian, LmiTerms};
 use crate::imu_csv::ImuRow;
 use crate::link::LinkCounters;
 use crate::observe::metrics::{FilterMetrics, RxCounters};
+use crate::observe::TraceRow;
 use crate::scenario::Role;
-use nalgebra::DVector;
-
-/// One row of `trace.csv`.
-#[derive(Debug, Clone)]
-pub struct TraceRow {
-    pub step: u64,
-    pub t: f64,
-    pub node: u32,
-    pub networked: bool,
-    pub truth: Vec<f64>,
-    pub est: Vec<f64>,
-    pub trace_p_prior: f64,
-    pub trace_p_post: f64,
-    /// Source ids whose measurements were used.
-    pub received: Vec<u32>,
-    pub feasible: bool,
-    pub nees: f64,
-    /// The step's error figure ([`crate::model::Model::error`]); NaN where the truth is unknown.
-    pub error: f64,
-    /// The posterior variances of the reported columns (±3σ bands).
-    pub var: Vec<f64>,
-    /// The filter has diverged at or before this step.
-    pub diverged: bool,
-}
-
-/// What a node hands the observer after each update (for fusion and plots).
-#[derive(Debug, Clone)]
-pub struct StepEstimate {
-    pub node: usize,
-    pub step: u64,
-    pub truth: DVector<f64>,
-    /// The coordinate frame of `truth` and `networked` (see `Truth::frame`).
-    pub frame: u64,
-    pub networked: Gaussian,
-    pub diverged: bool,
-}
 
 /// A datagram the node accepted as coming from a neighbour (its shell learns addresses and step timing from it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -87,13 +51,4 @@ pub struct NodeReport {
     pub trace: Vec<TraceRow>,
     /// The IMU samples with the true pose, when traces are recorded (pose model, sensing nodes).
     pub imu: Vec<ImuRow>,
-}
-
-/// One networked update's LMI terms with the node index of each source (own measurement included), in the order of
-/// `terms.kz`.
-#[derive(Debug, Clone)]
-pub struct LmiStep {
-    pub k: u64,
-    pub sources: Vec<usize>,
-    pub terms: LmiTerms,
 }

@@ -15,8 +15,9 @@
 //! 3. [`Node::handle_datagram`]`(from, bytes)` for every datagram that arrives, in any order, `from` the sender's
 //!    node index when the shell knows it by address. A measurement for the open step is collected; one for a later
 //!    step is held (bounded); one for a closed step counts as late.
-//! 4. [`Node::handle_deadline`]`(k)` at t_k + D: both filters update with what arrived; the estimate goes to the
-//!    observer, the step's trace rows to [`Node::take_trace`].
+//! 4. [`Node::handle_deadline`]`(k)` at t_k + D: both filters update with what arrived; each update goes to the
+//!    node's [`crate::observe::Scorer`] and then to its probes (the trace, IMU and LMI recorders when on, any
+//!    [`Node::add_probe`] added); the networked estimate is returned for the fusion observer.
 //!
 //! A node whose step k is skipped (down, or joining late) keeps its counters honest: a crash drops what arrives,
 //! a restart re-initialises both filters.
@@ -39,12 +40,12 @@ use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::estimate::{nees, EstimateError, Gaussian, MissingChannels, Observation};
+use crate::estimate::{Gaussian, MissingChannels, Observation};
 pub use crate::imu_csv::ImuRow;
 pub use crate::link::Transmit;
 use crate::link::{Egress, Link, NodeEvent};
 use crate::model::{Measurement, Model, Truth};
-use crate::observe::metrics::FilterMetrics;
+use crate::observe::{Filter, ImuRecorder, LmiRecorder, Probe, Probes, Scorer, TraceRecorder, Update};
 use crate::scenario::{Role, Scenario};
 use crate::sensor::{ImuInterval, ImuSample, Sensor};
 use crate::wire::{Datagram, Header, Payload, WireError};
@@ -52,7 +53,8 @@ use filters::Filters;
 use inbox::{Inbox, Received};
 use session::Session;
 
-pub use events::{Arrival, LmiStep, NodeCounters, NodeReport, StepEstimate, TraceRow};
+pub use crate::observe::{LmiStep, StepEstimate, TraceRow};
+pub use events::{Arrival, NodeCounters, NodeReport};
 
 pub struct Node {
     index: usize,
@@ -79,17 +81,14 @@ pub struct Node {
     restarting: bool,
     inbox: Inbox,
     counters: NodeCounters,
-    m_net: FilterMetrics,
-    m_ind: FilterMetrics,
-    trace: Option<Vec<TraceRow>>,
+    /// The truth against every update: the figures of both filters.
+    scorer: Scorer,
+    probes: Probes,
     started: bool,
     /// Neighbours, which of them were heard from, the highest step they reported.
     session: Session,
     /// Sources whose measurements this node expects each step.
     in_sources: Vec<usize>,
-    /// The β-independent LMI terms of every networked update, when a protocol search asked for them.
-    lmi_log: Option<Vec<LmiStep>>,
-    imu_log: Option<Vec<ImuRow>>,
 }
 
 impl Node {
@@ -135,7 +134,6 @@ impl Node {
             id: cfg.id,
             role: cfg.role,
             id_to_index,
-            model,
             truth,
             sensor,
             Q,
@@ -153,10 +151,13 @@ impl Node {
             restarting: false,
             inbox: Inbox::new(n, obs_dim),
             counters: NodeCounters::default(),
-            m_net: FilterMetrics::default(),
-            m_ind: FilterMetrics::default(),
-            trace: record_trace.then(Vec::new),
-            imu_log: record_trace.then(Vec::new),
+            scorer: Scorer::new(model.clone(), topo.sim().burn_in_steps(), topo.sim().divergence_trace),
+            probes: Probes {
+                trace: record_trace.then(|| TraceRecorder::new(model.clone())),
+                imu: record_trace.then(ImuRecorder::default),
+                ..Default::default()
+            },
+            model,
             started: false,
             session: Session::new(&topo, index),
             in_sources: topo
@@ -164,7 +165,6 @@ impl Node {
                 .map(|l| l.from)
                 .filter(|&j| topo.nodes()[j].role.senses())
                 .collect(),
-            lmi_log: None,
             topo,
         };
         node.initial = node.initial_estimate(0, 0);
@@ -282,8 +282,8 @@ impl Node {
             return (None, None);
         };
         let sensed = self.model.sense(sensor, &self.truth, t);
-        if let (Some(log), Some(row)) = (self.imu_log.as_mut(), sensed.row) {
-            log.push(row);
+        if let Some(row) = &sensed.row {
+            self.probes.each().for_each(|p| p.on_imu(row));
         }
         (sensed.imu, sensed.z)
     }
@@ -414,15 +414,18 @@ impl Node {
             },
             &priors,
             &used,
-            self.lmi_log.is_some(),
+            self.probes.lmi.is_some(),
         );
-        if let (Some(log), Some(terms)) = (self.lmi_log.as_mut(), updated.lmi) {
+        if let Some(terms) = updated.lmi {
             match terms {
-                Ok(Some(terms)) => log.push(LmiStep {
-                    k,
-                    sources: used.iter().map(|(s, _)| *s).collect(),
-                    terms,
-                }),
+                Ok(Some(terms)) => {
+                    let step = LmiStep {
+                        k,
+                        sources: used.iter().map(|(s, _)| *s).collect(),
+                        terms,
+                    };
+                    self.probes.each().for_each(|p| p.on_lmi(&step));
+                }
                 Ok(None) => {}
                 Err(e) => {
                     self.counters.lmi_failures += 1;
@@ -430,99 +433,74 @@ impl Node {
                 }
             }
         }
-        let (networked, independent, feasible) = (updated.networked, updated.independent, updated.feasible);
-        let model = &*self.model;
-        let truth = self.truth.state(model);
-        let counted = k >= topo.sim().burn_in_steps();
-        let angle = model.angle_states();
+        let feasible = updated.feasible;
+        let truth = self.truth.state(&*self.model);
         let received: Vec<u32> = used.iter().map(|(s, _)| topo.nodes()[*s].id).collect();
+        let own_only: Vec<u32> = received.iter().copied().filter(|r| *r == self.id).collect();
         let t = k as f64 * topo.sim().dt();
-        let limit = topo.sim().divergence_trace;
-        let initial = &self.initial;
-        let record = |post: Result<Gaussian, EstimateError>,
-                      prior: &Gaussian,
-                      m: &mut FilterMetrics,
-                      slot: &mut Gaussian,
-                      networked: bool,
-                      trace: &mut Option<Vec<TraceRow>>| {
-            let post = match post {
-                Ok(g) => g,
-                Err(_) => {
-                    m.mark_diverged();
-                    // Keep stepping from the prior so that the run finishes and the rest of the figures stand.
-                    prior.clone()
-                }
+        for (filter, post, prior, slot) in [
+            (
+                Filter::Networked,
+                updated.networked,
+                &priors.networked,
+                &mut filters.networked,
+            ),
+            (
+                Filter::Independent,
+                updated.independent,
+                &priors.independent,
+                &mut filters.independent,
+            ),
+        ] {
+            // A failed update keeps stepping from the prior, so that the run finishes and the rest of the figures stand.
+            let (post, failed) = match post {
+                Ok(g) => (g, false),
+                Err(_) => (prior.clone(), true),
             };
-            let tp = prior.P.trace();
-            let tq = post.P.trace();
-            if tq > limit || tp > limit || !tq.is_finite() {
-                m.mark_diverged();
-            }
-            let err = model.error(&truth, &post.x);
-            let v = nees(&post, &model.aligned(&truth, &post.x), &angle);
-            m.record(counted, err, tp, tq, v, if networked { feasible } else { true });
-            if let Some(rows) = trace {
-                rows.push(TraceRow {
-                    step: k,
-                    t,
-                    node: self.id,
-                    networked,
-                    truth: model.reported(&truth),
-                    est: model.reported(&post.x),
-                    trace_p_prior: tp,
-                    trace_p_post: tq,
-                    received: if networked {
-                        received.clone()
-                    } else {
-                        received.iter().copied().filter(|r| *r == self.id).collect()
-                    },
-                    feasible: if networked { feasible } else { true },
-                    nees: v.unwrap_or(f64::NAN),
-                    error: err.unwrap_or(f64::NAN),
-                    var: model.reported_var(&post),
-                    diverged: m.diverged,
-                });
-            }
+            let networked = filter == Filter::Networked;
+            let u = Update {
+                node: self.id,
+                step: k,
+                t,
+                filter,
+                truth: &truth,
+                prior,
+                post: &post,
+                failed,
+                feasible: !networked || feasible,
+                received: if networked { &received } else { &own_only },
+            };
+            let score = self.scorer.score(&u);
+            self.probes.each().for_each(|p| p.on_update(&u, &score));
             *slot = if post.x.iter().chain(post.P.iter()).all(|v| v.is_finite()) {
                 post
             } else {
-                initial.clone()
+                self.initial.clone()
             };
-        };
-        record(
-            networked,
-            &priors.networked,
-            &mut self.m_net,
-            &mut filters.networked,
-            true,
-            &mut self.trace,
-        );
-        record(
-            independent,
-            &priors.independent,
-            &mut self.m_ind,
-            &mut filters.independent,
-            false,
-            &mut self.trace,
-        );
+        }
         Some(StepEstimate {
             node: self.index,
             step: k,
             truth,
             frame: self.truth.frame(),
             networked: filters.networked.clone(),
-            diverged: self.m_net.diverged,
+            diverged: self.scorer.metrics(Filter::Networked).diverged,
         })
     }
 
     /// Keep the LMI terms of every networked update from now on (for a protocol search; costs one extra
     /// gain computation per step).
     pub fn record_lmi(&mut self) {
-        self.lmi_log.get_or_insert_with(Vec::new);
+        self.probes.lmi.get_or_insert_with(LmiRecorder::default);
+    }
+
+    /// Feed `p` every update, IMU sample and set of LMI terms from now on.
+    pub fn add_probe(&mut self, p: Box<dyn Probe>) {
+        self.probes.added.push(p);
     }
 
     pub fn take_lmi_log(&mut self) -> Vec<LmiStep> {
-        self.lmi_log.as_mut().map(std::mem::take).unwrap_or_default()
+        self.probes.lmi.as_mut().map(LmiRecorder::take).unwrap_or_default()
     }
 
     /// Sources whose measurements this node expects each step (node indices; own excluded).
@@ -568,12 +546,12 @@ impl Node {
 
     /// The IMU rows recorded since the last call.
     pub fn take_imu(&mut self) -> Vec<ImuRow> {
-        self.imu_log.as_mut().map(std::mem::take).unwrap_or_default()
+        self.probes.imu.as_mut().map(ImuRecorder::take).unwrap_or_default()
     }
 
     /// The trace rows recorded since the last call (a shell streams them out step by step).
     pub fn take_trace(&mut self) -> Vec<TraceRow> {
-        self.trace.as_mut().map(std::mem::take).unwrap_or_default()
+        self.probes.trace.as_mut().map(TraceRecorder::take).unwrap_or_default()
     }
 
     pub fn report(&mut self) -> NodeReport {
@@ -582,13 +560,13 @@ impl Node {
             index: self.index,
             id: self.id,
             role: self.role,
-            networked: est.then(|| self.m_net.clone()),
-            independent: est.then(|| self.m_ind.clone()),
+            networked: est.then(|| self.scorer.metrics(Filter::Networked).clone()),
+            independent: est.then(|| self.scorer.metrics(Filter::Independent).clone()),
             links_out: self.egress.counters(),
             rx: self.inbox.rx.clone(),
             counters: self.counters,
-            trace: self.trace.take().unwrap_or_default(),
-            imu: self.imu_log.take().unwrap_or_default(),
+            trace: self.take_trace(),
+            imu: self.take_imu(),
         }
     }
 }
@@ -621,6 +599,38 @@ mod tests {
         }
     }
 
+    /// A probe added to a node sees every update with the score the built-in recorders see, in the same order.
+    #[test]
+    fn an_added_probe_sees_what_the_trace_records() {
+        use crate::observe::{Score, Update};
+        use std::sync::Mutex;
+        type Seen = Arc<Mutex<Vec<(u64, bool, f64, f64)>>>;
+        struct Tap(Seen);
+        impl Probe for Tap {
+            fn on_update(&mut self, u: &Update<'_>, s: &Score) {
+                let e = s.error.unwrap_or(f64::NAN);
+                self.0
+                    .lock()
+                    .unwrap()
+                    .push((u.step, u.filter == Filter::Networked, e, s.trace_p_post));
+            }
+        }
+        let topo = Arc::new(Scenario::resolve("pair2-paper").unwrap());
+        let mut nodes: Vec<Node> = (0..2).map(|i| Node::new(topo.clone(), i, true)).collect();
+        let seen: Seen = Arc::default();
+        nodes[1].add_probe(Box::new(Tap(seen.clone())));
+        for k in 0..200 {
+            step_in_memory(&mut nodes, k);
+        }
+        let rows: Vec<_> = nodes[1]
+            .take_trace()
+            .iter()
+            .map(|r| (r.step, r.networked, r.error, r.trace_p_post))
+            .collect();
+        assert_eq!(rows.len(), 400);
+        assert_eq!(*seen.lock().unwrap(), rows);
+    }
+
     /// A lone attitude node's filter is the quaternion EKF of `estimate::attitude` (standard form) fed with the same
     /// samples: the linearised update inside the node changes nothing.
     #[test]
@@ -650,9 +660,10 @@ mod tests {
         let q0 = nalgebra::Vector4::new(x0[0], x0[1], x0[2], x0[3]);
         let mut ekf = AttitudeEkf::new(q0, &node.initial.P, Form::Standard).unwrap();
         let mut worst: f64 = 0.0;
+        let mut log = Vec::new();
         for k in 0..500 {
             step_in_memory(std::slice::from_mut(&mut node), k);
-            let log = node.imu_log.as_ref().unwrap();
+            log.extend(node.take_imu());
             let now = log[k as usize];
             if k > 0 {
                 let before = log[k as usize - 1];

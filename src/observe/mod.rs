@@ -1,5 +1,95 @@
-//! What is measured about a run as it goes: per-filter error, NEES, trace P and LMI figures
-//! ([`metrics::FilterMetrics`]) and per-source receive counters ([`metrics::RxCounters`]). Nodes record into them;
-//! `report` turns them into the summary.
+//! What is measured about a run as it goes. A node hands every filter update, IMU sample and set of LMI terms to its
+//! probes; the fusion observer takes the nodes' estimates of each step.
+//!
+//! | file | owns |
+//! |---|---|
+//! | `scorer.rs` | [`Scorer`]: the truth against an update → error, NEES, trace P, divergence, the figures of each filter |
+//! | `recorders.rs` | [`TraceRecorder`] (the rows of `trace.csv`), [`ImuRecorder`], [`LmiRecorder`] |
+//! | `metrics.rs` | running statistics of one filter ([`metrics::FilterMetrics`]), per-source receive counters |
+//! | `fusion.rs` | the observer: covariance-intersection fusion of the nodes' estimates each step, and its median |
 
+pub mod fusion;
 pub mod metrics;
+mod recorders;
+mod scorer;
+
+use nalgebra::DVector;
+
+use crate::estimate::Gaussian;
+use crate::imu_csv::ImuRow;
+
+pub use fusion::{FusedRow, Observer, StepEstimate};
+pub use recorders::{ImuRecorder, LmiRecorder, LmiStep, TraceRecorder, TraceRow};
+pub use scorer::Scorer;
+
+/// Which of a node's two filters.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Filter {
+    /// Consensus over whatever arrived (Sequeira 2023).
+    Networked,
+    /// The node's own measurement only: the baseline.
+    Independent,
+}
+
+/// One filter's update at the deadline of one step, as probes see it.
+#[derive(Debug, Clone, Copy)]
+pub struct Update<'a> {
+    /// The node's id in the file.
+    pub node: u32,
+    pub step: u64,
+    pub t: f64,
+    pub filter: Filter,
+    /// The true state in the model's coordinates (NaN where a recording has no reference).
+    pub truth: &'a DVector<f64>,
+    pub prior: &'a Gaussian,
+    /// The posterior; the prior carried on when the update `failed`.
+    pub post: &'a Gaussian,
+    pub failed: bool,
+    /// (17) and (19) held (always true for the independent filter).
+    pub feasible: bool,
+    /// Ids of the sources whose measurements the update used.
+    pub received: &'a [u32],
+}
+
+/// What the [`Scorer`] made of an update.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Score {
+    /// [`crate::model::Model::error`]; none where the truth is unknown.
+    pub error: Option<f64>,
+    pub nees: Option<f64>,
+    pub trace_p_prior: f64,
+    pub trace_p_post: f64,
+    /// The filter has diverged at or before this step.
+    pub diverged: bool,
+}
+
+/// Something fed by a node as it runs. Each method defaults to ignoring its event.
+pub trait Probe: Send {
+    /// One filter's update, scored.
+    fn on_update(&mut self, _u: &Update<'_>, _s: &Score) {}
+    /// The IMU sample of one step, with the true pose.
+    fn on_imu(&mut self, _row: &ImuRow) {}
+    /// The β-independent LMI terms of one networked update.
+    fn on_lmi(&mut self, _step: &LmiStep) {}
+}
+
+/// The probes of one node: the recorders that are on, then any added ([`crate::node::Node::add_probe`]).
+#[derive(Default)]
+pub struct Probes {
+    pub trace: Option<TraceRecorder>,
+    pub imu: Option<ImuRecorder>,
+    pub lmi: Option<LmiRecorder>,
+    pub added: Vec<Box<dyn Probe>>,
+}
+
+impl Probes {
+    pub fn each(&mut self) -> impl Iterator<Item = &mut dyn Probe> + '_ {
+        let trace = self.trace.iter_mut().map(|p| p as &mut dyn Probe);
+        let imu = self.imu.iter_mut().map(|p| p as &mut dyn Probe);
+        let lmi = self.lmi.iter_mut().map(|p| p as &mut dyn Probe);
+        trace
+            .chain(imu)
+            .chain(lmi)
+            .chain(self.added.iter_mut().map(|p| &mut **p as &mut dyn Probe))
+    }
+}

@@ -1,6 +1,5 @@
 //! Results: `summary.json`, the stdout table, `trace.csv`, `links.csv` and plots. Writers take `impl Write`.
 
-pub mod observer;
 pub mod parts;
 pub mod plot;
 pub mod summary;

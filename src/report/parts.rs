@@ -7,11 +7,11 @@ use std::io::{self, BufRead, Write};
 
 use nalgebra::{DMatrix, DVector};
 
-use super::observer::Observer;
 pub use super::summary::PartInfo;
 use super::summary::{LinkSummary, Summary};
 use crate::estimate::Gaussian;
 use crate::node::{StepEstimate, TraceRow};
+use crate::observe::fusion::Observer;
 
 #[derive(Debug, thiserror::Error)]
 pub enum PartError {

@@ -9,8 +9,8 @@
 
 use std::io::{self, Write};
 
-use super::observer::FusedRow;
 use crate::node::TraceRow;
+use crate::observe::fusion::FusedRow;
 
 /// Steps drawn per series before the plots thin the sample to every k-th step.
 pub const PLOT_STEPS: u64 = 5000;
@@ -41,7 +41,7 @@ pub fn header(columns: &[String]) -> String {
 }
 
 /// Streams `trace.csv` (when given a writer) and keeps the plot sample.
-pub struct TraceRecorder {
+pub struct TraceWriter {
     out: Option<Box<dyn Write + Send>>,
     columns: Vec<String>,
     /// The fused rows are a quaternion, reported as Euler angles.
@@ -51,7 +51,7 @@ pub struct TraceRecorder {
     stride: u64,
     kept: Vec<TraceRow>,
     fused: Vec<FusedRow>,
-    /// The first write error; later rows are not written, and [`TraceRecorder::finish`] returns it.
+    /// The first write error; later rows are not written, and [`TraceWriter::finish`] returns it.
     error: Option<io::Error>,
     /// Opens a node's `imu-ID.csv` (by node id) on its first IMU row; none: IMU rows are not kept.
     imu_files: Option<ImuOpener>,
@@ -62,11 +62,11 @@ pub struct TraceRecorder {
 /// Opens the `imu-ID.csv` of node ID.
 pub type ImuOpener = Box<dyn FnMut(u32) -> io::Result<Box<dyn Write + Send>> + Send>;
 
-impl TraceRecorder {
+impl TraceWriter {
     /// Keep a plot sample of a run of `steps` steps; `columns` as [`crate::model::Model::columns`], `layout` how
     /// the fused rows are laid out.
-    pub fn new(columns: Vec<String>, layout: &crate::model::FusionLayout, dt: f64, steps: u64) -> TraceRecorder {
-        TraceRecorder {
+    pub fn new(columns: Vec<String>, layout: &crate::model::FusionLayout, dt: f64, steps: u64) -> TraceWriter {
+        TraceWriter {
             out: None,
             columns,
             quaternion: layout.quaternion,
@@ -81,8 +81,8 @@ impl TraceRecorder {
     }
 
     /// The recorder of a run of `topo`.
-    pub fn for_topology(topo: &crate::scenario::Scenario) -> TraceRecorder {
-        TraceRecorder::new(
+    pub fn for_topology(topo: &crate::scenario::Scenario) -> TraceWriter {
+        TraceWriter::new(
             topo.model().get().columns(),
             &topo.model().get().fusion(),
             topo.sim().dt(),
@@ -91,13 +91,13 @@ impl TraceRecorder {
     }
 
     /// Keep every row (an analysis that needs all of them; memory grows with the run).
-    pub fn keep_all(mut self) -> TraceRecorder {
+    pub fn keep_all(mut self) -> TraceWriter {
         self.stride = 1;
         self
     }
 
     /// Also write every row to `w`, starting with the header.
-    pub fn to_writer(mut self, w: Box<dyn Write + Send>) -> TraceRecorder {
+    pub fn to_writer(mut self, w: Box<dyn Write + Send>) -> TraceWriter {
         self.out = Some(w);
         let h = header(&self.columns);
         self.write(|w| writeln!(w, "{h}"));
@@ -105,7 +105,7 @@ impl TraceRecorder {
     }
 
     /// Also stream each sensing node's IMU samples (with the true pose) to the file `open` gives for its id.
-    pub fn with_imu(mut self, open: ImuOpener) -> TraceRecorder {
+    pub fn with_imu(mut self, open: ImuOpener) -> TraceWriter {
         self.imu_files = Some(open);
         self
     }

@@ -4,7 +4,7 @@
 use serde::Serialize;
 
 use crate::node::TraceRow;
-use crate::report::observer::FusedRow;
+use crate::observe::fusion::FusedRow;
 use crate::report::summary::Summary;
 use crate::scenario::Scenario;
 

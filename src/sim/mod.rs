@@ -19,8 +19,8 @@ mod results;
 use std::sync::Arc;
 
 use crate::node::{Node, StepEstimate};
-use crate::report::observer::Observer;
-use crate::report::trace::TraceRecorder;
+use crate::observe::fusion::Observer;
+use crate::report::trace::TraceWriter;
 use crate::scenario::{Scenario, ScenarioError};
 
 pub use results::{Clock, RunResults};
@@ -32,13 +32,15 @@ pub type Progress = Arc<dyn Fn(u64, u64) + Send + Sync>;
 pub enum SimError {
     #[error(transparent)]
     Scenario(#[from] ScenarioError),
+    #[error("there is no node {index}: the scenario has {}", crate::scenario::count(*n, "node"))]
+    NoNode { index: usize, n: usize },
 }
 
 /// What a run keeps beyond its figures.
 #[derive(Default)]
 pub struct SimOptions {
     /// Takes the per-step rows for `trace.csv` and the plots as the run goes (none: no rows are made).
-    pub trace: Option<TraceRecorder>,
+    pub trace: Option<TraceWriter>,
     pub progress: Option<Progress>,
     /// Keep every node's per-step LMI terms (for a protocol search).
     pub record_lmi: bool,
@@ -51,7 +53,7 @@ pub struct Sim {
     scenario: Arc<Scenario>,
     nodes: Vec<Node>,
     observer: Option<Observer>,
-    trace: Option<TraceRecorder>,
+    trace: Option<TraceWriter>,
     progress: Option<Progress>,
     record_lmi: bool,
     next: u64,
@@ -89,6 +91,14 @@ impl Sim {
 
     pub fn nodes(&self) -> &[Node] {
         &self.nodes
+    }
+
+    /// Feed `probe` every update, IMU sample and set of LMI terms of node `index` from now on.
+    pub fn add_probe(&mut self, index: usize, probe: Box<dyn crate::observe::Probe>) -> Result<(), SimError> {
+        let n = self.nodes.len();
+        let node = self.nodes.get_mut(index).ok_or(SimError::NoNode { index, n })?;
+        node.add_probe(probe);
+        Ok(())
     }
 
     /// Steps run so far.

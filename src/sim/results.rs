@@ -3,10 +3,10 @@
 use std::sync::Arc;
 
 use crate::node::{LmiStep, NodeReport};
-use crate::report::observer::Observer;
+use crate::observe::fusion::Observer;
 pub use crate::report::summary::Clock;
 use crate::report::summary::Summary;
-use crate::report::trace::TraceRecorder;
+use crate::report::trace::TraceWriter;
 use crate::scenario::Scenario;
 
 pub struct RunResults {
@@ -23,7 +23,7 @@ pub struct RunResults {
     /// Datagrams the link layer delivered that never came out of a socket in time (virtual clock over sockets).
     pub socket_losses: u64,
     /// The recorder the run was given, handed back with every row given to it.
-    pub trace: Option<TraceRecorder>,
+    pub trace: Option<TraceWriter>,
     /// Each node's per-step LMI terms, when they were asked for.
     pub lmi: Vec<Vec<LmiStep>>,
 }

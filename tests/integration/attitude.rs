@@ -1,7 +1,7 @@
 //! The attitude model over the network, and recorded IMU files driving a node.
 
 use simnet::node::{NodeReport, TraceRow};
-use simnet::report::trace::TraceRecorder;
+use simnet::report::trace::TraceWriter;
 use simnet::scenario::{Overrides, Scenario};
 use simnet::sim::{Sim, SimOptions};
 
@@ -49,7 +49,7 @@ fn attitude_network_over_udp_with_partial_loss() {
 
 /// The first `steps` steps in memory: each node's report with its trace rows; `imu_dir` receives `imu-ID.csv`.
 fn run_in_memory(topo: Scenario, steps: u64, imu_dir: Option<&std::path::Path>) -> Vec<(NodeReport, Vec<TraceRow>)> {
-    let mut rec = TraceRecorder::for_topology(&topo).keep_all();
+    let mut rec = TraceWriter::for_topology(&topo).keep_all();
     if let Some(dir) = imu_dir {
         let dir = dir.to_path_buf();
         rec = rec.with_imu(Box::new(move |id| {

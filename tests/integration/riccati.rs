@@ -5,7 +5,7 @@
 use nalgebra::{DMatrix, DVector};
 use simnet::estimate::Gaussian;
 use simnet::estimate::{kalman_update, predict, MissingChannels, Observation};
-use simnet::report::trace::TraceRecorder;
+use simnet::report::trace::TraceWriter;
 use simnet::scenario::{Overrides, Scenario};
 use simnet::sim::{Sim, SimOptions};
 
@@ -195,7 +195,7 @@ fn linear_nees_is_in_its_chi_square_band() {
     for seed in 1..=runs {
         let t = common::topology(CV2, common::seed(seed));
         let opts = SimOptions {
-            trace: Some(TraceRecorder::for_topology(&t).keep_all()),
+            trace: Some(TraceWriter::for_topology(&t).keep_all()),
             ..Default::default()
         };
         let mut sim = Sim::with_options(&t, opts).unwrap();

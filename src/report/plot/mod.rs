@@ -8,9 +8,9 @@ use std::sync::Once;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
-use super::observer::FusedRow;
 use crate::model::{Kind, TrajectoryView};
 use crate::node::TraceRow;
+use crate::observe::fusion::FusedRow;
 
 #[derive(Debug, thiserror::Error)]
 #[error("plot `{name}`: {message}")]

@@ -9,7 +9,7 @@ pub use csv::write_links;
 
 use serde::{Deserialize, Serialize};
 
-use super::observer::FusedSummary;
+use crate::observe::fusion::FusedSummary;
 use crate::observe::metrics::FilterSummary;
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]

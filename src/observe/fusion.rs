@@ -9,8 +9,19 @@ use serde::{Deserialize, Serialize};
 use crate::estimate::fusion::{cascade, CentredMedian, Omega};
 use crate::estimate::Gaussian;
 use crate::model::FusionLayout;
-use crate::node::StepEstimate;
 use crate::observe::metrics::FilterMetrics;
+
+/// What a node hands the observer after each update (for fusion and plots).
+#[derive(Debug, Clone)]
+pub struct StepEstimate {
+    pub node: usize,
+    pub step: u64,
+    pub truth: DVector<f64>,
+    /// The coordinate frame of `truth` and `networked` (see `Truth::frame`).
+    pub frame: u64,
+    pub networked: Gaussian,
+    pub diverged: bool,
+}
 
 /// The trace-optimal cascade runs a line search per stage; above this many nodes it is skipped.
 pub const OPTIMAL_FUSION_MAX_NODES: usize = 16;

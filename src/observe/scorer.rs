@@ -1,0 +1,65 @@
+//! The truth against each update: the figures `summary.json` reports for each filter.
+
+use std::sync::Arc;
+
+use super::metrics::FilterMetrics;
+use super::{Filter, Score, Update};
+use crate::estimate::nees;
+use crate::model::Model;
+
+/// Scores every update of one node's two filters and keeps their running figures.
+pub struct Scorer {
+    model: Arc<dyn Model>,
+    angle_states: Vec<bool>,
+    /// Steps before this one are the burn-in: tracked for divergence only.
+    burn_in_steps: u64,
+    /// A filter whose trace P exceeds this is marked diverged.
+    divergence_trace: f64,
+    networked: FilterMetrics,
+    independent: FilterMetrics,
+}
+
+impl Scorer {
+    pub fn new(model: Arc<dyn Model>, burn_in_steps: u64, divergence_trace: f64) -> Scorer {
+        Scorer {
+            angle_states: model.angle_states(),
+            model,
+            burn_in_steps,
+            divergence_trace,
+            networked: FilterMetrics::default(),
+            independent: FilterMetrics::default(),
+        }
+    }
+
+    /// Score `u` and add it to its filter's figures.
+    pub fn score(&mut self, u: &Update<'_>) -> Score {
+        let m = match u.filter {
+            Filter::Networked => &mut self.networked,
+            Filter::Independent => &mut self.independent,
+        };
+        if u.failed {
+            m.mark_diverged();
+        }
+        let (tp, tq) = (u.prior.P.trace(), u.post.P.trace());
+        if tq > self.divergence_trace || tp > self.divergence_trace || !tq.is_finite() {
+            m.mark_diverged();
+        }
+        let error = self.model.error(u.truth, &u.post.x);
+        let v = nees(u.post, &self.model.aligned(u.truth, &u.post.x), &self.angle_states);
+        m.record(u.step >= self.burn_in_steps, error, tp, tq, v, u.feasible);
+        Score {
+            error,
+            nees: v,
+            trace_p_prior: tp,
+            trace_p_post: tq,
+            diverged: m.diverged,
+        }
+    }
+
+    pub fn metrics(&self, f: Filter) -> &FilterMetrics {
+        match f {
+            Filter::Networked => &self.networked,
+            Filter::Independent => &self.independent,
+        }
+    }
+}
