@@ -49,7 +49,7 @@ pub struct SearchConfig {
     pub margin: f64,
 }
 
-#[derive(Debug, Clone, thiserror::Error, PartialEq)]
+#[derive(Debug, thiserror::Error)]
 pub enum ProtocolError {
     #[error("--max-row-sum must be at least 1 (independent nodes have row sum 1), got {0}")]
     RowSum(f64),
@@ -69,21 +69,11 @@ pub enum ProtocolError {
          have no reference columns)"
     )]
     NoReference(String),
-    /// A protocol the scenario's validator rejects (its message).
-    #[error("{0}")]
-    Scenario(String),
-}
-
-impl From<SimError> for ProtocolError {
-    fn from(e: SimError) -> ProtocolError {
-        ProtocolError::Scenario(e.to_string())
-    }
-}
-
-impl From<ScenarioError> for ProtocolError {
-    fn from(e: ScenarioError) -> ProtocolError {
-        ProtocolError::Scenario(e.to_string())
-    }
+    /// A protocol the scenario's validator rejects.
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+    #[error(transparent)]
+    Sim(#[from] SimError),
 }
 
 /// Mean errors within this fraction of the lowest count as equal; among them the most exchange wins.

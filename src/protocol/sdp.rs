@@ -28,7 +28,7 @@ use crate::scenario::Scenario;
 // Links the system OpenBLAS that Clarabel's PSD cones call.
 extern crate openblas_src;
 
-#[derive(Debug, Clone, thiserror::Error, PartialEq)]
+#[derive(Debug, thiserror::Error)]
 pub enum SdpError {
     #[error("the SDP for node {node} did not solve: {status}")]
     Solver { node: usize, status: String },
