@@ -62,13 +62,18 @@ pub fn read_estimates(r: impl BufRead, node: usize, file: &str) -> Result<Vec<St
         if f.len() < 3 {
             return Err(bad(i + 1, "too few fields"));
         }
-        let n = int(f[2])? as usize;
-        if f.len() != 3 + 2 * n + n * n {
-            return Err(bad(
-                i + 1,
-                &format!("expected {} fields for n = {n}", 3 + 2 * n + n * n),
-            ));
-        }
+        let given = int(f[2])?;
+        // Bounded by the line before it is squared: a damaged file gets an error, not an overflow.
+        let n = match usize::try_from(given) {
+            Ok(n) if n <= f.len() && f.len() == 3 + 2 * n + n * n => n,
+            Ok(n) if n <= f.len() => {
+                return Err(bad(
+                    i + 1,
+                    &format!("expected {} fields for n = {n}", 3 + 2 * n + n * n),
+                ));
+            }
+            _ => return Err(bad(i + 1, &format!("n = {given} is more than the line has fields"))),
+        };
         let v: Vec<f64> = f[3..].iter().map(|s| num(s)).collect::<Result<_, _>>()?;
         out.push(StepEstimate {
             node,
@@ -278,4 +283,30 @@ pub fn read_parts(dirs: &[std::path::PathBuf]) -> Result<Parts, PartError> {
         return Err(PartError::Empty(dirs.join(", ")));
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A damaged estimates file is an error naming the line, never an overflow or a panic.
+    #[test]
+    fn damaged_estimates_are_errors() {
+        for (text, says) in [
+            ("0,0,18446744073709551615,1,2\n", "more than the line has fields"),
+            ("0,0,1,1,2\n", "expected 6 fields for n = 1"),
+            ("0,0,1,1,2,x\n", "`x` is not a number"),
+            ("0,0\n", "too few fields"),
+        ] {
+            let e = read_estimates(text.as_bytes(), 0, "estimates-0.csv")
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("line 1") && e.contains(says), "{text:?}: {e}");
+        }
+        let ok = read_estimates("0,0,1,1.5,2,0.25\n".as_bytes(), 0, "e.csv").unwrap();
+        assert_eq!(
+            (ok[0].truth[0], ok[0].networked.x[0], ok[0].networked.P[(0, 0)]),
+            (1.5, 2.0, 0.25)
+        );
+    }
 }

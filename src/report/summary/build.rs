@@ -9,22 +9,26 @@ use crate::scenario::Scenario;
 impl LinkSummary {
     /// Join the sender's link counters with what the receiver saw from that sender.
     pub fn join(from: u32, to: u32, tx: &LinkCounters, rx: &RxCounters) -> LinkSummary {
-        let usable_or_seen = rx.delivered + rx.late + rx.corrupted + rx.while_down;
+        // Saturating: the counters of a multi-host run come from part files, which may be damaged.
+        let usable_or_seen = [rx.late, rx.corrupted, rx.while_down]
+            .into_iter()
+            .fold(rx.delivered, u64::saturating_add);
         // Copies (duplicates) can only make the receiver's counts larger than what was sent once.
         let lost = tx.sent.saturating_sub(usable_or_seen.min(tx.sent));
+        let lost_all = lost.saturating_add(rx.while_down);
         let frac = |x: u64| (tx.sent > 0).then(|| x as f64 / tx.sent as f64);
         LinkSummary {
             from,
             to,
             sent: tx.sent,
             delivered: rx.delivered,
-            lost: lost + rx.while_down,
+            lost: lost_all,
             lost_random: tx.lost_random,
-            lost_down: tx.lost_down + rx.while_down,
+            lost_down: tx.lost_down.saturating_add(rx.while_down),
             late: rx.late,
             duplicated: tx.duplicated,
             corrupted: rx.corrupted,
-            loss_rate: frac(lost + rx.while_down),
+            loss_rate: frac(lost_all),
             delivered_fraction: frac(rx.delivered),
             arrival_rate: (rx.steps > 0).then(|| 1.0 - rx.missing_steps as f64 / rx.steps as f64),
             mean_loss_run: tx.mean_loss_run(),
@@ -124,5 +128,34 @@ impl Summary {
             settings: Some(Settings::of(topo)),
             part: None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Counters read from a damaged part file saturate instead of overflowing.
+    #[test]
+    fn joining_huge_counters_saturates() {
+        let tx = LinkCounters {
+            sent: 10,
+            lost_down: u64::MAX,
+            ..Default::default()
+        };
+        let rx = RxCounters {
+            delivered: u64::MAX,
+            late: u64::MAX,
+            while_down: u64::MAX,
+            ..Default::default()
+        };
+        let l = LinkSummary::join(0, 1, &tx, &rx);
+        assert_eq!((l.lost, l.lost_down, l.delivered), (u64::MAX, u64::MAX, u64::MAX));
+        let rx = RxCounters {
+            delivered: 7,
+            ..Default::default()
+        };
+        let l = LinkSummary::join(0, 1, &tx, &rx);
+        assert_eq!((l.lost, l.loss_rate), (3, Some(0.3)));
     }
 }
