@@ -21,6 +21,7 @@
 //! | [`sim`] | whole runs in memory: [`Sim`] steps every node in lockstep and returns [`RunResults`], the same as over UDP |
 //! | [`net`] | the only I/O: one tokio task and UDP socket per node, virtual and realtime clocks, shutdown; `net::host` runs one node per process (`simnet node`) |
 //! | [`report`] | `summary.json` (with the settings that made it), the table, `trace.csv` and IMU files streamed as a run goes (`report::trace`), `links.csv`, SVG plots |
+//! | [`analysis`] | studies over whole runs: Sinopoli's covariance bounds against runs measured at each arrival rate |
 //! | [`protocol`] | β protocol search over whole in-memory runs: the paper's family by bisection on (17)/(19); all β by SDP (feature `sdp`) |
 //! | [`reconstruct`] | position from a recorded IMU file as a boundary value problem (FEM), trapezoid for comparison, sensor-error model |
 //! | [`reproduce`] | the source documents' experiments rerun: claims tables with simnet's figures, and plots |
@@ -35,6 +36,7 @@
 //! The library API: build or load a [`Scenario`] ([`Scenario::builder`], [`Scenario::resolve`], [`Scenario::with`]),
 //! run it with [`Sim`] (in memory) or [`net::run`] (over UDP), read [`RunResults::summary`].
 
+pub mod analysis;
 pub mod checks;
 mod cli;
 mod compose;
