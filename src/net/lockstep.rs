@@ -1,120 +1,315 @@
-//! The virtual clock: lockstep. For step k the driver tells every node task to step; each sends, over its own socket,
-//! every datagram the link layer delivers by the deadline t_k + D, in delivery order, and reports how many it sent to
-//! whom. Each receiver then reads until it has as many datagrams from its peers' addresses as were sent to it (a
-//! generous wall-clock timeout counts the rest as real socket losses) and runs its update. Datagrams due after the
-//! deadline go out in a later window and arrive late. Same seed, same results.
+//! The virtual clock: lockstep with no driver in between. One worker per core owns a block of the nodes and their
+//! sockets. In step k every node steps, and on every out-link sends one [`Frame`] over UDP: everything the link layer
+//! delivers by the deadline t_k + D on that link, in delivery order — or, when it dropped or delayed everything, an
+//! empty frame, the marker. A node closes step k once it has the step-k frame of every in-neighbour, as conservative
+//! parallel discrete-event simulation closes a time step on its null messages; frames of later windows wait for their
+//! step. Datagrams due after the deadline go out in a later window and arrive late. Same seed, same results.
+//!
+//! Workers may run ahead of each other, and of the observer that fuses each step, by at most [`LEAD`] steps: that
+//! bounds the socket buffers and the estimates in flight. A frame that does not arrive within the receive timeout
+//! (a real socket loss) is counted and the step closes without it.
 
 use std::collections::{BTreeMap, HashMap};
 use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Duration;
 
+use bytes::Bytes;
 use tokio::net::UdpSocket;
 use tokio::sync::{mpsc, watch};
 use tokio::time::Instant;
 
-use super::{recv, NetError, RunOptions};
+use super::{NetError, RunOptions};
 use crate::node::{ImuRow, Node, NodeReport, StepEstimate, TraceRow};
+use crate::report::trace::TraceWriter;
 use crate::scenario::Scenario;
-use crate::sim::{observer_for, Clock, RunResults};
-use crate::wire::MAX_DATAGRAM;
+use crate::sim::{begin_step, observer_for, Clock, Progress, RunResults};
+use crate::wire::{Frame, MAX_FRAME};
 
-enum Cmd {
-    Step { k: u64, window_end: f64 },
-    Collect { k: u64, expect: u64 },
-    Finish,
+/// How many steps a worker may run ahead of the slowest worker and of the observer.
+pub const LEAD: u64 = 16;
+
+/// Where every worker and the observer are: the steps each has closed, and the step at which a shutdown stops them.
+#[derive(Debug, Clone)]
+struct Sync {
+    /// Steps closed by each worker, then by the observer (the last entry).
+    next: Vec<u64>,
+    /// No worker starts this step or a later one.
+    stop_at: u64,
 }
 
-enum Reply {
-    Sent {
-        counts: Vec<(usize, u64)>,
-    },
-    Closed {
-        estimate: Option<StepEstimate>,
-        timed_out: u64,
-        rows: Vec<TraceRow>,
-        /// The node's id and its IMU rows of the step.
-        imu: (u32, Vec<ImuRow>),
-    },
-    Report(Box<NodeReport>),
+impl Sync {
+    fn slowest(&self) -> u64 {
+        self.next.iter().copied().min().unwrap_or(0)
+    }
 }
 
-async fn virtual_task(
-    mut node: Node,
+/// One node a worker owns, with its socket and what it expects each step.
+struct Slot {
+    node: Node,
     socket: UdpSocket,
-    addrs: Arc<Vec<SocketAddr>>,
-    recv_timeout: Duration,
-    mut cmds: mpsc::Receiver<Cmd>,
-    replies: mpsc::Sender<Reply>,
-) {
-    let index_of: HashMap<SocketAddr, usize> = addrs.iter().enumerate().map(|(i, a)| (*a, i)).collect();
-    let mut buf = vec![0u8; MAX_DATAGRAM + 1];
-    // Datagrams from our peers' addresses counted so far (the driver's expectation is cumulative too).
-    let mut from_peers: u64 = 0;
-    while let Some(cmd) = cmds.recv().await {
-        let reply = match cmd {
-            Cmd::Step { k, window_end } => {
-                crate::sim::begin_step(&mut node, k);
-                let mut counts: BTreeMap<usize, u64> = BTreeMap::new();
-                while let Some(tx) = node.poll_transmit(window_end) {
-                    match socket.send_to(&tx.bytes, addrs[tx.to]).await {
-                        Ok(_) => *counts.entry(tx.to).or_default() += 1,
-                        Err(e) => tracing::warn!(node = node.id(), "send_to failed: {e}"),
-                    }
-                }
-                Reply::Sent {
-                    counts: counts.into_iter().collect(),
-                }
-            }
-            Cmd::Collect { k, expect } => {
-                let deadline = Instant::now() + recv_timeout;
-                let mut timed_out = 0;
-                while from_peers < expect {
-                    match tokio::time::timeout_at(deadline, recv(&socket, &mut buf, &index_of)).await {
-                        Ok(Ok((len, from))) => {
-                            if from.is_some() {
-                                from_peers += 1;
-                            }
-                            node.handle_datagram(from, &buf[..len]);
-                        }
-                        Ok(Err(e)) => tracing::warn!(node = node.id(), "recv_from failed: {e}"),
-                        Err(_) => {
-                            timed_out = expect - from_peers;
-                            tracing::warn!(
-                                node = node.id(),
-                                step = k,
-                                "{} did not arrive within {recv_timeout:?}",
-                                crate::scenario::count(timed_out as usize, "datagram")
-                            );
-                            from_peers = expect;
-                        }
-                    }
-                }
-                // Foreign datagrams that are already queued are read too, so they are counted.
-                while let Ok((len, from)) = socket.try_recv_from(&mut buf) {
-                    let from = index_of.get(&from).copied();
-                    if from.is_some() {
-                        from_peers += 1;
-                    }
-                    node.handle_datagram(from, &buf[..len]);
-                }
-                let estimate = node.handle_deadline(k);
-                Reply::Closed {
-                    estimate,
-                    timed_out,
-                    rows: node.take_trace(),
-                    imu: (node.id(), node.take_imu()),
-                }
-            }
-            Cmd::Finish => {
-                let _ = replies.send(Reply::Report(Box::new(node.report()))).await;
-                return;
-            }
-        };
-        if replies.send(reply).await.is_err() {
-            return;
+    /// In-neighbours (node indices, sorted): one frame each per window.
+    ins: Vec<usize>,
+    /// Out-neighbours (node indices).
+    outs: Vec<usize>,
+    /// Parts received, and parts announced, from each in-neighbour in the open window.
+    got: Vec<u16>,
+    want: Vec<Option<u16>>,
+    /// Frames of windows not open yet, by window.
+    later: BTreeMap<u64, Vec<(usize, Frame)>>,
+}
+
+impl Slot {
+    fn complete(&self) -> bool {
+        self.got.iter().zip(&self.want).all(|(g, w)| w.is_some_and(|w| *g >= w))
+    }
+
+    /// A frame of the open window from in-neighbour `src`: its datagrams go to the node.
+    fn take(&mut self, src: usize, f: Frame) {
+        for d in &f.datagrams {
+            self.node.handle_datagram(Some(src), d);
+        }
+        // A peer that is not an in-neighbour closes nothing.
+        if let Ok(pos) = self.ins.binary_search(&src) {
+            self.got[pos] = self.got[pos].saturating_add(1);
+            self.want[pos] = Some(f.parts);
         }
     }
+
+    /// Bytes read from `from` while window `k` is open.
+    fn receive(&mut self, from: Option<usize>, bytes: &[u8], k: u64) {
+        let Some(src) = from else {
+            // Not from a peer's socket: the node counts it.
+            let _ = self.node.handle_datagram(None, bytes);
+            return;
+        };
+        match Frame::decode(&Bytes::copy_from_slice(bytes)) {
+            Ok(f) if f.window == k => self.take(src, f),
+            Ok(f) if f.window > k => self.later.entry(f.window).or_default().push((src, f)),
+            // A window closed by a timeout: its datagrams arrive after their step, late.
+            Ok(f) => {
+                for d in &f.datagrams {
+                    self.node.handle_datagram(Some(src), d);
+                }
+            }
+            Err(_) => {
+                self.node.handle_datagram(None, bytes);
+            }
+        }
+    }
+
+    /// Open window `k`: nothing received yet but the frames that came early.
+    fn open(&mut self, k: u64) {
+        self.got.iter_mut().for_each(|g| *g = 0);
+        self.want.iter_mut().for_each(|w| *w = None);
+        for (src, f) in self.later.remove(&k).unwrap_or_default() {
+            self.take(src, f);
+        }
+    }
+
+    /// Close the open window without what did not come: the parts missing, counted as socket losses.
+    fn give_up(&mut self) -> u64 {
+        let mut missing = 0;
+        for (g, w) in self.got.iter_mut().zip(self.want.iter_mut()) {
+            let want = w.unwrap_or(g.saturating_add(1));
+            missing += u64::from(want.saturating_sub(*g));
+            *w = Some(*g);
+        }
+        missing
+    }
+}
+
+/// What a worker hands the observer after each step.
+struct StepOut {
+    step: u64,
+    estimates: Vec<StepEstimate>,
+    rows: Vec<TraceRow>,
+    imu: Vec<(u32, Vec<ImuRow>)>,
+}
+
+/// What a worker returns at the end.
+struct WorkerEnd {
+    reports: Vec<NodeReport>,
+    done: u64,
+    socket_losses: u64,
+}
+
+struct Shared {
+    addrs: Vec<SocketAddr>,
+    index_of: HashMap<SocketAddr, usize>,
+    steps: u64,
+    dt: f64,
+    deadline: f64,
+    recv_timeout: Duration,
+    sync: watch::Sender<Sync>,
+}
+
+async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedSender<StepOut>) -> WorkerEnd {
+    let mut buf = vec![0u8; MAX_FRAME + 1];
+    let mut sync = sh.sync.subscribe();
+    let mut socket_losses = 0;
+    let mut done = 0;
+    // Per out-link of a slot: the datagrams of this window.
+    let mut bundles: Vec<Vec<Bytes>> = Vec::new();
+    for k in 0..sh.steps {
+        let s = match sync.wait_for(|s| s.stop_at <= k || k <= s.slowest() + LEAD).await {
+            Ok(s) => s.clone(),
+            Err(_) => break,
+        };
+        if s.stop_at <= k {
+            break;
+        }
+        // The last window also flushes everything still queued, so late datagrams are counted as late.
+        let window_end = if k + 1 == sh.steps {
+            f64::INFINITY
+        } else {
+            k as f64 * sh.dt + sh.deadline
+        };
+        for slot in &mut slots {
+            begin_step(&mut slot.node, k);
+            bundles.resize_with(slot.outs.len(), Vec::new);
+            while let Some(tx) = slot.node.poll_transmit(window_end) {
+                if let Some(j) = slot.outs.iter().position(|&o| o == tx.to) {
+                    bundles[j].push(tx.bytes);
+                }
+            }
+            for (j, &to) in slot.outs.iter().enumerate() {
+                for f in Frame::pack(k, bundles[j].drain(..)) {
+                    if let Err(e) = slot.socket.send_to(&f, sh.addrs[to]).await {
+                        tracing::warn!(node = slot.node.id(), "send_to failed: {e}");
+                    }
+                }
+            }
+        }
+        for slot in &mut slots {
+            slot.open(k);
+        }
+        // Read every owned socket until each node has its in-neighbours' frames of window k.
+        let mut waited_since = Instant::now();
+        loop {
+            let mut progressed = false;
+            for slot in slots.iter_mut().filter(|s| !s.complete()) {
+                while let Ok((len, from)) = slot.socket.try_recv_from(&mut buf) {
+                    progressed = true;
+                    let from = sh.index_of.get(&from).copied();
+                    slot.receive(from, &buf[..len], k);
+                    if slot.complete() {
+                        break;
+                    }
+                }
+            }
+            let Some(slot) = slots.iter_mut().find(|s| !s.complete()) else {
+                break;
+            };
+            if progressed {
+                waited_since = Instant::now();
+            }
+            match tokio::time::timeout_at(waited_since + sh.recv_timeout, slot.socket.readable()).await {
+                Ok(Ok(())) => {}
+                Ok(Err(e)) => tracing::warn!(node = slot.node.id(), "socket not readable: {e}"),
+                Err(_) => {
+                    let missing: u64 = slots.iter_mut().filter(|s| !s.complete()).map(Slot::give_up).sum();
+                    tracing::warn!(
+                        step = k,
+                        "{} did not arrive within {:?}",
+                        crate::scenario::count(missing as usize, "frame"),
+                        sh.recv_timeout
+                    );
+                    socket_losses += missing;
+                }
+            }
+        }
+        let mut step = StepOut {
+            step: k,
+            estimates: Vec::with_capacity(slots.len()),
+            rows: Vec::new(),
+            imu: Vec::new(),
+        };
+        for slot in &mut slots {
+            step.estimates.extend(slot.node.handle_deadline(k));
+            step.rows.append(&mut slot.node.take_trace());
+            step.imu.push((slot.node.id(), slot.node.take_imu()));
+        }
+        if out.send(step).is_err() {
+            break;
+        }
+        done = k + 1;
+        sh.sync.send_modify(|s| s.next[w] = done);
+    }
+    WorkerEnd {
+        reports: slots.iter_mut().map(|s| s.node.report()).collect(),
+        done,
+        socket_losses,
+    }
+}
+
+/// Fuse each step once every worker has closed it, in step order, off the workers' path.
+async fn observe(
+    topo: Arc<Scenario>,
+    workers: usize,
+    mut trace: Option<TraceWriter>,
+    progress: Option<Progress>,
+    sync: watch::Sender<Sync>,
+    mut steps_in: mpsc::UnboundedReceiver<StepOut>,
+) -> (crate::observe::Observer, Option<TraceWriter>) {
+    let mut observer = observer_for(&topo, trace.is_some());
+    let steps = topo.sim().steps();
+    let mut pending: BTreeMap<u64, (usize, StepOut)> = BTreeMap::new();
+    let mut next = 0;
+    while let Some(s) = steps_in.recv().await {
+        let e = pending.entry(s.step).or_insert_with(|| {
+            (
+                0,
+                StepOut {
+                    step: s.step,
+                    estimates: Vec::new(),
+                    rows: Vec::new(),
+                    imu: Vec::new(),
+                },
+            )
+        });
+        e.0 += 1;
+        let StepOut {
+            mut estimates,
+            mut rows,
+            mut imu,
+            ..
+        } = s;
+        e.1.estimates.append(&mut estimates);
+        e.1.rows.append(&mut rows);
+        e.1.imu.append(&mut imu);
+        while pending
+            .first_key_value()
+            .is_some_and(|(k, (n, _))| *k == next && *n == workers)
+        {
+            let Some((_, (_, mut step))) = pending.pop_first() else {
+                break;
+            };
+            observer.push(step.estimates);
+            if let Some(t) = trace.as_mut() {
+                for (id, rows) in &step.imu {
+                    t.imu(*id, rows);
+                }
+                step.rows.sort_by_key(|r| (r.node, !r.networked));
+                t.rows(step.rows);
+                t.fused(observer.drain_rows());
+            }
+            next += 1;
+            sync.send_modify(|s| {
+                if let Some(o) = s.next.last_mut() {
+                    *o = next;
+                }
+            });
+            if let Some(p) = &progress {
+                p(next, steps);
+            }
+        }
+    }
+    observer.finish();
+    if let Some(t) = trace.as_mut() {
+        t.fused(observer.drain_rows());
+    }
+    (observer, trace)
 }
 
 pub(super) async fn run(
@@ -122,135 +317,95 @@ pub(super) async fn run(
     sockets: Vec<UdpSocket>,
     addrs: Vec<SocketAddr>,
     opts: &mut RunOptions,
-    stop: watch::Receiver<bool>,
+    mut stop: watch::Receiver<bool>,
 ) -> Result<RunResults, NetError> {
     let n = topo.nodes().len();
-    let addrs_arc = Arc::new(addrs.clone());
-    let (reply_tx, mut reply_rx) = mpsc::channel::<Reply>(n.max(1) * 2);
-    let mut cmd_txs = Vec::with_capacity(n);
-    let mut handles = Vec::with_capacity(n);
-    for (i, socket) in sockets.into_iter().enumerate() {
-        let (tx, rx) = mpsc::channel(2);
-        let node = Node::new(topo.clone(), i, opts.trace.is_some());
-        handles.push(tokio::spawn(virtual_task(
-            node,
-            socket,
-            addrs_arc.clone(),
-            opts.recv_timeout,
-            rx,
-            reply_tx.clone(),
-        )));
-        cmd_txs.push(tx);
-    }
-    drop(reply_tx);
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |p| p.get())
+        .clamp(1, n.max(1));
     let steps = topo.sim().steps();
-    let dt = topo.sim().dt();
-    let mut expected = vec![0u64; n];
-    let mut trace = opts.trace.take();
-    let mut observer = observer_for(&topo, trace.is_some());
+    let (sync, _) = watch::channel(Sync {
+        next: vec![0; workers + 1],
+        stop_at: u64::MAX,
+    });
+    let sh = Arc::new(Shared {
+        index_of: addrs.iter().enumerate().map(|(i, a)| (*a, i)).collect(),
+        addrs,
+        steps,
+        dt: topo.sim().dt(),
+        deadline: topo.sim().deadline_s,
+        recv_timeout: opts.recv_timeout,
+        sync: sync.clone(),
+    });
+    // A shutdown stops every worker after the same step: one past the furthest any has started.
+    let stopper = {
+        let sync = sync.clone();
+        tokio::spawn(async move {
+            if stop.wait_for(|s| *s).await.is_ok() {
+                sync.send_modify(|s| s.stop_at = s.next.iter().copied().max().unwrap_or(0) + 1);
+            }
+        })
+    };
+    let (out_tx, out_rx) = mpsc::unbounded_channel();
+    let record = opts.trace.is_some();
+    let observer = tokio::spawn(observe(
+        topo.clone(),
+        workers,
+        opts.trace.take(),
+        opts.progress.clone(),
+        sync.clone(),
+        out_rx,
+    ));
+    // Contiguous blocks: neighbours in a ring or a grid mostly share a worker.
+    let per = n.div_ceil(workers);
+    let mut sockets = sockets.into_iter();
+    let mut handles = Vec::with_capacity(workers);
+    for w in 0..workers {
+        let slots: Vec<Slot> = (w * per..((w + 1) * per).min(n))
+            .filter_map(|i| {
+                let socket = sockets.next()?;
+                let node = Node::new(topo.clone(), i, record);
+                let mut ins: Vec<usize> = topo.in_links(i).map(|l| l.from).collect();
+                ins.sort_unstable();
+                ins.dedup();
+                let outs: Vec<usize> = topo.out_links(i).map(|l| l.to).collect();
+                Some(Slot {
+                    got: vec![0; ins.len()],
+                    want: vec![None; ins.len()],
+                    node,
+                    socket,
+                    ins,
+                    outs,
+                    later: BTreeMap::new(),
+                })
+            })
+            .collect();
+        handles.push(tokio::spawn(worker(w, slots, sh.clone(), out_tx.clone())));
+    }
+    drop(out_tx);
+    let mut reports = Vec::with_capacity(n);
+    let mut done = u64::MAX;
     let mut socket_losses = 0;
-    let mut done = 0;
-    let mut interrupted = false;
-    for k in 0..steps {
-        if *stop.borrow() {
-            interrupted = true;
-            break;
-        }
-        // The last window also flushes everything still queued, so late datagrams are counted as late.
-        let window_end = if k + 1 == steps {
-            f64::INFINITY
-        } else {
-            k as f64 * dt + topo.sim().deadline_s
-        };
-        for (i, tx) in cmd_txs.iter().enumerate() {
-            tx.send(Cmd::Step { k, window_end })
-                .await
-                .map_err(|_| NetError::TaskLost(i))?;
-        }
-        for _ in 0..n {
-            match reply_rx.recv().await {
-                Some(Reply::Sent { counts, .. }) => {
-                    for (to, c) in counts {
-                        expected[to] += c;
-                    }
-                }
-                _ => return Err(NetError::NoReply),
-            }
-        }
-        for (i, tx) in cmd_txs.iter().enumerate() {
-            tx.send(Cmd::Collect { k, expect: expected[i] })
-                .await
-                .map_err(|_| NetError::TaskLost(i))?;
-        }
-        let mut estimates = Vec::new();
-        let mut step_rows = Vec::new();
-        for _ in 0..n {
-            match reply_rx.recv().await {
-                Some(Reply::Closed {
-                    estimate,
-                    timed_out,
-                    mut rows,
-                    imu,
-                }) => {
-                    socket_losses += timed_out;
-                    estimates.extend(estimate);
-                    step_rows.append(&mut rows);
-                    if let Some(t) = trace.as_mut() {
-                        t.imu(imu.0, &imu.1);
-                    }
-                }
-                _ => return Err(NetError::NoReply),
-            }
-        }
-        observer.push(estimates);
-        if let Some(t) = trace.as_mut() {
-            step_rows.sort_by_key(|r| (r.node, !r.networked));
-            t.rows(step_rows);
-            t.fused(observer.drain_rows());
-        }
-        done = k + 1;
-        if let Some(p) = &opts.progress {
-            p(done, steps);
-        }
+    for (w, h) in handles.into_iter().enumerate() {
+        let end = h.await.map_err(|_| NetError::WorkerLost(w))?;
+        reports.extend(end.reports);
+        done = done.min(end.done);
+        socket_losses += end.socket_losses;
     }
-    let reports = finish(&cmd_txs, &mut reply_rx, n).await?;
-    for h in handles {
-        let _ = h.await;
-    }
-    observer.finish();
-    if let Some(t) = trace.as_mut() {
-        t.fused(observer.drain_rows());
-    }
+    stopper.abort();
+    reports.sort_by_key(|r| r.index);
+    let (observer, trace) = observer.await.map_err(|_| NetError::NoReply)?;
+    let done = if n == 0 { 0 } else { done };
     Ok(RunResults {
         scenario: topo,
         clock: Clock::Virtual,
         reports,
         observer: Some(observer),
         steps_done: done,
-        interrupted,
+        interrupted: done < steps,
         wall_s: 0.0,
         socket_losses,
         trace,
         lmi: Vec::new(),
     })
-}
-
-async fn finish(
-    cmd_txs: &[mpsc::Sender<Cmd>],
-    reply_rx: &mut mpsc::Receiver<Reply>,
-    n: usize,
-) -> Result<Vec<NodeReport>, NetError> {
-    for (i, tx) in cmd_txs.iter().enumerate() {
-        tx.send(Cmd::Finish).await.map_err(|_| NetError::TaskLost(i))?;
-    }
-    let mut reports = Vec::with_capacity(n);
-    while reports.len() < n {
-        match reply_rx.recv().await {
-            Some(Reply::Report(r)) => reports.push(*r),
-            Some(_) => {}
-            None => return Err(NetError::NoReply),
-        }
-    }
-    reports.sort_by_key(|r| r.index);
-    Ok(reports)
 }

@@ -31,6 +31,8 @@ pub enum NetError {
     TaskLost(usize),
     #[error("a node task stopped before it replied")]
     NoReply,
+    #[error("lockstep worker {0} stopped unexpectedly")]
+    WorkerLost(usize),
     #[error(transparent)]
     Scenario(#[from] crate::scenario::ScenarioError),
 }

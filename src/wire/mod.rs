@@ -19,6 +19,9 @@
 use bytes::Bytes;
 use serde::{Deserialize, Serialize};
 
+mod frame;
+pub use frame::{Frame, MAX_FRAME};
+
 pub const MAGIC: u16 = 0x534E; // "SN"
 pub const VERSION: u8 = 1;
 /// Fits any MTU.
