@@ -14,7 +14,7 @@ use simnet::estimate::attitude::{from_euler, measurement};
 use simnet::estimate::bvp::End;
 use simnet::estimate::{consensus_update, kalman_update, Gaussian, MissingChannels, Observation, Source};
 use simnet::link::{FaultSchedule, Link, LinkConfig, LossModel};
-use simnet::model::{Attitude, Model, Pose};
+use simnet::model::{Attitude, Linear, Model, Pose};
 use simnet::net::{self, RunOptions};
 use simnet::scenario::{Overrides, Scenario};
 use simnet::sensor::{ImuInterval, ImuSample};
@@ -100,8 +100,136 @@ fn end_to_end(name: &str, duration: f64) -> (f64, f64, f64) {
     (node_steps / out.wall_s, datagrams as f64 / out.wall_s, out.wall_s)
 }
 
+/// A ring of `n` peers on a scalar linear model (estimation nearly free): what simnet's lockstep itself costs.
+fn scalar_ring(n: usize, steps: u64) -> Scenario {
+    let one = |v: f64| DMatrix::from_element(1, 1, v);
+    let model = Linear::new(one(0.9), one(1.0), one(0.1), one(0.5), DVector::zeros(1), one(1.0));
+    let mut b = Scenario::builder()
+        .name(&format!("scalar-ring{n}"))
+        .rate_hz(100.0)
+        .duration_s(steps as f64 / 100.0)
+        .burn_in_s(0.0)
+        .model(model);
+    for i in 0..n {
+        b = b.peer(i as u32);
+    }
+    b.ring().build().unwrap()
+}
+
+/// Seconds per step of a virtual-clock run over UDP.
+fn simnet_step(s: &Scenario) -> f64 {
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    let out = rt
+        .block_on(net::run(
+            Arc::new(s.clone()),
+            RunOptions::default(),
+            std::future::pending(),
+        ))
+        .unwrap();
+    assert!(!out.interrupted && out.socket_losses == 0);
+    out.wall_s / out.steps_done as f64
+}
+
+/// The anchor of the lockstep: simnet's traffic shape with nothing else — one socket per node, one 64 B datagram to
+/// each ring neighbour per step, a node moving on once both neighbours' datagrams of the step are in, one worker per
+/// core owning a block of nodes (as simnet's lockstep). Seconds per step.
+fn free_running_ring(n: usize, steps: u64) -> f64 {
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    rt.block_on(async move {
+        let mut sockets = Vec::with_capacity(n);
+        for _ in 0..n {
+            sockets.push(tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap());
+        }
+        let addrs: Arc<Vec<std::net::SocketAddr>> = Arc::new(sockets.iter().map(|s| s.local_addr().unwrap()).collect());
+        let workers = std::thread::available_parallelism().map_or(1, |p| p.get()).min(n);
+        let per = n.div_ceil(workers);
+        let start = Instant::now();
+        let mut handles = Vec::new();
+        let mut sockets = sockets.into_iter();
+        for w in 0..workers {
+            let mine: Vec<(usize, tokio::net::UdpSocket)> = (w * per..((w + 1) * per).min(n))
+                .map(|i| (i, sockets.next().unwrap()))
+                .collect();
+            let addrs = addrs.clone();
+            handles.push(tokio::spawn(async move {
+                // Datagrams received per node, by step modulo 64 (a ring keeps neighbours within a step).
+                let mut got = vec![[0u8; 64]; mine.len()];
+                let mut buf = [0u8; 2048];
+                for k in 0..steps {
+                    let mut payload = [0u8; 64];
+                    payload[..8].copy_from_slice(&k.to_le_bytes());
+                    for (i, s) in &mine {
+                        s.send_to(&payload, addrs[(i + 1) % n]).await.unwrap();
+                        s.send_to(&payload, addrs[(i + n - 1) % n]).await.unwrap();
+                    }
+                    let slot = (k % 64) as usize;
+                    loop {
+                        for (j, (_, s)) in mine.iter().enumerate() {
+                            while got[j][slot] < 2 {
+                                let Ok((len, _)) = s.try_recv_from(&mut buf) else { break };
+                                if len >= 8 {
+                                    let step = u64::from_le_bytes(buf[..8].try_into().unwrap());
+                                    got[j][(step % 64) as usize] += 1;
+                                }
+                            }
+                        }
+                        match got.iter().position(|g| g[slot] < 2) {
+                            Some(j) => mine[j].1.readable().await.unwrap(),
+                            None => break,
+                        }
+                    }
+                    got.iter_mut().for_each(|g| g[slot] = 0);
+                }
+            }));
+        }
+        for h in handles {
+            h.await.unwrap();
+        }
+        start.elapsed().as_secs_f64() / steps as f64
+    })
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Lockstep target: simnet's scalar ring step ≤ 1.25 × the free-running anchor of the same size, measured in
+/// alternation, medians of three.
+fn lockstep_ratios(only: Option<usize>) {
+    for (n, steps) in [(3usize, 3000u64), (100, 1000), (1000, 200)] {
+        if only.is_some_and(|o| o != n) {
+            continue;
+        }
+        let s = scalar_ring(n, steps);
+        let (mut ours, mut anchor) = (Vec::new(), Vec::new());
+        for _ in 0..3 {
+            anchor.push(free_running_ring(n, steps));
+            ours.push(simnet_step(&s));
+        }
+        let (o, a) = (median(ours), median(anchor));
+        println!(
+            "ratio lockstep_scalar_ring{n} = {:.2} (target ≤ 1.25)   simnet {:.1} µs/step, free-running anchor {:.1} µs/step",
+            o / a,
+            o * 1e6,
+            a * 1e6
+        );
+    }
+}
+
 fn main() {
-    // `cargo bench` passes `--bench`; nothing to filter.
+    // `cargo bench -- lockstep [N]` runs only the lockstep ratios (of the ring of N).
+    let args: Vec<String> = std::env::args().collect();
+    if let Some(i) = args.iter().position(|a| a == "lockstep") {
+        lockstep_ratios(args.get(i + 1).and_then(|n| n.parse().ok()));
+        return;
+    }
     let (pose, Q, obs, g) = pose_filter();
     let imu = ImuSample {
         accel: Vector3::new(0.1, -0.2, 9.8),
@@ -224,4 +352,5 @@ fn main() {
             100.0 * dg / raw
         );
     }
+    lockstep_ratios(None);
 }

@@ -24,7 +24,7 @@ use crate::node::{ImuRow, Node, NodeReport, StepEstimate, TraceRow};
 use crate::report::trace::TraceWriter;
 use crate::scenario::Scenario;
 use crate::sim::{begin_step, observer_for, Clock, Progress, RunResults};
-use crate::wire::{Frame, MAX_FRAME};
+use crate::wire::{Frame, FrameView, FrameWriter, MAX_FRAME};
 
 /// How many steps a worker may run ahead of the slowest worker and of the observer.
 pub const LEAD: u64 = 16;
@@ -65,14 +65,14 @@ impl Slot {
     }
 
     /// A frame of the open window from in-neighbour `src`: its datagrams go to the node.
-    fn take(&mut self, src: usize, f: Frame) {
-        for d in &f.datagrams {
+    fn take<'a>(&mut self, src: usize, parts: u16, datagrams: impl Iterator<Item = &'a [u8]>) {
+        for d in datagrams {
             self.node.handle_datagram(Some(src), d);
         }
         // A peer that is not an in-neighbour closes nothing.
         if let Ok(pos) = self.ins.binary_search(&src) {
             self.got[pos] = self.got[pos].saturating_add(1);
-            self.want[pos] = Some(f.parts);
+            self.want[pos] = Some(parts);
         }
     }
 
@@ -83,12 +83,12 @@ impl Slot {
             let _ = self.node.handle_datagram(None, bytes);
             return;
         };
-        match Frame::decode(&Bytes::copy_from_slice(bytes)) {
-            Ok(f) if f.window == k => self.take(src, f),
-            Ok(f) if f.window > k => self.later.entry(f.window).or_default().push((src, f)),
+        match FrameView::parse(bytes) {
+            Ok(f) if f.window == k => self.take(src, f.parts, f.datagrams()),
+            Ok(f) if f.window > k => self.later.entry(f.window).or_default().push((src, f.to_owned())),
             // A window closed by a timeout: its datagrams arrive after their step, late.
             Ok(f) => {
-                for d in &f.datagrams {
+                for d in f.datagrams() {
                     self.node.handle_datagram(Some(src), d);
                 }
             }
@@ -103,7 +103,7 @@ impl Slot {
         self.got.iter_mut().for_each(|g| *g = 0);
         self.want.iter_mut().for_each(|w| *w = None);
         for (src, f) in self.later.remove(&k).unwrap_or_default() {
-            self.take(src, f);
+            self.take(src, f.parts, f.datagrams.iter().map(|d| &d[..]));
         }
     }
 
@@ -149,8 +149,9 @@ async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::Unbo
     let mut sync = sh.sync.subscribe();
     let mut socket_losses = 0;
     let mut done = 0;
-    // Per out-link of a slot: the datagrams of this window.
+    // Per out-link of a slot: the datagrams of this window; the frames they go out in.
     let mut bundles: Vec<Vec<Bytes>> = Vec::new();
+    let mut writer = FrameWriter::default();
     for k in 0..sh.steps {
         let s = match sync.wait_for(|s| s.stop_at <= k || k <= s.slowest() + LEAD).await {
             Ok(s) => s.clone(),
@@ -174,8 +175,10 @@ async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::Unbo
                 }
             }
             for (j, &to) in slot.outs.iter().enumerate() {
-                for f in Frame::pack(k, bundles[j].drain(..)) {
-                    if let Err(e) = slot.socket.send_to(&f, sh.addrs[to]).await {
+                let parts = writer.pack(k, bundles[j].iter().map(|b| &b[..]));
+                bundles[j].clear();
+                for i in 0..parts {
+                    if let Err(e) = slot.socket.send_to(writer.part(i), sh.addrs[to]).await {
                         tracing::warn!(node = slot.node.id(), "send_to failed: {e}");
                     }
                 }

@@ -11,6 +11,8 @@ use crate::model::Model;
 pub struct Scorer {
     model: Arc<dyn Model>,
     angle_states: Vec<bool>,
+    /// The error rows ([`Model::error`] without building the layout each step).
+    layout: crate::model::FusionLayout,
     /// Steps before this one are the burn-in: tracked for divergence only.
     burn_in_steps: u64,
     /// A filter whose trace P exceeds this is marked diverged.
@@ -23,6 +25,7 @@ impl Scorer {
     pub fn new(model: Arc<dyn Model>, burn_in_steps: u64, divergence_trace: f64) -> Scorer {
         Scorer {
             angle_states: model.angle_states(),
+            layout: model.fusion(),
             model,
             burn_in_steps,
             divergence_trace,
@@ -44,7 +47,7 @@ impl Scorer {
         if tq > self.divergence_trace || tp > self.divergence_trace || !tq.is_finite() {
             m.mark_diverged();
         }
-        let error = self.model.error(u.truth, &u.post.x);
+        let error = self.layout.error(u.truth, &u.post.x);
         let v = nees(u.post, &self.model.aligned(u.truth, &u.post.x), &self.angle_states);
         m.record(u.step >= self.burn_in_steps, error, tp, tq, v, u.feasible);
         Score {

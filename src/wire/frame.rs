@@ -21,69 +21,20 @@ pub const MAX_FRAME: usize = 16 * 1024;
 const HEAD: usize = 2 + 1 + 8 + 2 + 2 + 2;
 const CRC: usize = 4;
 
-/// One part of one window's delivery on one link.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Frame {
-    /// The step whose window this is.
+/// A frame read in place: its datagrams are slices of the received bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FrameView<'a> {
     pub window: u64,
-    /// 0-based; a window's parts are `0..parts`.
     pub part: u16,
     pub parts: u16,
-    pub datagrams: Vec<Bytes>,
+    count: u16,
+    /// The datagrams with their length prefixes.
+    body: &'a [u8],
 }
 
-impl Frame {
-    /// The frames of one window: `datagrams` packed in order into as few parts as fit, at least one (the marker).
-    pub fn pack(window: u64, datagrams: impl IntoIterator<Item = Bytes>) -> Vec<Bytes> {
-        let mut parts: Vec<Vec<Bytes>> = vec![Vec::new()];
-        let mut size = HEAD + CRC;
-        for d in datagrams {
-            let need = 2 + d.len();
-            if size + need > MAX_FRAME && !parts.last().is_some_and(Vec::is_empty) {
-                parts.push(Vec::new());
-                size = HEAD + CRC;
-            }
-            size += need;
-            if let Some(p) = parts.last_mut() {
-                p.push(d);
-            }
-        }
-        let n = parts.len().min(u16::MAX as usize) as u16;
-        parts
-            .into_iter()
-            .enumerate()
-            .map(|(i, datagrams)| {
-                Frame {
-                    window,
-                    part: i as u16,
-                    parts: n,
-                    datagrams,
-                }
-                .encode()
-            })
-            .collect()
-    }
-
-    pub fn encode(&self) -> Bytes {
-        let body: usize = self.datagrams.iter().map(|d| 2 + d.len()).sum();
-        let mut b = BytesMut::with_capacity(HEAD + body + CRC);
-        b.put_u16_le(FRAME_MAGIC);
-        b.put_u8(FRAME_VERSION);
-        b.put_u64_le(self.window);
-        b.put_u16_le(self.part);
-        b.put_u16_le(self.parts);
-        b.put_u16_le(self.datagrams.len() as u16);
-        for d in &self.datagrams {
-            b.put_u16_le(d.len() as u16);
-            b.put_slice(d);
-        }
-        let crc = crc32fast::hash(&b);
-        b.put_u32_le(crc);
-        b.freeze()
-    }
-
-    /// Checked decode of untrusted bytes; the inner datagrams are not decoded (the node does that).
-    pub fn decode(bytes: &Bytes) -> Result<Frame, WireError> {
+impl<'a> FrameView<'a> {
+    /// Checked parse of untrusted bytes; the inner datagrams are not decoded (the node does that).
+    pub fn parse(bytes: &'a [u8]) -> Result<FrameView<'a>, WireError> {
         if bytes.len() > MAX_FRAME {
             return Err(WireError::TooLong(bytes.len()));
         }
@@ -108,29 +59,155 @@ impl Frame {
         if part >= parts {
             return Err(WireError::Invalid("frame part out of range"));
         }
-        let mut datagrams = Vec::with_capacity(count as usize);
-        let mut at = HEAD;
-        for _ in 0..count {
-            if at + 2 > body.len() {
-                return Err(WireError::Invalid("frame shorter than its count"));
-            }
-            let len = u16_at(at) as usize;
-            at += 2;
-            if len > MAX_DATAGRAM || at + len > body.len() {
-                return Err(WireError::Invalid("inner datagram overruns the frame"));
-            }
-            datagrams.push(bytes.slice(at..at + len));
-            at += len;
-        }
-        if at != body.len() {
-            return Err(WireError::Trailing(body.len() - at));
-        }
-        Ok(Frame {
+        let v = FrameView {
             window,
             part,
             parts,
-            datagrams,
+            count,
+            body: &body[HEAD..],
+        };
+        // Walk the datagrams once so that a view in hand is known to be whole.
+        let mut at = 0;
+        for _ in 0..count {
+            if at + 2 > v.body.len() {
+                return Err(WireError::Invalid("frame shorter than its count"));
+            }
+            let len = u16::from_le_bytes([v.body[at], v.body[at + 1]]) as usize;
+            at += 2;
+            if len > MAX_DATAGRAM || at + len > v.body.len() {
+                return Err(WireError::Invalid("inner datagram overruns the frame"));
+            }
+            at += len;
+        }
+        if at != v.body.len() {
+            return Err(WireError::Trailing(v.body.len() - at));
+        }
+        Ok(v)
+    }
+
+    /// The datagrams, in delivery order.
+    pub fn datagrams(&self) -> impl Iterator<Item = &'a [u8]> + 'a {
+        let body = self.body;
+        let mut at = 0;
+        (0..self.count).map(move |_| {
+            let len = u16::from_le_bytes([body[at], body[at + 1]]) as usize;
+            let d = &body[at + 2..at + 2 + len];
+            at += 2 + len;
+            d
         })
+    }
+
+    pub fn to_owned(&self) -> Frame {
+        Frame {
+            window: self.window,
+            part: self.part,
+            parts: self.parts,
+            datagrams: self.datagrams().map(Bytes::copy_from_slice).collect(),
+        }
+    }
+}
+
+/// Writes the frames of one window into a buffer it keeps, so that a sender allocates nothing per frame.
+#[derive(Debug, Default)]
+pub struct FrameWriter {
+    buf: Vec<u8>,
+    /// Each part's span in `buf`, checksum included.
+    spans: Vec<(usize, usize)>,
+}
+
+impl FrameWriter {
+    /// Write the frames of `window` carrying `datagrams` in order: as few parts as fit, at least one (the marker).
+    /// Returns how many; [`FrameWriter::part`] gives each until the next call.
+    pub fn pack<'d>(&mut self, window: u64, datagrams: impl IntoIterator<Item = &'d [u8]>) -> usize {
+        self.buf.clear();
+        self.spans.clear();
+        let mut start = self.open(window);
+        let mut count = 0u16;
+        for d in datagrams {
+            if self.buf.len() - start + 2 + d.len() + CRC > MAX_FRAME && count > 0 {
+                self.close(start, count);
+                start = self.open(window);
+                count = 0;
+            }
+            self.buf.put_u16_le(d.len() as u16);
+            self.buf.put_slice(d);
+            count += 1;
+        }
+        self.close(start, count);
+        let parts = self.spans.len() as u16;
+        for (i, &(s, e)) in self.spans.iter().enumerate() {
+            self.buf[s + 11..s + 13].copy_from_slice(&(i as u16).to_le_bytes());
+            self.buf[s + 13..s + 15].copy_from_slice(&parts.to_le_bytes());
+            let crc = crc32fast::hash(&self.buf[s..e - CRC]);
+            self.buf[e - CRC..e].copy_from_slice(&crc.to_le_bytes());
+        }
+        self.spans.len()
+    }
+
+    /// Part `i` of the last [`FrameWriter::pack`].
+    pub fn part(&self, i: usize) -> &[u8] {
+        let (s, e) = self.spans[i];
+        &self.buf[s..e]
+    }
+
+    fn open(&mut self, window: u64) -> usize {
+        let start = self.buf.len();
+        self.buf.put_u16_le(FRAME_MAGIC);
+        self.buf.put_u8(FRAME_VERSION);
+        self.buf.put_u64_le(window);
+        // Part, parts and count are filled in once known.
+        self.buf.put_bytes(0, 6);
+        start
+    }
+
+    fn close(&mut self, start: usize, count: u16) {
+        self.buf[start + 15..start + 17].copy_from_slice(&count.to_le_bytes());
+        self.buf.put_bytes(0, CRC);
+        self.spans.push((start, self.buf.len()));
+    }
+}
+
+/// One part of one window's delivery on one link.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Frame {
+    /// The step whose window this is.
+    pub window: u64,
+    /// 0-based; a window's parts are `0..parts`.
+    pub part: u16,
+    pub parts: u16,
+    pub datagrams: Vec<Bytes>,
+}
+
+impl Frame {
+    /// The frames of one window: `datagrams` packed in order into as few parts as fit, at least one (the marker).
+    pub fn pack(window: u64, datagrams: impl IntoIterator<Item = Bytes>) -> Vec<Bytes> {
+        let datagrams: Vec<Bytes> = datagrams.into_iter().collect();
+        let mut w = FrameWriter::default();
+        let n = w.pack(window, datagrams.iter().map(|d| &d[..]));
+        (0..n).map(|i| Bytes::copy_from_slice(w.part(i))).collect()
+    }
+
+    pub fn encode(&self) -> Bytes {
+        let body: usize = self.datagrams.iter().map(|d| 2 + d.len()).sum();
+        let mut b = BytesMut::with_capacity(HEAD + body + CRC);
+        b.put_u16_le(FRAME_MAGIC);
+        b.put_u8(FRAME_VERSION);
+        b.put_u64_le(self.window);
+        b.put_u16_le(self.part);
+        b.put_u16_le(self.parts);
+        b.put_u16_le(self.datagrams.len() as u16);
+        for d in &self.datagrams {
+            b.put_u16_le(d.len() as u16);
+            b.put_slice(d);
+        }
+        let crc = crc32fast::hash(&b);
+        b.put_u32_le(crc);
+        b.freeze()
+    }
+
+    /// Checked decode of untrusted bytes ([`FrameView::parse`]).
+    pub fn decode(bytes: &[u8]) -> Result<Frame, WireError> {
+        FrameView::parse(bytes).map(|v| v.to_owned())
     }
 }
 
@@ -165,6 +242,14 @@ mod tests {
         assert_eq!(back.into_iter().flat_map(|f| f.datagrams).collect::<Vec<_>>(), many);
         // Every single bit flip of a small frame is caught; so are short, long and inconsistent frames.
         let one = Frame::pack(3, [d(1, 20), d(2, 30)]).remove(0);
+        // Packed and encoded frames are the same bytes, and decode back to what went in.
+        let f = Frame::decode(&one).unwrap();
+        assert_eq!(
+            (f.encode(), f.datagrams.clone()),
+            (one.clone(), vec![d(1, 20), d(2, 30)])
+        );
+        let v = FrameView::parse(&one).unwrap();
+        assert_eq!(v.datagrams().collect::<Vec<_>>(), vec![&[1u8; 20][..], &[2u8; 30][..]]);
         for bit in 0..one.len() * 8 {
             let mut b = one.to_vec();
             b[bit / 8] ^= 1 << (bit % 8);

@@ -20,7 +20,7 @@ use bytes::Bytes;
 use serde::{Deserialize, Serialize};
 
 mod frame;
-pub use frame::{Frame, MAX_FRAME};
+pub use frame::{Frame, FrameView, FrameWriter, MAX_FRAME};
 
 pub const MAGIC: u16 = 0x534E; // "SN"
 pub const VERSION: u8 = 1;
