@@ -103,7 +103,7 @@ impl HostOutput {
             links_out: self.report.links_out.iter().map(|(to, c)| (id_of(*to), *c)).collect(),
             rx: topo
                 .in_links(index)
-                .map(|l| (id_of(l.from), self.report.rx[l.from]))
+                .map(|l| (id_of(l.from), self.report.rx.get(l.from)))
                 .collect(),
             fusion: topo.model().get().fusion(),
         });

@@ -3,7 +3,7 @@
 
 use crate::imu_csv::ImuRow;
 use crate::link::LinkCounters;
-use crate::observe::metrics::{FilterMetrics, RxCounters};
+use crate::observe::metrics::{FilterMetrics, RxBySource};
 use crate::observe::TraceRow;
 use crate::scenario::Role;
 
@@ -46,7 +46,7 @@ pub struct NodeReport {
     /// Outgoing links (sender-side counters).
     pub links_out: Vec<(usize, LinkCounters)>,
     /// Per-source receive counters, indexed by node index.
-    pub rx: Vec<RxCounters>,
+    pub rx: RxBySource,
     pub counters: NodeCounters,
     pub trace: Vec<TraceRow>,
     /// The IMU samples with the true pose, when traces are recorded (pose model, sensing nodes).

@@ -4,7 +4,7 @@
 use std::collections::BTreeMap;
 
 use crate::model::Measurement;
-use crate::observe::metrics::RxCounters;
+use crate::observe::metrics::RxBySource;
 
 /// Most early measurements a node holds.
 pub(super) const EARLY_CAP: usize = 256;
@@ -31,18 +31,19 @@ pub(super) struct Inbox {
     /// (step, source, rows, values) of measurements for later steps.
     early: Vec<(u64, usize, u64, Vec<f64>)>,
     /// Receive counters, by source node index.
-    pub rx: Vec<RxCounters>,
+    pub rx: RxBySource,
 }
 
 impl Inbox {
-    pub fn new(nodes: usize, m: usize) -> Inbox {
+    /// `sources`: the in-neighbours, whose counters exist from the start.
+    pub fn new(sources: impl IntoIterator<Item = usize>, m: usize) -> Inbox {
         Inbox {
             m,
             open: None,
             own: None,
             from: BTreeMap::new(),
             early: Vec::new(),
-            rx: vec![RxCounters::default(); nodes],
+            rx: RxBySource::for_sources(sources),
         }
     }
 
@@ -63,7 +64,7 @@ impl Inbox {
             } else if step > k {
                 self.early.push((step, src, rows, values));
             } else {
-                self.rx[src].late += 1;
+                self.rx.get_mut(src).late += 1;
             }
         }
     }
@@ -84,7 +85,7 @@ impl Inbox {
                 Received::Held
             }
             _ => {
-                self.rx[src].late += 1;
+                self.rx.get_mut(src).late += 1;
                 Received::Late
             }
         }
@@ -94,9 +95,9 @@ impl Inbox {
         let m = self.m;
         let entry = self.from.entry(src).or_insert_with(|| Measurement::empty(m));
         if entry.merge(rows, values) {
-            self.rx[src].delivered += 1;
+            self.rx.get_mut(src).delivered += 1;
         } else {
-            self.rx[src].duplicates += 1;
+            self.rx.get_mut(src).duplicates += 1;
         }
     }
 
@@ -109,9 +110,9 @@ impl Inbox {
         self.open = None;
         let from = std::mem::take(&mut self.from);
         for &j in expected {
-            self.rx[j].steps += 1;
+            self.rx.get_mut(j).steps += 1;
             if !from.contains_key(&j) {
-                self.rx[j].missing_steps += 1;
+                self.rx.get_mut(j).missing_steps += 1;
             }
         }
         Some(from)

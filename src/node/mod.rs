@@ -35,7 +35,6 @@ mod filters;
 mod inbox;
 mod session;
 
-use std::collections::HashMap;
 use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector};
@@ -61,7 +60,6 @@ pub struct Node {
     id: u32,
     role: Role,
     topo: Arc<Scenario>,
-    id_to_index: HashMap<u32, usize>,
     model: Arc<dyn Model>,
     truth: Truth,
     sensor: Option<Sensor>,
@@ -126,14 +124,11 @@ impl Node {
             .filter(|_| cfg.role.senses())
             .map(|r| Arc::new(r.data.at_steps(dt, topo.sim().steps())));
         let truth = model.truth(topo.sim().trajectory, dt, seed, recorded);
-        let id_to_index = topo.nodes().iter().enumerate().map(|(i, n)| (n.id, i)).collect();
-        let n = topo.nodes().len();
         let obs_dim = obs.dim();
         let mut node = Node {
             index,
             id: cfg.id,
             role: cfg.role,
-            id_to_index,
             truth,
             sensor,
             Q,
@@ -149,7 +144,7 @@ impl Node {
             seq: 0,
             up: true,
             restarting: false,
-            inbox: Inbox::new(n, obs_dim),
+            inbox: Inbox::new(topo.in_links(index).map(|l| l.from), obs_dim),
             counters: NodeCounters::default(),
             scorer: Scorer::new(model.clone(), topo.sim().burn_in_steps(), topo.sim().divergence_trace),
             probes: Probes {
@@ -339,7 +334,7 @@ impl Node {
                 // A peer's datagram damaged on the way: the link layer's corruption, caught.
                 self.counters.corrupted += 1;
                 if let Some(f) = from {
-                    self.inbox.rx[f].corrupted += 1;
+                    self.inbox.rx.get_mut(f).corrupted += 1;
                 }
                 return None;
             }
@@ -349,7 +344,7 @@ impl Node {
                 return None;
             }
         };
-        let Some(&src) = self.id_to_index.get(&dg.header.src) else {
+        let Some(src) = self.topo.index_of(dg.header.src) else {
             self.counters.malformed += 1;
             return None;
         };
@@ -372,7 +367,7 @@ impl Node {
             return Some(arrival);
         };
         if !self.up {
-            self.inbox.rx[src].while_down += 1;
+            self.inbox.rx.get_mut(src).while_down += 1;
             return None;
         }
         let m = self.obs.dim();

@@ -15,36 +15,30 @@ pub(super) struct Session {
 impl Session {
     pub fn new(topo: &Scenario, index: usize) -> Session {
         let mut neighbours: Vec<usize> = topo
-            .links()
-            .iter()
-            .filter_map(|l| {
-                if l.from == index {
-                    Some(l.to)
-                } else if l.to == index {
-                    Some(l.from)
-                } else {
-                    None
-                }
-            })
+            .out_links(index)
+            .map(|l| l.to)
+            .chain(topo.in_links(index).map(|l| l.from))
             .collect();
         neighbours.sort_unstable();
         neighbours.dedup();
         Session {
+            heard: vec![false; neighbours.len()],
             neighbours,
-            heard: vec![false; topo.nodes().len()],
             max_peer_step: None,
         }
     }
 
     /// A datagram from `src` (a neighbour) that reported `step`, if any.
     pub fn heard_from(&mut self, src: usize, step: Option<u64>) {
-        self.heard[src] = true;
+        if let Ok(i) = self.neighbours.binary_search(&src) {
+            self.heard[i] = true;
+        }
         if let Some(p) = step {
             self.max_peer_step = Some(self.max_peer_step.map_or(p, |m| m.max(p)));
         }
     }
 
     pub fn heard_all(&self) -> bool {
-        self.neighbours.iter().all(|&j| self.heard[j])
+        self.heard.iter().all(|h| *h)
     }
 }

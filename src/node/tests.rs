@@ -20,7 +20,7 @@ fn pair_in_memory() {
     }
     for n in &mut nodes {
         let r = n.report();
-        assert_eq!(r.rx[1 - r.index].delivered, 500);
+        assert_eq!(r.rx.get(1 - r.index).delivered, 500);
         let s = r.networked.unwrap().summary(true);
         assert!(s.mean_error.unwrap() < 0.2, "{s:?}");
         assert!(!s.diverged);

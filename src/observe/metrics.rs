@@ -138,3 +138,44 @@ pub struct RxCounters {
     #[serde(default)]
     pub steps: u64,
 }
+
+/// Receive counters by source node index, held only for the sources heard from or expected (a node's memory grows
+/// with its neighbours, not with the network).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RxBySource {
+    /// Sorted by source.
+    by: Vec<(usize, RxCounters)>,
+}
+
+impl RxBySource {
+    /// Counters kept for these sources from the start (zero until something arrives).
+    pub fn for_sources(sources: impl IntoIterator<Item = usize>) -> RxBySource {
+        let mut by: Vec<(usize, RxCounters)> = sources.into_iter().map(|s| (s, RxCounters::default())).collect();
+        by.sort_unstable_by_key(|(s, _)| *s);
+        by.dedup_by_key(|(s, _)| *s);
+        RxBySource { by }
+    }
+
+    /// The counters of `src` (zero if nothing came from it).
+    pub fn get(&self, src: usize) -> RxCounters {
+        self.by
+            .binary_search_by_key(&src, |(s, _)| *s)
+            .map_or_else(|_| RxCounters::default(), |i| self.by[i].1)
+    }
+
+    pub fn get_mut(&mut self, src: usize) -> &mut RxCounters {
+        let i = match self.by.binary_search_by_key(&src, |(s, _)| *s) {
+            Ok(i) => i,
+            Err(i) => {
+                self.by.insert(i, (src, RxCounters::default()));
+                i
+            }
+        };
+        &mut self.by[i].1
+    }
+
+    /// (source, counters), by source.
+    pub fn iter(&self) -> impl Iterator<Item = (usize, &RxCounters)> {
+        self.by.iter().map(|(s, c)| (*s, c))
+    }
+}

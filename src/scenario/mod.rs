@@ -170,6 +170,11 @@ pub struct Scenario {
     consensus: ConsensusConfig,
     nodes: Vec<NodeConfig>,
     links: Vec<DirectedLink>,
+    /// Indices into `links` of each node's incoming and outgoing links.
+    ins: Vec<Vec<usize>>,
+    outs: Vec<Vec<usize>>,
+    /// Node index by file id.
+    by_id: std::collections::HashMap<u32, usize>,
     faults: FaultSchedule,
     /// The overrides applied since the file was read (the last value of each wins).
     applied: Overrides,
@@ -216,14 +221,14 @@ impl Scenario {
 impl Scenario {
     /// Index of the node whose file id is `id`.
     pub fn index_of(&self, id: u32) -> Option<usize> {
-        self.nodes.iter().position(|n| n.id == id)
+        self.by_id.get(&id).copied()
     }
     /// Directed links into node `i`.
     pub fn in_links(&self, i: usize) -> impl Iterator<Item = &DirectedLink> {
-        self.links.iter().filter(move |l| l.to == i)
+        self.ins.get(i).into_iter().flatten().map(|&li| &self.links[li])
     }
     pub fn out_links(&self, i: usize) -> impl Iterator<Item = &DirectedLink> {
-        self.links.iter().filter(move |l| l.from == i)
+        self.outs.get(i).into_iter().flatten().map(|&li| &self.links[li])
     }
 }
 

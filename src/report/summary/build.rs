@@ -104,7 +104,7 @@ impl Summary {
                 let rx = reports
                     .iter()
                     .find(|x| x.index == *to)
-                    .map(|x| x.rx[r.index])
+                    .map(|x| x.rx.get(r.index))
                     .unwrap_or_default();
                 links.push(LinkSummary::join(r.id, topo.nodes()[*to].id, tx, &rx));
             }

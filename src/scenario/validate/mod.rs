@@ -120,6 +120,8 @@ impl Checks {
         // Links: [link] defaults, then one or two directed links per [[edge]].
         let default_link = self.link("link", raw.link.clone().unwrap_or_default(), &LinkConfig::default());
         let mut links: Vec<DirectedLink> = Vec::new();
+        // (from, to) of every link so far: the checks below stay linear in the links.
+        let mut linked: std::collections::HashSet<(usize, usize)> = Default::default();
         for (e, edge) in raw.edge.iter().enumerate() {
             let key = format!("edge[{e}]");
             if edge.nodes.len() != 2 {
@@ -146,7 +148,7 @@ impl Checks {
             };
             let cfg = self.link(&key, over, &default_link);
             let mut add = |v: &mut Checks, from: usize, to: usize| {
-                if links.iter().any(|l| l.from == from && l.to == to) {
+                if !linked.insert((from, to)) {
                     v.bad(
                         format!("{key}.nodes"),
                         format!("link {} -> {} is given twice", nodes[from].id, nodes[to].id),
@@ -162,16 +164,21 @@ impl Checks {
         }
 
         // Roles must make sense on the graph.
+        let (mut ins, mut outs) = (vec![Vec::new(); n], vec![Vec::new(); n]);
+        for (li, l) in links.iter().enumerate() {
+            ins[l.to].push(li);
+            outs[l.from].push(li);
+        }
         for (i, node) in nodes.iter().enumerate() {
             let key = format!("node[{i}].role");
-            if node.role == Role::Estimator && !links.iter().any(|l| l.to == i) {
+            if node.role == Role::Estimator && ins[i].is_empty() {
                 self.bad(key, "an estimator with no incoming edge never receives a measurement");
-            } else if node.role == Role::Sensor && !links.iter().any(|l| l.from == i) {
+            } else if node.role == Role::Sensor && outs[i].is_empty() {
                 self.bad(key, "a sensor with no outgoing edge sends to nobody");
             }
         }
 
-        let consensus = self.consensus(raw.consensus.unwrap_or_default(), &nodes, &links);
+        let consensus = self.consensus(raw.consensus.unwrap_or_default(), &nodes, &linked);
         let faults = self.faults(&raw.fault, &ids, n);
 
         if sim.split_channels && model.get().observation().channels() < 2 {
@@ -180,6 +187,7 @@ impl Checks {
                 "only the pose and attitude models have separate channels",
             );
         }
+        let by_id = nodes.iter().enumerate().map(|(i, nd)| (nd.id, i)).collect();
         Some(Scenario {
             name,
             description,
@@ -191,6 +199,9 @@ impl Checks {
             raw: kept,
             nodes,
             links,
+            ins,
+            outs,
+            by_id,
             faults,
         })
     }
@@ -269,7 +280,12 @@ impl Checks {
         }
     }
 
-    fn consensus(&mut self, c: RawConsensus, nodes: &[NodeConfig], links: &[DirectedLink]) -> ConsensusConfig {
+    fn consensus(
+        &mut self,
+        c: RawConsensus,
+        nodes: &[NodeConfig],
+        linked: &std::collections::HashSet<(usize, usize)>,
+    ) -> ConsensusConfig {
         let n = nodes.len();
         let beta0 = self.prob("consensus.beta0", c.beta0, 0.0);
         if c.matrix.is_some() && (c.self_weight.is_some() || c.neighbor.is_some()) {
@@ -294,7 +310,7 @@ impl Checks {
                                     format!("consensus.matrix[{i}][{j}]"),
                                     format!("weights must be ≥ 0, got {b}"),
                                 );
-                            } else if b > 0.0 && i != j && !links.iter().any(|l| l.from == j && l.to == i) {
+                            } else if b > 0.0 && i != j && !linked.contains(&(j, i)) {
                                 self.bad(
                                     format!("consensus.matrix[{i}][{j}]"),
                                     format!(
@@ -321,7 +337,7 @@ impl Checks {
                                     } else {
                                         0.0
                                     }
-                                } else if links.iter().any(|l| l.from == j && l.to == i) && nodes[j].role.senses() {
+                                } else if nodes[j].role.senses() && linked.contains(&(j, i)) {
                                     // An estimator without a sensor of its own gives its sources the whole weight.
                                     if nodes[i].role == Role::Estimator && c.neighbor.is_none() {
                                         1.0
