@@ -125,8 +125,8 @@ pub(super) async fn run(
     drop(est_tx);
     let mut trace = opts.trace.take();
     let mut observer = observer_for(&topo, trace.is_some());
-    // Steps are fused (and their rows written) in order once every task is well past them: the tasks share one
-    // wall clock, so a step this far behind the newest has all its estimates.
+    // Steps are fused (and their rows written) in order, each once every task has handed it in, or else once the
+    // tasks are well past it: they share one wall clock, so a step this far behind the newest has all it will get.
     let lag = (2.0 * topo.sim().rate_hz).ceil().max(100.0) as usize;
     let mut by_step: BTreeMap<u64, Vec<StepOut>> = BTreeMap::new();
     let close = |outs: Vec<StepOut>, observer: &mut Observer, trace: &mut Option<TraceWriter>| {
@@ -163,7 +163,11 @@ pub(super) async fn run(
             continue;
         }
         by_step.entry(o.step).or_default().push(o);
-        while by_step.len() > lag {
+        // A step is fused as soon as every task has handed it in; one the lag has passed, without the stragglers.
+        while by_step
+            .first_key_value()
+            .is_some_and(|(_, outs)| outs.len() == n || by_step.len() > lag)
+        {
             let Some((step, outs)) = by_step.pop_first() else { break };
             fused_up_to = Some(step);
             close(outs, &mut observer, &mut trace);
