@@ -20,7 +20,8 @@ pub struct RunResults {
     /// Wall-clock seconds the run took, where its driver measured them (0 for [`super::Sim`], which reads no
     /// clock).
     pub wall_s: f64,
-    /// Datagrams the link layer delivered that never came out of a socket in time (virtual clock over sockets).
+    /// Frames of the virtual clock over sockets that never came out of a socket in time (each carries what one link
+    /// delivered in one step).
     pub socket_losses: u64,
     /// The recorder the run was given, handed back with every row given to it.
     pub trace: Option<TraceWriter>,

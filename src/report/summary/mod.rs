@@ -85,6 +85,7 @@ pub struct Summary {
     pub burn_in_steps: u64,
     pub interrupted: bool,
     pub wall_s: f64,
+    /// Frames of the virtual clock lost in the socket layer (each carries one step's datagrams on one link).
     pub socket_losses: u64,
     pub nodes: Vec<NodeSummary>,
     pub links: Vec<LinkSummary>,

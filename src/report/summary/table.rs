@@ -125,8 +125,8 @@ impl Summary {
         if self.socket_losses > 0 {
             writeln!(
                 w,
-                "note: {} delivered by the link layer lost in the socket layer",
-                crate::scenario::count(self.socket_losses as usize, "datagram")
+                "note: {} of the virtual clock lost in the socket layer (each carries one step's datagrams on one link)",
+                crate::scenario::count(self.socket_losses as usize, "frame")
             )?;
         }
         Ok(())
