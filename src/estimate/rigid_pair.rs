@@ -3,10 +3,10 @@
 //! velocities, driven by their accelerometers, whose observation is the known body-frame separation rotated into the
 //! global frame, z = [R d; ‖d‖] = [p₂ − p₁; ‖p₂ − p₁‖], with the Jacobian of the norm.
 
-use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, SVector, Vector3, Vector4};
+use nalgebra::{Matrix3, Matrix4, SMatrix, SVector, Vector3, Vector4};
 
 use super::attitude::{rotation, transition};
-use super::{cholesky, symmetrize, EstimateError};
+use super::EstimateError;
 use crate::geom::GRAVITY;
 
 /// Gravity in the global frame (z up).
@@ -162,35 +162,43 @@ impl SeparationEkf {
             });
         }
         let u = delta / n;
-        let z = DVector::from_vec(vec![d[0], d[1], d[2], d_body.norm()]);
-        let h = DVector::from_vec(vec![delta[0], delta[1], delta[2], n]);
-        // H: ∂(p₂ − p₁)/∂x and ∂‖p₂ − p₁‖/∂x = [−uᵀ, 0, uᵀ, 0].
-        let mut H = DMatrix::zeros(4, 12);
+        let z = Vector4::new(d[0], d[1], d[2], d_body.norm());
+        let h = Vector4::new(delta[0], delta[1], delta[2], n);
+        // H: ∂(p₂ − p₁)/∂x and ∂‖p₂ − p₁‖/∂x = [−uᵀ, 0, uᵀ, 0]. Static sizes: no allocation per update.
+        let mut H = SMatrix::<f64, 4, 12>::zeros();
         for k in 0..3 {
             H[(k, k)] = -1.0;
             H[(k, 6 + k)] = 1.0;
             H[(3, k)] = -u[k];
             H[(3, 6 + k)] = u[k];
         }
-        let mut R = DMatrix::zeros(4, 4);
-        for k in 0..3 {
-            R[(k, k)] = self.vector_var;
+        let R = Matrix4::from_diagonal(&Vector4::new(
+            self.vector_var,
+            self.vector_var,
+            self.vector_var,
+            self.norm_var,
+        ));
+        let P = &self.P;
+        let S = H * P * H.transpose() + R;
+        const WHAT: &str = "separation innovation covariance";
+        if S.iter().any(|v| !v.is_finite()) {
+            return Err(EstimateError::NonFinite { what: WHAT });
         }
-        R[(3, 3)] = self.norm_var;
-        let P = DMatrix::from_column_slice(12, 12, self.P.as_slice());
-        let S = &H * &P * H.transpose() + &R;
-        let K = cholesky(&S, "separation innovation covariance")?
-            .solve(&(&H * &P))
-            .transpose();
-        let dx = &K * (z - h);
+        let chol = nalgebra::Cholesky::new(S).ok_or(EstimateError::NotPositiveDefinite { what: WHAT })?;
+        let K = chol.solve(&(H * P)).transpose();
+        let dx = K * (z - h);
         // Joseph form keeps P symmetric positive definite with the nearly redundant norm row.
-        let IKH = DMatrix::identity(12, 12) - &K * &H;
-        let mut Pn = &IKH * &P * IKH.transpose() + &K * &R * K.transpose();
-        symmetrize(&mut Pn);
+        let IKH = SMatrix::<f64, 12, 12>::identity() - K * H;
+        let mut Pn = IKH * P * IKH.transpose() + K * R * K.transpose();
         for i in 0..12 {
-            self.x[i] += dx[i];
+            for j in (i + 1)..12 {
+                let a = 0.5 * (Pn[(i, j)] + Pn[(j, i)]);
+                Pn[(i, j)] = a;
+                Pn[(j, i)] = a;
+            }
         }
-        self.P.copy_from_slice(Pn.as_slice());
+        self.x += dx;
+        self.P = Pn;
         if self.x.iter().any(|v| !v.is_finite()) {
             return Err(EstimateError::NonFinite {
                 what: "rigid-pair state",
