@@ -42,6 +42,8 @@ pub struct HostOutput {
     pub steps_done: u64,
     pub interrupted: bool,
     pub wall_s: f64,
+    /// How far the steps run on this host's clock fell behind their schedule.
+    pub schedule: crate::report::summary::Schedule,
 }
 
 /// A `--peer ID=HOST:PORT` that names no neighbour.
@@ -108,6 +110,7 @@ impl HostOutput {
             fusion: topo.model().get().fusion(),
         });
         s.links.clear();
+        s.schedule = Some(self.schedule);
         s
     }
 }
@@ -207,7 +210,7 @@ pub async fn run_node(
     let mut next_hello = Instant::now();
     let first_step = loop {
         if *stop.borrow() {
-            return Ok(finish(node, Vec::new(), 0, true, started));
+            return Ok(finish(node, Vec::new(), 0, true, started, Default::default()));
         }
         if let Some(k) = node.max_peer_step() {
             tracing::info!(step = k + 1, "network already running: joining");
@@ -250,6 +253,7 @@ pub async fn run_node(
     let mut done = 0;
     let mut next_hello = Instant::now();
     let mut interrupted = false;
+    let mut schedule = crate::report::summary::Schedule::default();
     while k < steps {
         // A neighbour is ahead: run the steps in between at once and continue from its step.
         if let Some(ahead) = node.max_peer_step().filter(|&m| m > k) {
@@ -274,6 +278,10 @@ pub async fn run_node(
             _ = tokio::time::sleep_until(start) => {}
             _ = stop.changed() => { interrupted = true; break; }
         }
+        schedule.record(
+            Instant::now().saturating_duration_since(start).as_secs_f64(),
+            dt.as_secs_f64(),
+        );
         crate::sim::begin_step(&mut node, k);
         let close = start + deadline;
         let mut offsets: Vec<f64> = Vec::new();
@@ -339,7 +347,7 @@ pub async fn run_node(
             break;
         }
     }
-    Ok(finish(node, estimates, done, interrupted, started))
+    Ok(finish(node, estimates, done, interrupted, started, schedule))
 }
 
 fn finish(
@@ -348,6 +356,7 @@ fn finish(
     done: u64,
     interrupted: bool,
     started: std::time::Instant,
+    schedule: crate::report::summary::Schedule,
 ) -> HostOutput {
     HostOutput {
         report: node.report(),
@@ -355,5 +364,6 @@ fn finish(
         steps_done: done,
         interrupted,
         wall_s: started.elapsed().as_secs_f64(),
+        schedule,
     }
 }

@@ -410,5 +410,6 @@ pub(super) async fn run(
         socket_losses,
         trace,
         lmi: Vec::new(),
+        schedule: None,
     })
 }

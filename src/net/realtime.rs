@@ -13,6 +13,7 @@ use tokio::time::Instant;
 use super::{recv, NetError, RunOptions};
 use crate::node::{ImuRow, Node, NodeReport, StepEstimate, TraceRow};
 use crate::observe::fusion::Observer;
+use crate::report::summary::Schedule;
 use crate::report::trace::TraceWriter;
 use crate::scenario::Scenario;
 use crate::sim::{observer_for, Clock, Progress, RunResults};
@@ -32,6 +33,7 @@ async fn realtime_task(
     mut node: Node,
     socket: UdpSocket,
     addrs: Arc<Vec<SocketAddr>>,
+    index_of: Arc<HashMap<SocketAddr, usize>>,
     t0: Instant,
     steps: u64,
     dt: f64,
@@ -39,8 +41,8 @@ async fn realtime_task(
     mut stop: watch::Receiver<bool>,
     estimates: mpsc::UnboundedSender<StepOut>,
     progress: Option<Progress>,
-) -> (NodeReport, u64) {
-    let index_of: HashMap<SocketAddr, usize> = addrs.iter().enumerate().map(|(i, a)| (*a, i)).collect();
+) -> (NodeReport, u64, Schedule) {
+    let mut schedule = Schedule::default();
     let mut buf = vec![0u8; MAX_DATAGRAM + 1];
     let at = |s: f64| t0 + Duration::from_secs_f64(s.max(0.0));
     let mut done = 0;
@@ -50,6 +52,7 @@ async fn realtime_task(
             _ = tokio::time::sleep_until(at(t_k)) => {}
             _ = stop.changed() => break 'steps,
         }
+        schedule.record((Instant::now() - at(t_k)).as_secs_f64(), dt);
         crate::sim::begin_step(&mut node, k);
         let close = at(t_k + deadline);
         loop {
@@ -90,7 +93,7 @@ async fn realtime_task(
             }
         }
     }
-    (node.report(), done)
+    (node.report(), done, schedule)
 }
 
 pub(super) async fn run(
@@ -102,6 +105,7 @@ pub(super) async fn run(
 ) -> Result<RunResults, NetError> {
     let n = topo.nodes().len();
     let addrs_arc = Arc::new(addrs.clone());
+    let index_of: Arc<HashMap<SocketAddr, usize>> = Arc::new(addrs.iter().enumerate().map(|(i, a)| (*a, i)).collect());
     let steps = topo.sim().steps();
     let (est_tx, mut est_rx) = mpsc::unbounded_channel();
     // A short lead so that every task is waiting before step 0.
@@ -113,6 +117,7 @@ pub(super) async fn run(
             node,
             socket,
             addrs_arc.clone(),
+            index_of.clone(),
             t0,
             steps,
             topo.sim().dt(),
@@ -178,9 +183,11 @@ pub(super) async fn run(
     }
     let mut reports = Vec::with_capacity(n);
     let mut done = u64::MAX;
+    let mut schedule = Schedule::default();
     for (i, h) in handles.into_iter().enumerate() {
-        let (r, d) = h.await.map_err(|_| NetError::TaskLost(i))?;
+        let (r, d, s) = h.await.map_err(|_| NetError::TaskLost(i))?;
         done = done.min(d);
+        schedule.merge(&s);
         reports.push(r);
     }
     observer.finish();
@@ -199,5 +206,6 @@ pub(super) async fn run(
         socket_losses: 0,
         trace,
         lmi: Vec::new(),
+        schedule: Some(schedule),
     })
 }

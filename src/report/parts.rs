@@ -221,6 +221,10 @@ pub fn merge(
         fused: observer.summary(),
         settings: first.settings.clone(),
         part: None,
+        schedule: parts.iter().filter_map(|p| p.schedule).reduce(|mut a, b| {
+            a.merge(&b);
+            a
+        }),
     };
     Ok((merged, observer))
 }

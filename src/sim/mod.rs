@@ -183,6 +183,7 @@ impl Sim {
             socket_losses: 0,
             trace: self.trace,
             lmi,
+            schedule: None,
             clock: Clock::Virtual,
             scenario: self.scenario,
         }

@@ -5,7 +5,7 @@ use std::sync::Arc;
 use crate::node::{LmiStep, NodeReport};
 use crate::observe::fusion::Observer;
 pub use crate::report::summary::Clock;
-use crate::report::summary::Summary;
+use crate::report::summary::{Schedule, Summary};
 use crate::report::trace::TraceWriter;
 use crate::scenario::Scenario;
 
@@ -27,12 +27,14 @@ pub struct RunResults {
     pub trace: Option<TraceWriter>,
     /// Each node's per-step LMI terms, when they were asked for.
     pub lmi: Vec<Vec<LmiStep>>,
+    /// How far a wall-clock run fell behind its schedule (none on the virtual clock).
+    pub schedule: Option<Schedule>,
 }
 
 impl RunResults {
     /// The run's summary (`summary.json`, the table).
     pub fn summary(&self) -> Summary {
-        Summary::build(
+        let mut s = Summary::build(
             &self.scenario,
             self.clock,
             &self.reports,
@@ -41,6 +43,8 @@ impl RunResults {
             self.interrupted,
             self.wall_s,
             self.socket_losses,
-        )
+        );
+        s.schedule = self.schedule;
+        s
     }
 }

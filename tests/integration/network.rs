@@ -245,9 +245,15 @@ fn realtime_run_accounts_for_every_datagram() {
         clock: simnet::net::Clock::Realtime,
         ..Default::default()
     };
-    let (s, _) = common::run_with(common::topology("ring3", o), opts);
+    let (s, _) = common::run_with(common::topology("ring3", o.clone()), opts);
     assert!(!s.interrupted);
     assert_eq!(s.steps, 200);
+    // Every node-step's start is measured against the schedule; how late is the machine's, not asserted.
+    let sch = s.schedule.expect("a realtime summary reports its schedule");
+    assert_eq!(sch.steps, 3 * 200);
+    assert!(sch.late_steps <= sch.steps && sch.max_lag_ms >= 0.0 && sch.max_lag_ms.is_finite());
+    let (virt, _) = common::run_with(common::topology("ring3", o), RunOptions::default());
+    assert_eq!(virt.schedule, None, "the virtual clock has no schedule to fall behind");
     for l in &s.links {
         assert_eq!(l.sent, 200);
         assert_eq!(l.delivered + l.late + l.lost, l.sent, "{} → {}", l.from, l.to);

@@ -127,6 +127,7 @@ impl Summary {
             fused,
             settings: Some(Settings::of(topo)),
             part: None,
+            schedule: None,
         }
     }
 }

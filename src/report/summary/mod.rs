@@ -95,6 +95,35 @@ pub struct Summary {
     /// Set in the part a `simnet node` writes; absent from whole-run summaries.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub part: Option<PartInfo>,
+    /// How far the wall-clock runs fell behind their schedule; absent from virtual-clock runs.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub schedule: Option<Schedule>,
+}
+
+/// How far a wall-clock run fell behind its schedule: each node step's start against t₀ + k·Δt.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq)]
+pub struct Schedule {
+    /// The largest lag of a step's start behind its scheduled time, ms.
+    pub max_lag_ms: f64,
+    /// Node-steps that started more than one period late (their deadline had passed).
+    pub late_steps: u64,
+    /// Node-steps measured.
+    pub steps: u64,
+}
+
+impl Schedule {
+    /// One step that started `lag_s` behind its schedule, with period `dt`.
+    pub fn record(&mut self, lag_s: f64, dt: f64) {
+        self.max_lag_ms = self.max_lag_ms.max(lag_s * 1e3);
+        self.late_steps += u64::from(lag_s > dt);
+        self.steps += 1;
+    }
+
+    pub fn merge(&mut self, o: &Schedule) {
+        self.max_lag_ms = self.max_lag_ms.max(o.max_lag_ms);
+        self.late_steps = self.late_steps.saturating_add(o.late_steps);
+        self.steps = self.steps.saturating_add(o.steps);
+    }
 }
 
 impl Summary {

@@ -122,6 +122,13 @@ impl Summary {
                 e(fu.optimal_mean_trace_p)
             )?;
         }
+        if let Some(s) = &self.schedule {
+            writeln!(
+                w,
+                "schedule: steps started at most {:.1} ms late; {} of {} node-steps more than one period late",
+                s.max_lag_ms, s.late_steps, s.steps
+            )?;
+        }
         if self.socket_losses > 0 {
             writeln!(
                 w,
