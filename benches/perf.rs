@@ -223,9 +223,34 @@ fn lockstep_ratios(only: Option<usize>) {
     }
 }
 
+/// Loading and stepping linear in the network: a 100,000-node scalar ring (`SCALE_N` nodes) built (the file's
+/// validator) and run for 100 steps in memory.
+fn scale() {
+    let t = Instant::now();
+    let n: usize = std::env::var("SCALE_N")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(100_000);
+    let s = scalar_ring(n, 100);
+    let built = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let out = simnet::Sim::new(&s).unwrap().run().unwrap();
+    let ran = t.elapsed().as_secs_f64();
+    assert_eq!(out.steps_done, 100);
+    println!(
+        "scale: a {n}-node scalar ring builds and validates in {built:.2} s and runs 100 steps in memory in {ran:.2} s \
+         ({:.2} µs per node-step)",
+        ran / (n as f64 * 100.0) * 1e6
+    );
+}
+
 fn main() {
     // `cargo bench -- lockstep [N]` runs only the lockstep ratios (of the ring of N).
     let args: Vec<String> = std::env::args().collect();
+    if args.iter().any(|a| a == "scale") {
+        scale();
+        return;
+    }
     if let Some(i) = args.iter().position(|a| a == "lockstep") {
         lockstep_ratios(args.get(i + 1).and_then(|n| n.parse().ok()));
         return;
@@ -353,4 +378,5 @@ fn main() {
         );
     }
     lockstep_ratios(None);
+    scale();
 }

@@ -8,7 +8,7 @@ use crate::estimate::{
     guarded_update, kalman_update, EstimateError, Gaussian, LmiTerms, MissingChannels, Observation, Source,
 };
 use crate::model::{Measurement, Model};
-use crate::scenario::ConsensusConfig;
+use crate::scenario::{weight_in, ConsensusConfig};
 
 /// The filters of an estimating node.
 #[derive(Debug, Clone)]
@@ -23,8 +23,8 @@ pub(super) struct Inputs<'a> {
     pub obs: &'a Observation,
     pub policy: MissingChannels,
     pub consensus: &'a ConsensusConfig,
-    /// This node's row of β.
-    pub beta: &'a [f64],
+    /// This node's row of β: non-zero (source, weight), by source.
+    pub beta: &'a [(usize, f64)],
     pub index: usize,
     pub k: u64,
 }
@@ -48,9 +48,9 @@ pub(super) fn update(inp: &Inputs<'_>, priors: &Filters, used: &[(usize, &Measur
     let sources: Vec<Source<'_>> = used
         .iter()
         .zip(&z_net)
-        .filter(|((s, _), _)| beta[*s] > 0.0)
+        .filter(|((s, _), _)| weight_in(beta, *s) > 0.0)
         .map(|((s, p), z)| Source {
-            beta: beta[*s],
+            beta: weight_in(beta, *s),
             z,
             present: &p.present,
         })

@@ -387,7 +387,7 @@ impl Node {
         let filters = self.filters.as_mut()?;
         let topo = &self.topo;
         let c = topo.consensus();
-        let beta = &c.beta[self.index];
+        let beta = c.beta.row(self.index);
         let priors = filters.clone();
 
         // Networked: consensus over own + received, in source order (deterministic sums).

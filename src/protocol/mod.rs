@@ -167,7 +167,7 @@ pub fn u_row_sum_one(topo: &Scenario) -> f64 {
 
 /// The family's β at parameter u; rows of other nodes are kept from the topology.
 pub fn family(topo: &Scenario, u: f64, max_row_sum: f64) -> Vec<Vec<f64>> {
-    let mut beta = topo.consensus().beta.clone();
+    let mut beta = topo.consensus().beta.to_dense();
     for i in exchanging(topo) {
         let src = sources_of(topo, i);
         let d = src.len() as f64;
@@ -299,7 +299,7 @@ pub fn search(topo: &Scenario, cfg: &SearchConfig, tick: &(dyn Fn() + Sync)) -> 
     if umax <= 0.0 {
         return Err(ProtocolError::NoExchange(topo.name().to_string()));
     }
-    let reference = evaluate(topo, &topo.consensus().beta, f64::NAN, &cfg.seeds)?;
+    let reference = evaluate(topo, &topo.consensus().beta.to_dense(), f64::NAN, &cfg.seeds)?;
     tick();
     if reference.scored_nodes == 0 {
         return Err(ProtocolError::NoReference(topo.name().to_string()));
@@ -458,7 +458,7 @@ mod tests {
             let out = topology_text(text, "found", "found", &beta, &[]).unwrap();
             let t = Scenario::from_toml(&out, "test").unwrap();
             assert_eq!(t.name(), "found");
-            assert_eq!(t.consensus().beta, beta);
+            assert_eq!(t.consensus().beta.to_dense(), beta);
             assert!(t.consensus().lmi.enabled);
         }
     }

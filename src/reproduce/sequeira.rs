@@ -355,12 +355,12 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> Result<Outp
     let (mut max_z, mut min_eig) = (0.0_f64, f64::INFINITY);
     {
         let t = load("tri3-paper", first)?;
-        let logs = run_in_memory(&with_protocol(&t, &t.consensus().beta)?, first, true)?.lmi;
+        let logs = run_in_memory(&with_protocol(&t, &t.consensus().beta.to_dense())?, first, true)?.lmi;
         let (mut zs, mut es) = (Vec::new(), Vec::new());
         for (i, log) in logs.iter().enumerate() {
             let (mut z, mut e) = (Vec::new(), Vec::new());
             for st in log {
-                let w: Vec<f64> = st.sources.iter().map(|&j| t.consensus().beta[i][j]).collect();
+                let w: Vec<f64> = st.sources.iter().map(|&j| t.consensus().beta.get(i, j)).collect();
                 let c = st.terms.check(&w);
                 max_z = max_z.max(c.norm_z);
                 min_eig = min_eig.min(c.min_eig);

@@ -121,11 +121,68 @@ pub struct LmiConfig {
     pub enabled: bool,
 }
 
+/// The consensus weights β, sparse: row i holds the weights node i gives to the measurements it uses (row i =
+/// receiving node, by position in the file), so memory grows with the links, not with the square of the nodes.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Beta {
+    /// Per row, the non-zero (column, weight), by column.
+    rows: Vec<Vec<(usize, f64)>>,
+}
+
+impl Beta {
+    /// From non-zero (column, weight) per row; zeros are dropped, columns sorted.
+    pub fn from_rows(rows: Vec<Vec<(usize, f64)>>) -> Beta {
+        let rows = rows
+            .into_iter()
+            .map(|mut r| {
+                r.retain(|(_, b)| *b != 0.0);
+                r.sort_by_key(|(j, _)| *j);
+                r
+            })
+            .collect();
+        Beta { rows }
+    }
+
+    pub fn from_dense(m: &[Vec<f64>]) -> Beta {
+        Beta::from_rows(m.iter().map(|r| r.iter().copied().enumerate().collect()).collect())
+    }
+
+    /// The n×n matrix (for a protocol search over small networks).
+    pub fn to_dense(&self) -> Vec<Vec<f64>> {
+        let n = self.rows.len();
+        self.rows
+            .iter()
+            .map(|r| {
+                let mut d = vec![0.0; n];
+                for &(j, b) in r {
+                    d[j] = b;
+                }
+                d
+            })
+            .collect()
+    }
+
+    /// βᵢⱼ (0 where node i gives node j's measurement no weight).
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        self.rows.get(i).map_or(0.0, |r| weight_in(r, j))
+    }
+
+    /// Row i's non-zero (column, weight), by column.
+    pub fn row(&self, i: usize) -> &[(usize, f64)] {
+        self.rows.get(i).map_or(&[], Vec::as_slice)
+    }
+}
+
+/// The weight of column `j` in a sparse row (0 when absent).
+pub fn weight_in(row: &[(usize, f64)], j: usize) -> f64 {
+    row.binary_search_by_key(&j, |(c, _)| *c).map_or(0.0, |i| row[i].1)
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct ConsensusConfig {
     pub beta0: f64,
-    /// `beta[i][j]`: weight node i gives the measurement of node j (row i = receiving node, by position in the file).
-    pub beta: Vec<Vec<f64>>,
+    /// βᵢⱼ: the weight node i gives the measurement of node j.
+    pub beta: Beta,
     pub lmi: LmiConfig,
     /// λ of the per-channel inflation R̄ᵢᵢ = λ² Rᵢᵢ for a channel no source delivered.
     pub inflation: f64,
@@ -257,5 +314,34 @@ impl Scenario {
             ));
         }
         w
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The sparse weights are the dense matrix: round trip, lookups, rows without zeros.
+    #[test]
+    fn sparse_beta_is_the_dense_matrix() {
+        let dense = vec![vec![0.6, 0.2, 0.0], vec![0.0, 1.0, 0.0], vec![0.3, 0.0, 0.7]];
+        let b = Beta::from_dense(&dense);
+        assert_eq!(b.to_dense(), dense);
+        assert_eq!(
+            (b.get(0, 1), b.get(1, 0), b.get(2, 2), b.get(9, 9)),
+            (0.2, 0.0, 0.7, 0.0)
+        );
+        assert_eq!(b.row(2), &[(0, 0.3), (2, 0.7)]);
+        assert_eq!(
+            Beta::from_rows(vec![vec![(2, 0.5), (0, 0.0), (1, 0.25)]]).row(0),
+            &[(1, 0.25), (2, 0.5)]
+        );
+        // A built-in's weights: self and neighbours on every ring node, nothing else.
+        let ring = Scenario::resolve("ring3").unwrap();
+        for i in 0..3 {
+            let row = ring.consensus().beta.row(i);
+            assert_eq!(row.len(), 3);
+            assert!(row.iter().all(|(_, w)| *w > 0.0));
+        }
     }
 }

@@ -296,7 +296,7 @@ mod tests {
         assert_eq!((u.sim().duration_s, u.sim().seed, u.consensus().beta0), (12.0, 5, 0.0));
         assert_eq!(u.nodes()[1].sensor.accel_drift, [0.05; 3]);
         let v = u
-            .with_beta(&t.consensus().beta, false)
+            .with_beta(&t.consensus().beta.to_dense(), false)
             .unwrap()
             .with_guard(true)
             .unwrap();

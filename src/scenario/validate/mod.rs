@@ -8,7 +8,8 @@ use std::path::Path;
 
 use super::toml::*;
 use super::{
-    Checks, ConsensusConfig, DirectedLink, LmiConfig, NodeConfig, Overrides, Role, Scenario, ScenarioError, SimConfig,
+    Beta, Checks, ConsensusConfig, DirectedLink, LmiConfig, NodeConfig, Overrides, Role, Scenario, ScenarioError,
+    SimConfig,
 };
 use crate::link::LinkConfig;
 use crate::motion::Trajectory;
@@ -301,7 +302,7 @@ impl Checks {
                         "consensus.matrix",
                         format!("must be {n}×{n} (one row and column per [[node]])"),
                     );
-                    vec![vec![0.0; n]; n]
+                    Beta::default()
                 } else {
                     for (i, row) in m.iter().enumerate() {
                         for (j, &b) in row.iter().enumerate() {
@@ -321,40 +322,37 @@ impl Checks {
                             }
                         }
                     }
-                    m.clone()
+                    Beta::from_dense(m)
                 }
             }
             None => {
                 let s = self.non_negative("consensus.self", c.self_weight, 1.0);
                 let nb = self.non_negative("consensus.neighbor", c.neighbor, 0.0);
-                (0..n)
+                let mut rows: Vec<Vec<(usize, f64)>> = (0..n)
                     .map(|i| {
-                        (0..n)
-                            .map(|j| {
-                                if i == j {
-                                    if nodes[i].role.senses() {
-                                        s
-                                    } else {
-                                        0.0
-                                    }
-                                } else if nodes[j].role.senses() && linked.contains(&(j, i)) {
-                                    // An estimator without a sensor of its own gives its sources the whole weight.
-                                    if nodes[i].role == Role::Estimator && c.neighbor.is_none() {
-                                        1.0
-                                    } else {
-                                        nb
-                                    }
-                                } else {
-                                    0.0
-                                }
-                            })
-                            .collect()
+                        if nodes[i].role.senses() {
+                            vec![(i, s)]
+                        } else {
+                            Vec::new()
+                        }
                     })
-                    .collect()
+                    .collect();
+                for &(j, i) in linked {
+                    if nodes[j].role.senses() {
+                        // An estimator without a sensor of its own gives its sources the whole weight.
+                        let w = if nodes[i].role == Role::Estimator && c.neighbor.is_none() {
+                            1.0
+                        } else {
+                            nb
+                        };
+                        rows[i].push((j, w));
+                    }
+                }
+                Beta::from_rows(rows)
             }
         };
         for (i, node) in nodes.iter().enumerate() {
-            if node.role.estimates() && beta[i].iter().all(|&b| b == 0.0) && c.matrix.is_some() {
+            if node.role.estimates() && beta.row(i).is_empty() && c.matrix.is_some() {
                 self.bad(
                     format!("consensus.matrix[{i}]"),
                     format!("node {} estimates but gives every measurement weight 0", node.id),
