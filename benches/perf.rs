@@ -244,9 +244,85 @@ fn scale() {
     );
 }
 
+/// Peak resident memory of this process, KiB.
+fn peak_rss_kib() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse().ok())
+        })
+        .unwrap_or(0)
+}
+
+/// Steps each size of the scaling curve runs (about a second or two each).
+fn scaling_steps(n: usize) -> u64 {
+    (200_000 / n as u64).clamp(50, 3000)
+}
+
+/// One point of the scaling curve, in a process of its own (peak RSS is per process): prints "µs-per-step KiB".
+fn scaling_one(n: usize, mode: &str) {
+    let steps = scaling_steps(n);
+    let per_step = match mode {
+        "udp" => simnet_step(&scalar_ring(n, steps)),
+        "sim" => {
+            let s = scalar_ring(n, steps);
+            let t = Instant::now();
+            let out = simnet::Sim::new(&s).unwrap().run().unwrap();
+            t.elapsed().as_secs_f64() / out.steps_done as f64
+        }
+        _ => free_running_ring(n, steps),
+    };
+    println!("{} {}", per_step * 1e6, peak_rss_kib());
+}
+
+/// Time per step and peak RSS of scalar rings of 10 to 10,000 nodes: simnet over UDP (virtual clock), in memory
+/// (`Sim`), and the free-running anchor; the table, and `target/perf/scaling.svg`.
+fn scaling() {
+    let exe = std::env::current_exe().unwrap();
+    let mut series: Vec<(String, Vec<(f64, f64)>)> = ["simnet over UDP (virtual clock)", "simnet in memory (Sim)", "free-running UDP anchor"]
+        .iter()
+        .map(|s| (s.to_string(), Vec::new()))
+        .collect();
+    println!("| nodes | over UDP µs/step | peak RSS | in memory µs/step | peak RSS | anchor µs/step | peak RSS |");
+    println!("|---|---|---|---|---|---|---|");
+    for n in [10usize, 100, 1000, 10_000] {
+        let mut row = format!("| {n} |");
+        for (k, mode) in ["udp", "sim", "anchor"].iter().enumerate() {
+            let out = std::process::Command::new(&exe).args(["scaling-one", &n.to_string(), mode]).output().unwrap();
+            let text = String::from_utf8_lossy(&out.stdout);
+            let mut f = text.split_whitespace().map(|v| v.parse::<f64>().unwrap_or(f64::NAN));
+            let (us, kib) = (f.next().unwrap_or(f64::NAN), f.next().unwrap_or(f64::NAN));
+            row += &format!(" {us:.1} | {:.1} MB |", kib / 1024.0);
+            series[k].1.push(((n as f64).log10(), us / n as f64));
+        }
+        println!("{row}");
+    }
+    let svg = simnet::report::plot::lines(
+        &series,
+        "log₁₀ nodes in the ring",
+        "µs per node-step",
+        false,
+        "scalar rings: time per node-step against size (2 cores)",
+    )
+    .unwrap();
+    std::fs::create_dir_all("target/perf").unwrap();
+    std::fs::write("target/perf/scaling.svg", svg).unwrap();
+    println!("wrote target/perf/scaling.svg");
+}
+
 fn main() {
     // `cargo bench -- lockstep [N]` runs only the lockstep ratios (of the ring of N).
     let args: Vec<String> = std::env::args().collect();
+    if let Some(i) = args.iter().position(|a| a == "scaling-one") {
+        scaling_one(args[i + 1].parse().unwrap(), &args[i + 2]);
+        return;
+    }
+    if args.iter().any(|a| a == "scaling") {
+        scaling();
+        return;
+    }
     if args.iter().any(|a| a == "scale") {
         scale();
         return;
@@ -379,4 +455,5 @@ fn main() {
     }
     lockstep_ratios(None);
     scale();
+    scaling();
 }
