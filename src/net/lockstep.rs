@@ -239,6 +239,13 @@ async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::Unbo
         done = k + 1;
         sh.sync.send_modify(|s| s.next[w] = done);
     }
+    // What is still queued (foreign datagrams sent late in the run) is read, so that it is counted.
+    for slot in &mut slots {
+        while let Ok((len, from)) = slot.socket.try_recv_from(&mut buf) {
+            let from = sh.index_of.get(&from).copied();
+            slot.receive(from, &buf[..len], done);
+        }
+    }
     WorkerEnd {
         reports: slots.iter_mut().map(|s| s.node.report()).collect(),
         done,
