@@ -281,16 +281,23 @@ fn scaling_one(n: usize, mode: &str) {
 /// (`Sim`), and the free-running anchor; the table, and `target/perf/scaling.svg`.
 fn scaling() {
     let exe = std::env::current_exe().unwrap();
-    let mut series: Vec<(String, Vec<(f64, f64)>)> = ["simnet over UDP (virtual clock)", "simnet in memory (Sim)", "free-running UDP anchor"]
-        .iter()
-        .map(|s| (s.to_string(), Vec::new()))
-        .collect();
+    let mut series: Vec<(String, Vec<(f64, f64)>)> = [
+        "simnet over UDP (virtual clock)",
+        "simnet in memory (Sim)",
+        "free-running UDP anchor",
+    ]
+    .iter()
+    .map(|s| (s.to_string(), Vec::new()))
+    .collect();
     println!("| nodes | over UDP µs/step | peak RSS | in memory µs/step | peak RSS | anchor µs/step | peak RSS |");
     println!("|---|---|---|---|---|---|---|");
     for n in [10usize, 100, 1000, 10_000] {
         let mut row = format!("| {n} |");
         for (k, mode) in ["udp", "sim", "anchor"].iter().enumerate() {
-            let out = std::process::Command::new(&exe).args(["scaling-one", &n.to_string(), mode]).output().unwrap();
+            let out = std::process::Command::new(&exe)
+                .args(["scaling-one", &n.to_string(), mode])
+                .output()
+                .unwrap();
             let text = String::from_utf8_lossy(&out.stdout);
             let mut f = text.split_whitespace().map(|v| v.parse::<f64>().unwrap_or(f64::NAN));
             let (us, kib) = (f.next().unwrap_or(f64::NAN), f.next().unwrap_or(f64::NAN));
