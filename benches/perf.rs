@@ -244,6 +244,74 @@ fn scale() {
     );
 }
 
+/// CPU seconds this process has used, user and system (/proc/self/stat, in clock ticks of 1/100 s on Linux).
+fn cpu_s() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let after = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<f64> = after.split_whitespace().map(|v| v.parse().unwrap_or(0.0)).collect();
+    // Fields 14 and 15 of the file (utime, stime) are the 12th and 13th after the command name.
+    (f.get(11).unwrap_or(&0.0) + f.get(12).unwrap_or(&0.0)) / 100.0
+}
+
+/// The estimation targets: a pose ring's node-step against the sum of its kernels (two predictions, the consensus
+/// over the own and two neighbours' measurements, the independent Kalman update), in memory (throughput, `Sim`) and
+/// over UDP (CPU per node-step, both cores).
+fn estimation_ratios() {
+    let (pose, Q, obs, g) = pose_filter();
+    let imu = ImuSample {
+        accel: Vector3::new(0.1, -0.2, 9.8),
+        gyro: Vector3::new(0.01, 0.02, 0.6),
+    };
+    let interval = ImuInterval { start: imu, end: imu };
+    let z = DVector::from_vec(vec![0.11, 0.09, 0.1, 0.1, 0.1, 0.12]);
+    let present = vec![true; 6];
+    let predict = time_per_call(|| {
+        black_box(pose.predict(black_box(&g), Some(&interval), &Q, 0.01));
+    });
+    let update = time_per_call(|| {
+        black_box(kalman_update(black_box(&g), &obs, &z, &present, MissingChannels::Drop).unwrap());
+    });
+    let zs: Vec<DVector<f64>> = (0..3).map(|j| &z * (1.0 + 0.01 * j as f64)).collect();
+    let srcs: Vec<Source<'_>> = zs
+        .iter()
+        .enumerate()
+        .map(|(j, z)| Source {
+            beta: if j == 0 { 0.6 } else { 0.2 },
+            z,
+            present: &present,
+        })
+        .collect();
+    let consensus = time_per_call(|| {
+        black_box(consensus_update(black_box(&g), &obs, 0.01, &srcs, MissingChannels::Drop, 10, 1e3, 1e-5).unwrap());
+    });
+    let kernels = 2.0 * predict + update + consensus;
+    let s = Scenario::resolve("ring100")
+        .unwrap()
+        .with(&Overrides {
+            duration_s: Some(3.0),
+            ..Default::default()
+        })
+        .unwrap();
+    let node_steps = (s.sim().steps() * s.nodes().len() as u64) as f64;
+    let t = Instant::now();
+    simnet::Sim::new(&s).unwrap().run().unwrap();
+    let sim = t.elapsed().as_secs_f64() * 1e9 / node_steps;
+    println!(
+        "ratio sim_pose_ring100_throughput = {:.2} (target ≥ 0.8)   kernels {:.2} µs per node-step, Sim {:.2} µs",
+        kernels / sim,
+        kernels / 1e3,
+        sim / 1e3
+    );
+    let c0 = cpu_s();
+    simnet_step(&s);
+    let cpu = (cpu_s() - c0) * 1e9 / node_steps;
+    println!(
+        "ratio lockstep_pose_ring100_cpu = {:.2} (target ≤ 1.5)   CPU {:.2} µs per node-step over UDP",
+        cpu / kernels,
+        cpu / 1e3
+    );
+}
+
 /// Peak resident memory of this process, KiB.
 fn peak_rss_kib() -> u64 {
     std::fs::read_to_string("/proc/self/status")
@@ -328,6 +396,10 @@ fn main() {
     }
     if args.iter().any(|a| a == "scaling") {
         scaling();
+        return;
+    }
+    if args.iter().any(|a| a == "estimation") {
+        estimation_ratios();
         return;
     }
     if args.iter().any(|a| a == "scale") {
@@ -461,6 +533,7 @@ fn main() {
         );
     }
     lockstep_ratios(None);
+    estimation_ratios();
     scale();
     scaling();
 }
