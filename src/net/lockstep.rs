@@ -31,14 +31,14 @@ pub const LEAD: u64 = 16;
 
 /// Where every worker and the observer are: the steps each has closed, and the step at which a shutdown stops them.
 #[derive(Debug, Clone)]
-struct Sync {
+struct Pace {
     /// Steps closed by each worker, then by the observer (the last entry).
     next: Vec<u64>,
     /// No worker starts this step or a later one.
     stop_at: u64,
 }
 
-impl Sync {
+impl Pace {
     fn slowest(&self) -> u64 {
         self.next.iter().copied().min().unwrap_or(0)
     }
@@ -141,7 +141,7 @@ struct Shared {
     dt: f64,
     deadline: f64,
     recv_timeout: Duration,
-    sync: watch::Sender<Sync>,
+    sync: watch::Sender<Pace>,
 }
 
 async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedSender<StepOut>) -> WorkerEnd {
@@ -259,7 +259,7 @@ async fn observe(
     workers: usize,
     mut trace: Option<TraceWriter>,
     progress: Option<Progress>,
-    sync: watch::Sender<Sync>,
+    sync: watch::Sender<Pace>,
     mut steps_in: mpsc::UnboundedReceiver<StepOut>,
 ) -> (crate::observe::Observer, Option<TraceWriter>) {
     let mut observer = observer_for(&topo, trace.is_some());
@@ -334,7 +334,7 @@ pub(super) async fn run(
         .map_or(1, |p| p.get())
         .clamp(1, n.max(1));
     let steps = topo.sim().steps();
-    let (sync, _) = watch::channel(Sync {
+    let (sync, _) = watch::channel(Pace {
         next: vec![0; workers + 1],
         stop_at: u64::MAX,
     });
