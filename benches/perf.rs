@@ -42,15 +42,66 @@ fn time_per_call(mut f: impl FnMut()) -> f64 {
     samples[2]
 }
 
-fn pose_filter() -> (Pose, DMatrix<f64>, Observation, Gaussian) {
-    let model = Pose::default();
-    let Q = Pose::noise(0.01, 3.92e-3, 8.73e-5, 0.0, 0.0, 0.0);
-    let obs = model.observation();
-    let g = Gaussian {
-        x: DVector::from_element(9, 0.1),
-        P: DMatrix::identity(9, 9) * 0.01,
-    };
-    (model, Q, obs, g)
+/// One pose node's step as the kernels see it: the filter, an IMU interval, a measurement with every row.
+struct PoseStep {
+    pose: Pose,
+    Q: DMatrix<f64>,
+    obs: Observation,
+    g: Gaussian,
+    interval: ImuInterval,
+    z: DVector<f64>,
+    present: Vec<bool>,
+}
+
+impl PoseStep {
+    fn new() -> PoseStep {
+        let pose = Pose::default();
+        let imu = ImuSample {
+            accel: Vector3::new(0.1, -0.2, 9.8),
+            gyro: Vector3::new(0.01, 0.02, 0.6),
+        };
+        PoseStep {
+            Q: Pose::noise(0.01, 3.92e-3, 8.73e-5, 0.0, 0.0, 0.0),
+            obs: pose.observation(),
+            pose,
+            g: Gaussian {
+                x: DVector::from_element(9, 0.1),
+                P: DMatrix::identity(9, 9) * 0.01,
+            },
+            interval: ImuInterval { start: imu, end: imu },
+            z: DVector::from_vec(vec![0.11, 0.09, 0.1, 0.1, 0.1, 0.12]),
+            present: vec![true; 6],
+        }
+    }
+
+    /// Nanoseconds of one consensus update over the own measurement (β 0.6) and `neighbours` others sharing 0.4.
+    fn consensus_ns(&self, neighbours: usize) -> f64 {
+        let zs: Vec<DVector<f64>> = (0..=neighbours).map(|j| &self.z * (1.0 + 0.01 * j as f64)).collect();
+        let srcs: Vec<Source<'_>> = zs
+            .iter()
+            .enumerate()
+            .map(|(j, z)| Source {
+                beta: if j == 0 { 0.6 } else { 0.4 / neighbours as f64 },
+                z,
+                present: &self.present,
+            })
+            .collect();
+        time_per_call(|| {
+            black_box(
+                consensus_update(
+                    black_box(&self.g),
+                    &self.obs,
+                    0.01,
+                    &srcs,
+                    MissingChannels::Drop,
+                    10,
+                    1e3,
+                    1e-5,
+                )
+                .unwrap(),
+            );
+        })
+    }
 }
 
 fn raw_udp_pair(n: usize) -> f64 {
@@ -257,33 +308,14 @@ fn cpu_s() -> f64 {
 /// over the own and two neighbours' measurements, the independent Kalman update), in memory (throughput, `Sim`) and
 /// over UDP (CPU per node-step, both cores).
 fn estimation_ratios() {
-    let (pose, Q, obs, g) = pose_filter();
-    let imu = ImuSample {
-        accel: Vector3::new(0.1, -0.2, 9.8),
-        gyro: Vector3::new(0.01, 0.02, 0.6),
-    };
-    let interval = ImuInterval { start: imu, end: imu };
-    let z = DVector::from_vec(vec![0.11, 0.09, 0.1, 0.1, 0.1, 0.12]);
-    let present = vec![true; 6];
+    let p = PoseStep::new();
     let predict = time_per_call(|| {
-        black_box(pose.predict(black_box(&g), Some(&interval), &Q, 0.01));
+        black_box(p.pose.predict(black_box(&p.g), Some(&p.interval), &p.Q, 0.01));
     });
     let update = time_per_call(|| {
-        black_box(kalman_update(black_box(&g), &obs, &z, &present, MissingChannels::Drop).unwrap());
+        black_box(kalman_update(black_box(&p.g), &p.obs, &p.z, &p.present, MissingChannels::Drop).unwrap());
     });
-    let zs: Vec<DVector<f64>> = (0..3).map(|j| &z * (1.0 + 0.01 * j as f64)).collect();
-    let srcs: Vec<Source<'_>> = zs
-        .iter()
-        .enumerate()
-        .map(|(j, z)| Source {
-            beta: if j == 0 { 0.6 } else { 0.2 },
-            z,
-            present: &present,
-        })
-        .collect();
-    let consensus = time_per_call(|| {
-        black_box(consensus_update(black_box(&g), &obs, 0.01, &srcs, MissingChannels::Drop, 10, 1e3, 1e-5).unwrap());
-    });
+    let consensus = p.consensus_ns(2);
     let kernels = 2.0 * predict + update + consensus;
     let s = Scenario::resolve("ring100")
         .unwrap()
@@ -410,20 +442,15 @@ fn main() {
         lockstep_ratios(args.get(i + 1).and_then(|n| n.parse().ok()));
         return;
     }
-    let (pose, Q, obs, g) = pose_filter();
-    let imu = ImuSample {
-        accel: Vector3::new(0.1, -0.2, 9.8),
-        gyro: Vector3::new(0.01, 0.02, 0.6),
-    };
-    let interval = ImuInterval { start: imu, end: imu };
-    let z = DVector::from_vec(vec![0.11, 0.09, 0.1, 0.1, 0.1, 0.12]);
-    let present = vec![true; 6];
+    let step = PoseStep::new();
 
     println!("| benchmark | figure |");
     println!("|---|---|");
     let kf = time_per_call(|| {
-        let p = pose.predict(black_box(&g), Some(&interval), &Q, 0.01);
-        black_box(kalman_update(&p, &obs, &z, &present, MissingChannels::Drop).unwrap());
+        let p = step
+            .pose
+            .predict(black_box(&step.g), Some(&step.interval), &step.Q, 0.01);
+        black_box(kalman_update(&p, &step.obs, &step.z, &step.present, MissingChannels::Drop).unwrap());
     });
     println!(
         "| KF step, pose model (9 states, 6 measurements): predict + Joseph update | {:.2} µs |",
@@ -442,31 +469,17 @@ fn main() {
     let (y, _) = measurement(&q0, &g_nav, &h_nav);
     let att_obs = att.observation();
     let ekf = time_per_call(|| {
-        let p = att.predict(black_box(&ga), Some(&interval), &Rg, 0.01);
+        let p = att.predict(black_box(&ga), Some(&step.interval), &Rg, 0.01);
         let (obs, z) = att.linearize_at(&att_obs, &p, &[&y]);
         let (obs, z) = (obs.into_owned(), z[0].clone().into_owned());
-        black_box(kalman_update(&p, &obs, &z, &present, MissingChannels::Inflate(1e3)).unwrap());
+        black_box(kalman_update(&p, &obs, &z, &step.present, MissingChannels::Inflate(1e3)).unwrap());
     });
     println!(
         "| EKF step, attitude model (quaternion, accelerometer + magnetometer): predict + linearised Joseph update | {:.2} µs |",
         ekf / 1e3
     );
     for neighbours in [2usize, 4] {
-        let zs: Vec<DVector<f64>> = (0..=neighbours).map(|j| &z * (1.0 + 0.01 * j as f64)).collect();
-        let srcs: Vec<Source<'_>> = zs
-            .iter()
-            .enumerate()
-            .map(|(j, z)| Source {
-                beta: if j == 0 { 0.6 } else { 0.4 / neighbours as f64 },
-                z,
-                present: &present,
-            })
-            .collect();
-        let t = time_per_call(|| {
-            black_box(
-                consensus_update(black_box(&g), &obs, 0.01, &srcs, MissingChannels::Drop, 10, 1e3, 1e-5).unwrap(),
-            );
-        });
+        let t = step.consensus_ns(neighbours);
         println!(
             "| consensus update + LMI checks (17), (19), {neighbours} neighbours | {:.2} µs |",
             t / 1e3
@@ -492,7 +505,7 @@ fn main() {
     );
     let d = Datagram {
         header: Header::new(3, 17, 12345),
-        payload: Payload::measurement(0b111111, z.iter().copied().collect()),
+        payload: Payload::measurement(0b111111, step.z.iter().copied().collect()),
     };
     let bytes = d.encode().unwrap();
     let enc = time_per_call(|| {

@@ -4,11 +4,13 @@
 
 use nalgebra::DMatrix;
 
+use crate::checks::Checks;
 use crate::estimate::bounds::{
     critical_upper, lambda_min, lower_bound, markov_condition, spectral_radius, upper_bound, Critical, FixedPoint,
 };
 use crate::estimate::EstimateError;
 use crate::link::LossModel;
+use crate::model::matrix_rows;
 use crate::scenario::{Overrides, Role, Scenario, ScenarioError};
 use crate::sim::{Sim, SimError};
 
@@ -47,14 +49,23 @@ impl System {
         R: DMatrix<f64>,
         what: &str,
     ) -> Result<System, BoundsError> {
-        let text = format!(
-            "[model]\nkind = \"linear\"\na = {}\nc = {}\nq = {}\nr = {}\n[[node]]\nid = 0\n",
-            toml_matrix(&A),
-            toml_matrix(&C),
-            toml_matrix(&Q),
-            toml_matrix(&R)
-        );
-        Scenario::from_toml(&text, what)?;
+        let raw = crate::model::RawModel {
+            kind: Some("linear".into()),
+            a: Some(matrix_rows(&A)),
+            c: Some(matrix_rows(&C)),
+            q: Some(matrix_rows(&Q)),
+            r: Some(matrix_rows(&R)),
+            ..Default::default()
+        };
+        let mut ck = Checks::default();
+        crate::model::parse(raw, &mut ck);
+        if !ck.problems.is_empty() {
+            return Err(ScenarioError::Invalid {
+                file: what.to_string(),
+                problems: ck.problems,
+            }
+            .into());
+        }
         Ok(System { A, C, Q, R })
     }
 
@@ -203,17 +214,6 @@ pub fn csv(rows: &[SweepRow]) -> String {
     out
 }
 
-/// A matrix as a TOML array of rows, in round-trip form.
-pub fn toml_matrix(m: &DMatrix<f64>) -> String {
-    let rows: Vec<String> = (0..m.nrows())
-        .map(|i| {
-            let row: Vec<String> = (0..m.ncols()).map(|j| format!("{:?}", m[(i, j)])).collect();
-            format!("[{}]", row.join(", "))
-        })
-        .collect();
-    format!("[{}]", rows.join(", "))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -245,6 +245,11 @@ mod tests {
         let m = |v: &[f64], r: usize| DMatrix::from_row_slice(r, v.len() / r, v);
         let e = System::new(m(&[1.0], 1), m(&[1.0, 2.0], 1), m(&[1.0], 1), m(&[1.0], 1), "test").unwrap_err();
         assert!(e.to_string().contains("model.c"), "{e}");
+        let e = System::new(m(&[f64::NAN], 1), m(&[1.0], 1), m(&[1.0], 1), m(&[1.0], 1), "test").unwrap_err();
+        assert!(
+            e.to_string().contains("model.a") && e.to_string().contains("finite"),
+            "{e}"
+        );
         let ring = Scenario::resolve("ring3").unwrap();
         assert!(matches!(System::of(&ring), Err(BoundsError::NotLinear { .. })));
         assert!(matches!(measure(&ring, 0.5), Err(BoundsError::NoEstimator(_))));

@@ -29,7 +29,7 @@ use crate::sensor::{ImuInterval, ImuSample, Sensor, SensorProfile};
 pub use attitude::Attitude;
 pub use linear::Linear;
 pub use parse::RawModel;
-pub(crate) use parse::{parse, to_raw};
+pub(crate) use parse::{matrix_rows, parse, to_raw};
 pub use pose::Pose;
 pub use truth::{psd_sqrt, Truth, REBASE_LIMIT};
 

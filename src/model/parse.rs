@@ -159,12 +159,15 @@ pub(crate) fn parse(m: RawModel, ck: &mut Checks) -> ModelConfig {
     }
 }
 
+/// A matrix as the rows a `[model]` table writes.
+pub(crate) fn matrix_rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
+    (0..m.nrows()).map(|i| m.row(i).iter().copied().collect()).collect()
+}
+
 /// The `[model]` table that [`parse`] turns back into `m` (a scenario built in code goes through the same checks as
 /// a file).
 pub(crate) fn to_raw(m: &ModelConfig) -> RawModel {
-    let rows = |m: &DMatrix<f64>| -> Option<Vec<Vec<f64>>> {
-        Some((0..m.nrows()).map(|i| m.row(i).iter().copied().collect()).collect())
-    };
+    let rows = |m: &DMatrix<f64>| Some(matrix_rows(m));
     match m {
         ModelConfig::Pose(p) => RawModel {
             kind: Some("pose".into()),

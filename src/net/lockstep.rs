@@ -9,6 +9,7 @@
 //! bounds the socket buffers and the estimates in flight. A frame that does not arrive within the receive timeout
 //! (a real socket loss) is counted and the step closes without it.
 
+use std::collections::btree_map::Entry;
 use std::collections::{BTreeMap, HashMap};
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -50,7 +51,7 @@ struct Slot {
     socket: UdpSocket,
     /// In-neighbours (node indices, sorted): one frame each per window.
     ins: Vec<usize>,
-    /// Out-neighbours (node indices).
+    /// Out-neighbours (node indices, sorted).
     outs: Vec<usize>,
     /// Parts received, and parts announced, from each in-neighbour in the open window.
     got: Vec<u16>,
@@ -80,7 +81,7 @@ impl Slot {
     fn receive(&mut self, from: Option<usize>, bytes: &[u8], k: u64) {
         let Some(src) = from else {
             // Not from a peer's socket: the node counts it.
-            let _ = self.node.handle_datagram(None, bytes);
+            self.node.handle_datagram(None, bytes);
             return;
         };
         match FrameView::parse(bytes) {
@@ -153,11 +154,11 @@ async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::Unbo
     let mut bundles: Vec<Vec<Bytes>> = Vec::new();
     let mut writer = FrameWriter::default();
     for k in 0..sh.steps {
-        let s = match sync.wait_for(|s| s.stop_at <= k || k <= s.slowest() + LEAD).await {
-            Ok(s) => s.clone(),
+        let stop_at = match sync.wait_for(|s| s.stop_at <= k || k <= s.slowest() + LEAD).await {
+            Ok(s) => s.stop_at,
             Err(_) => break,
         };
-        if s.stop_at <= k {
+        if stop_at <= k {
             break;
         }
         // The last window also flushes everything still queued, so late datagrams are counted as late.
@@ -170,7 +171,7 @@ async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::Unbo
             begin_step(&mut slot.node, k);
             bundles.resize_with(slot.outs.len(), Vec::new);
             while let Some(tx) = slot.node.poll_transmit(window_end) {
-                if let Some(j) = slot.outs.iter().position(|&o| o == tx.to) {
+                if let Ok(j) = slot.outs.binary_search(&tx.to) {
                     bundles[j].push(tx.bytes);
                 }
             }
@@ -231,7 +232,10 @@ async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::Unbo
         for slot in &mut slots {
             step.estimates.extend(slot.node.handle_deadline(k));
             step.rows.append(&mut slot.node.take_trace());
-            step.imu.push((slot.node.id(), slot.node.take_imu()));
+            let imu = slot.node.take_imu();
+            if !imu.is_empty() {
+                step.imu.push((slot.node.id(), imu));
+            }
         }
         if out.send(step).is_err() {
             break;
@@ -266,28 +270,19 @@ async fn observe(
     let steps = topo.sim().steps();
     let mut pending: BTreeMap<u64, (usize, StepOut)> = BTreeMap::new();
     let mut next = 0;
-    while let Some(s) = steps_in.recv().await {
-        let e = pending.entry(s.step).or_insert_with(|| {
-            (
-                0,
-                StepOut {
-                    step: s.step,
-                    estimates: Vec::new(),
-                    rows: Vec::new(),
-                    imu: Vec::new(),
-                },
-            )
-        });
-        e.0 += 1;
-        let StepOut {
-            mut estimates,
-            mut rows,
-            mut imu,
-            ..
-        } = s;
-        e.1.estimates.append(&mut estimates);
-        e.1.rows.append(&mut rows);
-        e.1.imu.append(&mut imu);
+    while let Some(mut s) = steps_in.recv().await {
+        match pending.entry(s.step) {
+            Entry::Vacant(v) => {
+                v.insert((1, s));
+            }
+            Entry::Occupied(mut o) => {
+                let (n, acc) = o.get_mut();
+                *n += 1;
+                acc.estimates.append(&mut s.estimates);
+                acc.rows.append(&mut s.rows);
+                acc.imu.append(&mut s.imu);
+            }
+        }
         while pending
             .first_key_value()
             .is_some_and(|(k, (n, _))| *k == next && *n == workers)
@@ -378,7 +373,8 @@ pub(super) async fn run(
                 let mut ins: Vec<usize> = topo.in_links(i).map(|l| l.from).collect();
                 ins.sort_unstable();
                 ins.dedup();
-                let outs: Vec<usize> = topo.out_links(i).map(|l| l.to).collect();
+                let mut outs: Vec<usize> = topo.out_links(i).map(|l| l.to).collect();
+                outs.sort_unstable();
                 Some(Slot {
                     got: vec![0; ins.len()],
                     want: vec![None; ins.len()],

@@ -1,5 +1,6 @@
 //! The wall clock: every node task paces itself from a common start; delay and jitter are real waits. The driver
-//! fuses each step once every task is well past it.
+//! fuses each step as soon as every task has handed it in (or, for a straggler, once the others are well past it),
+//! and reports how far the tasks fell behind their schedule.
 
 use std::collections::{BTreeMap, HashMap};
 use std::net::SocketAddr;
@@ -52,7 +53,7 @@ async fn realtime_task(
             _ = tokio::time::sleep_until(at(t_k)) => {}
             _ = stop.changed() => break 'steps,
         }
-        schedule.record((Instant::now() - at(t_k)).as_secs_f64(), dt);
+        schedule.record(Instant::now().saturating_duration_since(at(t_k)).as_secs_f64(), dt);
         crate::sim::begin_step(&mut node, k);
         let close = at(t_k + deadline);
         loop {

@@ -430,8 +430,14 @@ impl Node {
         }
         let feasible = updated.feasible;
         let truth = self.truth.state(&*self.model);
-        let received: Vec<u32> = used.iter().map(|(s, _)| topo.nodes()[*s].id).collect();
-        let own_only: Vec<u32> = received.iter().copied().filter(|r| *r == self.id).collect();
+        // The sources' ids are for the probes (the trace's `received` column); none are built when there is no probe.
+        let (received, own_only): (Vec<u32>, Vec<u32>) = if self.probes.is_empty() {
+            Default::default()
+        } else {
+            let r: Vec<u32> = used.iter().map(|(s, _)| topo.nodes()[*s].id).collect();
+            let own = r.iter().copied().filter(|r| *r == self.id).collect();
+            (r, own)
+        };
         let t = k as f64 * topo.sim().dt();
         for (filter, post, prior, slot) in [
             (

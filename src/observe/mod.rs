@@ -47,7 +47,7 @@ pub struct Update<'a> {
     pub failed: bool,
     /// (17) and (19) held (always true for the independent filter).
     pub feasible: bool,
-    /// Ids of the sources whose measurements the update used.
+    /// Ids of the sources whose measurements the update used (left empty when the node has no probe).
     pub received: &'a [u32],
 }
 
@@ -83,6 +83,10 @@ pub struct Probes {
 }
 
 impl Probes {
+    pub fn is_empty(&self) -> bool {
+        self.trace.is_none() && self.imu.is_none() && self.lmi.is_none() && self.added.is_empty()
+    }
+
     pub fn each(&mut self) -> impl Iterator<Item = &mut dyn Probe> + '_ {
         let trace = self.trace.iter_mut().map(|p| p as &mut dyn Probe);
         let imu = self.imu.iter_mut().map(|p| p as &mut dyn Probe);

@@ -192,11 +192,9 @@ impl Sim {
 
 /// Step k of one node, after the events the crash timeline has for it (every driver steps a node this way).
 pub fn begin_step(node: &mut Node, k: u64) {
-    let scenario = node.scenario().clone();
-    for &e in scenario
-        .faults()
-        .node_events(node.index(), k, scenario.sim().dt(), node.is_up())
-    {
+    let s = node.scenario();
+    let events = s.faults().node_events(node.index(), k, s.sim().dt(), node.is_up());
+    for &e in events {
         node.handle_event(e);
     }
     node.handle_step(k);
