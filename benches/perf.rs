@@ -419,11 +419,108 @@ fn scaling() {
     println!("wrote target/perf/scaling.svg");
 }
 
+/// A ring of `n` peers of the pose model (the builder's default) at 100 Hz.
+fn pose_ring(n: usize, steps: u64) -> Scenario {
+    let mut b = Scenario::builder()
+        .name(&format!("pose-ring{n}"))
+        .rate_hz(100.0)
+        .duration_s(steps as f64 / 100.0)
+        .burn_in_s(0.0);
+    for i in 0..n {
+        b = b.peer(i as u32);
+    }
+    b.ring().build().unwrap()
+}
+
+/// One run in a process of its own (peak RSS is per process): a `model` ring ("scalar" or "pose") of `n` nodes for
+/// `secs` at 100 Hz on `clock` ("realtime" or "virtual"). Prints "largest-lag-ms late-node-steps node-steps KiB".
+fn clock_one(n: usize, model: &str, secs: f64, clock: &str) {
+    let steps = (secs * 100.0) as u64;
+    let s = if model == "pose" {
+        pose_ring(n, steps)
+    } else {
+        scalar_ring(n, steps)
+    };
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    let opts = RunOptions {
+        clock: if clock == "realtime" {
+            simnet::net::Clock::Realtime
+        } else {
+            simnet::net::Clock::Virtual
+        },
+        ..Default::default()
+    };
+    let out = rt
+        .block_on(net::run(Arc::new(s), opts, std::future::pending()))
+        .unwrap();
+    assert!(!out.interrupted);
+    let sch = out.schedule.unwrap_or_default();
+    println!("{} {} {} {}", sch.max_lag_ms, sch.late_steps, sch.steps, peak_rss_kib());
+}
+
+/// Realtime keeping up, and the memory of a 1000-node ring over 30 s on both clocks, each run in its own process.
+fn realtime() {
+    let exe = std::env::current_exe().unwrap();
+    let one = |n: usize, model: &str, secs: f64, clock: &str| -> Vec<f64> {
+        let out = std::process::Command::new(&exe)
+            .args(["clock-one", &n.to_string(), model, &secs.to_string(), clock])
+            .output()
+            .unwrap();
+        String::from_utf8_lossy(&out.stdout)
+            .split_whitespace()
+            .map(|v| v.parse().unwrap_or(f64::NAN))
+            .collect()
+    };
+    let f = one(1000, "scalar", 10.0, "realtime");
+    println!(
+        "target realtime_scalar_ring1000_late = {:.4} (target ≤ 0)   100 Hz for 10 s: largest lag {:.1} ms, {} of {} \
+         node-steps more than a period late",
+        f[1] / f[2],
+        f[0],
+        f[1],
+        f[2]
+    );
+    for clock in ["virtual", "realtime"] {
+        let f = one(1000, "scalar", 30.0, clock);
+        println!(
+            "target ring1000_30s_{clock}_rss_mb = {:.1} (target ≤ 40)",
+            f[3] / 1024.0
+        );
+    }
+    println!("| pose ring, 100 Hz, 5 s | largest lag | node-steps late | peak RSS |");
+    println!("|---|---|---|---|");
+    for n in [100usize, 200, 300, 400, 600] {
+        let f = one(n, "pose", 5.0, "realtime");
+        println!(
+            "| {n} | {:.1} ms | {:.1} % | {:.1} MB |",
+            f[0],
+            100.0 * f[1] / f[2],
+            f[3] / 1024.0
+        );
+    }
+}
+
 fn main() {
     // `cargo bench -- lockstep [N]` runs only the lockstep ratios (of the ring of N).
     let args: Vec<String> = std::env::args().collect();
     if let Some(i) = args.iter().position(|a| a == "scaling-one") {
         scaling_one(args[i + 1].parse().unwrap(), &args[i + 2]);
+        return;
+    }
+    if let Some(i) = args.iter().position(|a| a == "clock-one") {
+        clock_one(
+            args[i + 1].parse().unwrap(),
+            &args[i + 2],
+            args[i + 3].parse().unwrap(),
+            &args[i + 4],
+        );
+        return;
+    }
+    if args.iter().any(|a| a == "realtime") {
+        realtime();
         return;
     }
     if args.iter().any(|a| a == "scaling") {

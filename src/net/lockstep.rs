@@ -9,7 +9,6 @@
 //! bounds the socket buffers and the estimates in flight. A frame that does not arrive within the receive timeout
 //! (a real socket loss) is counted and the step closes without it.
 
-use std::collections::btree_map::Entry;
 use std::collections::{BTreeMap, HashMap};
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -20,11 +19,11 @@ use tokio::net::UdpSocket;
 use tokio::sync::{mpsc, watch};
 use tokio::time::Instant;
 
+use super::collect::{blocks, observe, StepOut};
 use super::{NetError, RunOptions};
-use crate::node::{ImuRow, Node, NodeReport, StepEstimate, TraceRow};
-use crate::report::trace::TraceWriter;
+use crate::node::{Node, NodeReport};
 use crate::scenario::Scenario;
-use crate::sim::{begin_step, observer_for, Clock, Progress, RunResults};
+use crate::sim::{begin_step, Clock, RunResults};
 use crate::wire::{Frame, FrameView, FrameWriter, MAX_FRAME};
 
 /// How many steps a worker may run ahead of the slowest worker and of the observer.
@@ -118,14 +117,6 @@ impl Slot {
         }
         missing
     }
-}
-
-/// What a worker hands the observer after each step.
-struct StepOut {
-    step: u64,
-    estimates: Vec<StepEstimate>,
-    rows: Vec<TraceRow>,
-    imu: Vec<(u32, Vec<ImuRow>)>,
 }
 
 /// What a worker returns at the end.
@@ -223,19 +214,9 @@ async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::Unbo
                 }
             }
         }
-        let mut step = StepOut {
-            step: k,
-            estimates: Vec::with_capacity(slots.len()),
-            rows: Vec::new(),
-            imu: Vec::new(),
-        };
+        let mut step = StepOut::new(k, slots.len());
         for slot in &mut slots {
-            step.estimates.extend(slot.node.handle_deadline(k));
-            step.rows.append(&mut slot.node.take_trace());
-            let imu = slot.node.take_imu();
-            if !imu.is_empty() {
-                step.imu.push((slot.node.id(), imu));
-            }
+            step.add(&mut slot.node);
         }
         if out.send(step).is_err() {
             break;
@@ -257,66 +238,6 @@ async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::Unbo
     }
 }
 
-/// Fuse each step once every worker has closed it, in step order, off the workers' path.
-async fn observe(
-    topo: Arc<Scenario>,
-    workers: usize,
-    mut trace: Option<TraceWriter>,
-    progress: Option<Progress>,
-    sync: watch::Sender<Pace>,
-    mut steps_in: mpsc::UnboundedReceiver<StepOut>,
-) -> (crate::observe::Observer, Option<TraceWriter>) {
-    let mut observer = observer_for(&topo, trace.is_some());
-    let steps = topo.sim().steps();
-    let mut pending: BTreeMap<u64, (usize, StepOut)> = BTreeMap::new();
-    let mut next = 0;
-    while let Some(mut s) = steps_in.recv().await {
-        match pending.entry(s.step) {
-            Entry::Vacant(v) => {
-                v.insert((1, s));
-            }
-            Entry::Occupied(mut o) => {
-                let (n, acc) = o.get_mut();
-                *n += 1;
-                acc.estimates.append(&mut s.estimates);
-                acc.rows.append(&mut s.rows);
-                acc.imu.append(&mut s.imu);
-            }
-        }
-        while pending
-            .first_key_value()
-            .is_some_and(|(k, (n, _))| *k == next && *n == workers)
-        {
-            let Some((_, (_, mut step))) = pending.pop_first() else {
-                break;
-            };
-            observer.push(step.estimates);
-            if let Some(t) = trace.as_mut() {
-                for (id, rows) in &step.imu {
-                    t.imu(*id, rows);
-                }
-                step.rows.sort_by_key(|r| (r.node, !r.networked));
-                t.rows(step.rows);
-                t.fused(observer.drain_rows());
-            }
-            next += 1;
-            sync.send_modify(|s| {
-                if let Some(o) = s.next.last_mut() {
-                    *o = next;
-                }
-            });
-            if let Some(p) = &progress {
-                p(next, steps);
-            }
-        }
-    }
-    observer.finish();
-    if let Some(t) = trace.as_mut() {
-        t.fused(observer.drain_rows());
-    }
-    (observer, trace)
-}
-
 pub(super) async fn run(
     topo: Arc<Scenario>,
     sockets: Vec<UdpSocket>,
@@ -325,9 +246,8 @@ pub(super) async fn run(
     mut stop: watch::Receiver<bool>,
 ) -> Result<RunResults, NetError> {
     let n = topo.nodes().len();
-    let workers = std::thread::available_parallelism()
-        .map_or(1, |p| p.get())
-        .clamp(1, n.max(1));
+    let blocks = blocks(n);
+    let workers = blocks.len();
     let steps = topo.sim().steps();
     let (sync, _) = watch::channel(Pace {
         next: vec![0; workers + 1],
@@ -353,20 +273,28 @@ pub(super) async fn run(
     };
     let (out_tx, out_rx) = mpsc::unbounded_channel();
     let record = opts.trace.is_some();
+    let on_fused = {
+        let sync = sync.clone();
+        move |next| {
+            sync.send_modify(|s| {
+                if let Some(o) = s.next.last_mut() {
+                    *o = next;
+                }
+            })
+        }
+    };
     let observer = tokio::spawn(observe(
         topo.clone(),
         workers,
         opts.trace.take(),
         opts.progress.clone(),
-        sync.clone(),
+        on_fused,
         out_rx,
     ));
-    // Contiguous blocks: neighbours in a ring or a grid mostly share a worker.
-    let per = n.div_ceil(workers);
     let mut sockets = sockets.into_iter();
     let mut handles = Vec::with_capacity(workers);
-    for w in 0..workers {
-        let slots: Vec<Slot> = (w * per..((w + 1) * per).min(n))
+    for (w, block) in blocks.into_iter().enumerate() {
+        let slots: Vec<Slot> = block
             .filter_map(|i| {
                 let socket = sockets.next()?;
                 let node = Node::new(topo.clone(), i, record);

@@ -1,12 +1,13 @@
-//! The only I/O: one tokio task and one UDP socket (127.0.0.1, port 0) per node, the two clocks, and shutdown.
+//! The only I/O: one UDP socket (127.0.0.1, port 0) per node, served by one worker per core; the two clocks, and
+//! shutdown.
 //!
 //! | file | owns |
 //! |---|---|
 //! | `lockstep.rs` | the virtual clock (default): every node steps in lockstep, each step closes when what the link layer delivered by the deadline is in; same seed, same results |
-//! | `realtime.rs` | the wall clock: every task paces itself from a common start; delay and jitter are real waits |
+//! | `realtime.rs` | the wall clock: every worker paces its nodes from a common start; delay and jitter are real waits |
+//! | `collect.rs` | what the workers hand in per step, and the task that fuses the steps in order |
 //! | `host.rs` | one node per process (`simnet node`): the handshake, catching up, the part it writes |
 
-use std::collections::HashMap;
 use std::future::Future;
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -19,6 +20,7 @@ use crate::report::trace::TraceWriter;
 use crate::scenario::Scenario;
 pub use crate::sim::{Clock, Progress, RunResults};
 
+mod collect;
 pub mod host;
 mod lockstep;
 mod realtime;
@@ -92,14 +94,4 @@ pub async fn run(
     };
     out.wall_s = started.elapsed().as_secs_f64();
     Ok(out)
-}
-
-/// Receive one datagram; the sender's node index if its address is one of ours.
-pub(crate) async fn recv(
-    socket: &UdpSocket,
-    buf: &mut [u8],
-    index_of: &HashMap<SocketAddr, usize>,
-) -> std::io::Result<(usize, Option<usize>)> {
-    let (len, from) = socket.recv_from(buf).await?;
-    Ok((len, index_of.get(&from).copied()))
 }

@@ -1,200 +1,265 @@
-//! The wall clock: every node task paces itself from a common start; delay and jitter are real waits. The driver
-//! fuses each step as soon as every task has handed it in (or, for a straggler, once the others are well past it),
-//! and reports how far the tasks fell behind their schedule.
+//! The wall clock: one worker thread per core owns a block of the nodes and their sockets, waits on all of them in
+//! one poll set, and runs its nodes' timelines from a common start; delay and jitter are real waits. No task and no
+//! timer per node: a worker sleeps until the next thing due — a step's start, a delayed datagram, a deadline — or
+//! until a socket has something. Each step is fused once every worker has handed it in, and the run reports how far
+//! the nodes fell behind their schedule.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
+use std::io::ErrorKind;
 use std::net::SocketAddr;
-use std::sync::Arc;
-use std::time::Duration;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
-use tokio::net::UdpSocket;
+use mio::net::UdpSocket;
+use mio::{Events, Interest, Poll, Token};
 use tokio::sync::{mpsc, watch};
-use tokio::time::Instant;
 
-use super::{recv, NetError, RunOptions};
-use crate::node::{ImuRow, Node, NodeReport, StepEstimate, TraceRow};
-use crate::observe::fusion::Observer;
+use super::collect::{blocks, observe, StepOut};
+use super::{NetError, RunOptions};
+use crate::node::{Node, NodeReport};
 use crate::report::summary::Schedule;
-use crate::report::trace::TraceWriter;
 use crate::scenario::Scenario;
-use crate::sim::{observer_for, Clock, Progress, RunResults};
+use crate::sim::{begin_step, Clock, RunResults};
 use crate::wire::MAX_DATAGRAM;
 
-/// What a realtime task hands the driver at each step's deadline.
-struct StepOut {
-    step: u64,
-    estimate: Option<StepEstimate>,
-    rows: Vec<TraceRow>,
-    imu: (u32, Vec<ImuRow>),
+/// The longest a worker waits before looking at the stop flag again.
+const STOP_CHECK: Duration = Duration::from_millis(50);
+
+/// Which steps the workers have started, and the step at which a shutdown stops them: one past the furthest any had
+/// started, so that every worker ends after the same step.
+struct Pace {
+    started: Vec<u64>,
+    stop_at: u64,
 }
 
-/// Realtime: each node task runs its own timeline on the wall clock from the common start `t0`.
-#[allow(clippy::too_many_arguments)]
-async fn realtime_task(
-    mut node: Node,
-    socket: UdpSocket,
-    addrs: Arc<Vec<SocketAddr>>,
-    index_of: Arc<HashMap<SocketAddr, usize>>,
+struct Shared {
+    addrs: Vec<SocketAddr>,
+    index_of: HashMap<SocketAddr, usize>,
     t0: Instant,
     steps: u64,
     dt: f64,
     deadline: f64,
-    mut stop: watch::Receiver<bool>,
-    estimates: mpsc::UnboundedSender<StepOut>,
-    progress: Option<Progress>,
-) -> (NodeReport, u64, Schedule) {
-    let mut schedule = Schedule::default();
-    let mut buf = vec![0u8; MAX_DATAGRAM + 1];
-    let at = |s: f64| t0 + Duration::from_secs_f64(s.max(0.0));
-    let mut done = 0;
-    'steps: for k in 0..steps {
-        let t_k = k as f64 * dt;
-        tokio::select! {
-            _ = tokio::time::sleep_until(at(t_k)) => {}
-            _ = stop.changed() => break 'steps,
+    pace: Mutex<Pace>,
+}
+
+impl Shared {
+    fn at(&self, s: f64) -> Instant {
+        self.t0 + Duration::from_secs_f64(s.max(0.0))
+    }
+
+    /// May worker `w` start step `k`? It is then recorded as started.
+    fn start(&self, w: usize, k: u64) -> bool {
+        let mut p = self.pace.lock().unwrap_or_else(|e| e.into_inner());
+        if k >= p.stop_at {
+            return false;
         }
-        schedule.record(Instant::now().saturating_duration_since(at(t_k)).as_secs_f64(), dt);
-        crate::sim::begin_step(&mut node, k);
-        let close = at(t_k + deadline);
-        loop {
-            // Send whatever is due now.
-            let now_sim = (Instant::now() - t0).as_secs_f64();
-            while let Some(tx) = node.poll_transmit(now_sim) {
-                if let Err(e) = socket.send_to(&tx.bytes, addrs[tx.to]).await {
-                    tracing::warn!(node = node.id(), "send_to failed: {e}");
-                }
+        p.started[w] = p.started[w].max(k + 1);
+        true
+    }
+
+    fn stopping_at(&self) -> u64 {
+        self.pace.lock().unwrap_or_else(|e| e.into_inner()).stop_at
+    }
+
+    fn stop(&self) {
+        let mut p = self.pace.lock().unwrap_or_else(|e| e.into_inner());
+        p.stop_at = p.stop_at.min(p.started.iter().copied().max().unwrap_or(0));
+    }
+}
+
+struct WorkerEnd {
+    reports: Vec<NodeReport>,
+    done: u64,
+    schedule: Schedule,
+}
+
+struct Slot {
+    node: Node,
+    socket: UdpSocket,
+}
+
+/// Read everything queued on `slot`'s socket into its node (the poll set is edge-triggered: drain to the end).
+fn drain(slot: &mut Slot, buf: &mut [u8], index_of: &HashMap<SocketAddr, usize>) {
+    loop {
+        match slot.socket.recv_from(buf) {
+            Ok((len, from)) => {
+                slot.node.handle_datagram(index_of.get(&from).copied(), &buf[..len]);
             }
-            let next_tx = node.poll_timeout().map(at).unwrap_or(close).min(close);
-            tokio::select! {
-                r = recv(&socket, &mut buf, &index_of) => match r {
-                    Ok((len, from)) => {
-                        node.handle_datagram(from, &buf[..len]);
-                    }
-                    Err(e) => tracing::warn!(node = node.id(), "recv_from failed: {e}"),
-                },
-                _ = tokio::time::sleep_until(next_tx) => {
-                    if Instant::now() >= close {
-                        break;
-                    }
-                }
-                _ = stop.changed() => break 'steps,
-            }
-        }
-        let estimate = node.handle_deadline(k);
-        let _ = estimates.send(StepOut {
-            step: k,
-            estimate,
-            rows: node.take_trace(),
-            imu: (node.id(), node.take_imu()),
-        });
-        done = k + 1;
-        if node.index() == 0 {
-            if let Some(p) = &progress {
-                p(done, steps);
+            Err(e) if e.kind() == ErrorKind::WouldBlock => return,
+            Err(e) if e.kind() == ErrorKind::Interrupted => {}
+            Err(e) => {
+                tracing::warn!(node = slot.node.id(), "recv_from failed: {e}");
+                return;
             }
         }
     }
-    (node.report(), done, schedule)
+}
+
+fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedSender<StepOut>) -> WorkerEnd {
+    let mut schedule = Schedule::default();
+    let mut done = 0;
+    let mut buf = vec![0u8; MAX_DATAGRAM + 1];
+    let mut events = Events::with_capacity(1024);
+    let poll = Poll::new().and_then(|poll| {
+        for (i, s) in slots.iter_mut().enumerate() {
+            poll.registry().register(&mut s.socket, Token(i), Interest::READABLE)?;
+        }
+        Ok(poll)
+    });
+    let mut poll = match poll {
+        Ok(p) => p,
+        Err(e) => {
+            tracing::error!(worker = w, "cannot poll the nodes' sockets: {e}");
+            return WorkerEnd {
+                reports: slots.iter_mut().map(|s| s.node.report()).collect(),
+                done,
+                schedule,
+            };
+        }
+    };
+    'steps: for k in 0..sh.steps {
+        let t_k = k as f64 * sh.dt;
+        let start = sh.at(t_k);
+        // Sleep to the step's start; datagrams that come meanwhile wait in the sockets, as they would for a node.
+        loop {
+            if sh.stopping_at() <= k {
+                break 'steps;
+            }
+            let now = Instant::now();
+            if now >= start {
+                break;
+            }
+            std::thread::sleep((start - now).min(STOP_CHECK));
+        }
+        if !sh.start(w, k) {
+            break;
+        }
+        for slot in &mut slots {
+            schedule.record(Instant::now().saturating_duration_since(start).as_secs_f64(), sh.dt);
+            begin_step(&mut slot.node, k);
+        }
+        let close = sh.at(t_k + sh.deadline);
+        loop {
+            // Send whatever is due now; the next thing due bounds the wait.
+            let now = Instant::now();
+            let now_sim = now.saturating_duration_since(sh.t0).as_secs_f64();
+            let mut next = close;
+            for slot in &mut slots {
+                while let Some(tx) = slot.node.poll_transmit(now_sim) {
+                    match slot.socket.send_to(&tx.bytes, sh.addrs[tx.to]) {
+                        Ok(_) => {}
+                        Err(e) => tracing::warn!(node = slot.node.id(), "send_to failed: {e}"),
+                    }
+                }
+                if let Some(t) = slot.node.poll_timeout() {
+                    next = next.min(sh.at(t));
+                }
+            }
+            if now >= close {
+                break;
+            }
+            let wait = next.saturating_duration_since(Instant::now()).min(STOP_CHECK);
+            match poll.poll(&mut events, Some(wait)) {
+                Ok(()) => {}
+                Err(e) if e.kind() == ErrorKind::Interrupted => continue,
+                Err(e) => {
+                    tracing::error!(worker = w, "poll failed: {e}");
+                    break 'steps;
+                }
+            }
+            for ev in events.iter() {
+                if let Some(slot) = slots.get_mut(ev.token().0) {
+                    drain(slot, &mut buf, &sh.index_of);
+                }
+            }
+        }
+        let mut step = StepOut::new(k, slots.len());
+        for slot in &mut slots {
+            step.add(&mut slot.node);
+        }
+        if out.send(step).is_err() {
+            break;
+        }
+        done = k + 1;
+    }
+    WorkerEnd {
+        reports: slots.iter_mut().map(|s| s.node.report()).collect(),
+        done,
+        schedule,
+    }
 }
 
 pub(super) async fn run(
     topo: Arc<Scenario>,
-    sockets: Vec<UdpSocket>,
+    sockets: Vec<tokio::net::UdpSocket>,
     addrs: Vec<SocketAddr>,
     opts: &mut RunOptions,
-    stop: watch::Receiver<bool>,
+    mut stop: watch::Receiver<bool>,
 ) -> Result<RunResults, NetError> {
     let n = topo.nodes().len();
-    let addrs_arc = Arc::new(addrs.clone());
-    let index_of: Arc<HashMap<SocketAddr, usize>> = Arc::new(addrs.iter().enumerate().map(|(i, a)| (*a, i)).collect());
+    let blocks = blocks(n);
+    let workers = blocks.len();
     let steps = topo.sim().steps();
-    let (est_tx, mut est_rx) = mpsc::unbounded_channel();
-    // A short lead so that every task is waiting before step 0.
-    let t0 = Instant::now() + Duration::from_millis(50);
-    let mut handles = Vec::with_capacity(n);
-    for (i, socket) in sockets.into_iter().enumerate() {
-        let node = Node::new(topo.clone(), i, opts.trace.is_some());
-        handles.push(tokio::spawn(realtime_task(
-            node,
-            socket,
-            addrs_arc.clone(),
-            index_of.clone(),
-            t0,
-            steps,
-            topo.sim().dt(),
-            topo.sim().deadline_s,
-            stop.clone(),
-            est_tx.clone(),
-            opts.progress.clone(),
-        )));
-    }
-    drop(est_tx);
-    let mut trace = opts.trace.take();
-    let mut observer = observer_for(&topo, trace.is_some());
-    // Steps are fused (and their rows written) in order, each once every task has handed it in, or else once the
-    // tasks are well past it: they share one wall clock, so a step this far behind the newest has all it will get.
-    let lag = (2.0 * topo.sim().rate_hz).ceil().max(100.0) as usize;
-    let mut by_step: BTreeMap<u64, Vec<StepOut>> = BTreeMap::new();
-    let close = |outs: Vec<StepOut>, observer: &mut Observer, trace: &mut Option<TraceWriter>| {
-        let mut rows = Vec::new();
-        let mut estimates = Vec::new();
-        for o in outs {
-            estimates.extend(o.estimate);
-            rows.extend(o.rows);
-            if let Some(t) = trace.as_mut() {
-                t.imu(o.imu.0, &o.imu.1);
+    let sh = Arc::new(Shared {
+        index_of: addrs.iter().enumerate().map(|(i, a)| (*a, i)).collect(),
+        addrs,
+        // A short lead so that every worker is waiting before step 0.
+        t0: Instant::now() + Duration::from_millis(50),
+        steps,
+        dt: topo.sim().dt(),
+        deadline: topo.sim().deadline_s,
+        pace: Mutex::new(Pace {
+            started: vec![0; workers],
+            stop_at: u64::MAX,
+        }),
+    });
+    let stopper = {
+        let sh = sh.clone();
+        tokio::spawn(async move {
+            if stop.wait_for(|s| *s).await.is_ok() {
+                sh.stop();
             }
-        }
-        observer.push(estimates);
-        if let Some(t) = trace.as_mut() {
-            rows.sort_by_key(|r| (r.node, !r.networked));
-            t.rows(rows);
-            t.fused(observer.drain_rows());
-        }
+        })
     };
-    // The newest step already fused: the observer takes steps in order only (its median streams).
-    let mut fused_up_to: Option<u64> = None;
-    while let Some(o) = est_rx.recv().await {
-        if fused_up_to.is_some_and(|f| o.step <= f) {
-            // A task stalled for longer than the lag: its rows still go to the trace, its estimate misses the
-            // fusion of a step already closed.
-            tracing::warn!(
-                step = o.step,
-                "estimate arrived after its step was fused: left out of the fusion"
-            );
-            if let Some(t) = trace.as_mut() {
-                t.rows(o.rows);
-                t.imu(o.imu.0, &o.imu.1);
-            }
-            continue;
+    let (out_tx, out_rx) = mpsc::unbounded_channel();
+    let record = opts.trace.is_some();
+    let observer = tokio::spawn(observe(
+        topo.clone(),
+        workers,
+        opts.trace.take(),
+        opts.progress.clone(),
+        |_| {},
+        out_rx,
+    ));
+    let mut sockets = sockets.into_iter();
+    let mut handles = Vec::with_capacity(workers);
+    for (w, block) in blocks.into_iter().enumerate() {
+        let mut slots = Vec::with_capacity(block.len());
+        for i in block {
+            let Some(socket) = sockets.next() else { break };
+            // The socket leaves tokio's reactor for this worker's poll set (it stays non-blocking).
+            let socket = UdpSocket::from_std(socket.into_std().map_err(NetError::Bind)?);
+            slots.push(Slot {
+                node: Node::new(topo.clone(), i, record),
+                socket,
+            });
         }
-        by_step.entry(o.step).or_default().push(o);
-        // A step is fused as soon as every task has handed it in; one the lag has passed, without the stragglers.
-        while by_step
-            .first_key_value()
-            .is_some_and(|(_, outs)| outs.len() == n || by_step.len() > lag)
-        {
-            let Some((step, outs)) = by_step.pop_first() else { break };
-            fused_up_to = Some(step);
-            close(outs, &mut observer, &mut trace);
-        }
+        let (sh, out) = (sh.clone(), out_tx.clone());
+        handles.push(tokio::task::spawn_blocking(move || worker(w, slots, sh, out)));
     }
-    while let Some((_, outs)) = by_step.pop_first() {
-        close(outs, &mut observer, &mut trace);
-    }
+    drop(out_tx);
     let mut reports = Vec::with_capacity(n);
     let mut done = u64::MAX;
     let mut schedule = Schedule::default();
-    for (i, h) in handles.into_iter().enumerate() {
-        let (r, d, s) = h.await.map_err(|_| NetError::TaskLost(i))?;
-        done = done.min(d);
-        schedule.merge(&s);
-        reports.push(r);
+    for (w, h) in handles.into_iter().enumerate() {
+        let end = h.await.map_err(|_| NetError::WorkerLost(w))?;
+        reports.extend(end.reports);
+        done = done.min(end.done);
+        schedule.merge(&end.schedule);
     }
-    observer.finish();
-    if let Some(t) = trace.as_mut() {
-        t.fused(observer.drain_rows());
-    }
+    stopper.abort();
+    reports.sort_by_key(|r| r.index);
+    let (observer, trace) = observer.await.map_err(|_| NetError::NoReply)?;
     let done = if n == 0 { 0 } else { done };
     Ok(RunResults {
         scenario: topo,

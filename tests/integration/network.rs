@@ -264,3 +264,45 @@ fn realtime_run_accounts_for_every_datagram() {
         assert!(!net.diverged && net.mean_error.unwrap() < 0.1, "node {}: {net:?}", n.id);
     }
 }
+
+/// A realtime run stopped part-way ends every worker after the same step: each link sent exactly the steps the run
+/// reports, and the fused trace holds each of them. The stop is triggered by a count of fused steps, not a time.
+#[test]
+fn a_stopped_realtime_run_ends_every_node_after_the_same_step() {
+    let o = Overrides {
+        duration_s: Some(100_000.0),
+        ..common::bernoulli(0.0, 5)
+    };
+    let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+    let tx = std::sync::Mutex::new(Some(tx));
+    let opts = RunOptions {
+        clock: simnet::net::Clock::Realtime,
+        progress: Some(std::sync::Arc::new(move |done, _| {
+            if done >= 40 {
+                if let Some(tx) = tx.lock().unwrap().take() {
+                    let _ = tx.send(());
+                }
+            }
+        })),
+        ..Default::default()
+    };
+    let topo = std::sync::Arc::new(common::topology("ring3", o));
+    let out = common::runtime()
+        .block_on(simnet::net::run(topo, opts, async {
+            let _ = rx.await;
+        }))
+        .unwrap();
+    let s = out.summary();
+    assert!(s.interrupted);
+    assert!(s.steps >= 40, "{} steps", s.steps);
+    for l in &s.links {
+        assert_eq!(l.sent, s.steps, "{} → {}", l.from, l.to);
+        assert_eq!(l.delivered + l.late + l.lost, l.sent);
+    }
+    let sch = s.schedule.unwrap();
+    assert_eq!(
+        sch.steps,
+        3 * s.steps,
+        "every node-step run was measured against the schedule"
+    );
+}

@@ -1,0 +1,110 @@
+//! What the workers of both clocks hand in after each step, and the task that fuses the steps in order, off the
+//! workers' path.
+
+use std::collections::btree_map::Entry;
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use tokio::sync::mpsc;
+
+use crate::node::{ImuRow, StepEstimate, TraceRow};
+use crate::observe::fusion::Observer;
+use crate::report::trace::TraceWriter;
+use crate::scenario::Scenario;
+use crate::sim::{observer_for, Progress};
+
+/// One worker's share of a step: its nodes' estimates and rows.
+pub(super) struct StepOut {
+    pub step: u64,
+    pub estimates: Vec<StepEstimate>,
+    pub rows: Vec<TraceRow>,
+    pub imu: Vec<(u32, Vec<ImuRow>)>,
+}
+
+impl StepOut {
+    pub fn new(step: u64, nodes: usize) -> StepOut {
+        StepOut {
+            step,
+            estimates: Vec::with_capacity(nodes),
+            rows: Vec::new(),
+            imu: Vec::new(),
+        }
+    }
+
+    /// What `node` closed step `self.step` with.
+    pub fn add(&mut self, node: &mut crate::node::Node) {
+        self.estimates.extend(node.handle_deadline(self.step));
+        self.rows.append(&mut node.take_trace());
+        let imu = node.take_imu();
+        if !imu.is_empty() {
+            self.imu.push((node.id(), imu));
+        }
+    }
+}
+
+/// Fuse each step once all `workers` have handed it in, in step order; `on_fused(n)` hears that the first n steps
+/// are fused. A step some worker never handed in (the run stopped first) is not fused.
+pub(super) async fn observe(
+    topo: Arc<Scenario>,
+    workers: usize,
+    mut trace: Option<TraceWriter>,
+    progress: Option<Progress>,
+    mut on_fused: impl FnMut(u64),
+    mut steps_in: mpsc::UnboundedReceiver<StepOut>,
+) -> (Observer, Option<TraceWriter>) {
+    let mut observer = observer_for(&topo, trace.is_some());
+    let steps = topo.sim().steps();
+    let mut pending: BTreeMap<u64, (usize, StepOut)> = BTreeMap::new();
+    let mut next = 0;
+    while let Some(mut s) = steps_in.recv().await {
+        match pending.entry(s.step) {
+            Entry::Vacant(v) => {
+                v.insert((1, s));
+            }
+            Entry::Occupied(mut o) => {
+                let (n, acc) = o.get_mut();
+                *n += 1;
+                acc.estimates.append(&mut s.estimates);
+                acc.rows.append(&mut s.rows);
+                acc.imu.append(&mut s.imu);
+            }
+        }
+        while pending
+            .first_key_value()
+            .is_some_and(|(k, (n, _))| *k == next && *n == workers)
+        {
+            let Some((_, (_, mut step))) = pending.pop_first() else {
+                break;
+            };
+            observer.push(step.estimates);
+            if let Some(t) = trace.as_mut() {
+                for (id, rows) in &step.imu {
+                    t.imu(*id, rows);
+                }
+                step.rows.sort_by_key(|r| (r.node, !r.networked));
+                t.rows(step.rows);
+                t.fused(observer.drain_rows());
+            }
+            next += 1;
+            on_fused(next);
+            if let Some(p) = &progress {
+                p(next, steps);
+            }
+        }
+    }
+    observer.finish();
+    if let Some(t) = trace.as_mut() {
+        t.fused(observer.drain_rows());
+    }
+    (observer, trace)
+}
+
+/// Contiguous blocks of the nodes, one per worker (neighbours in a ring or a grid mostly share one), and the number
+/// of workers: one per core, at most one per node.
+pub(super) fn blocks(n: usize) -> Vec<std::ops::Range<usize>> {
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |p| p.get())
+        .clamp(1, n.max(1));
+    let per = n.div_ceil(workers).max(1);
+    (0..workers).map(|w| (w * per).min(n)..((w + 1) * per).min(n)).collect()
+}
