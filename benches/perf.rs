@@ -9,7 +9,7 @@ use std::hint::black_box;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DMatrix, DVector, SMatrix, SVector, Vector3};
 use simnet::estimate::attitude::{from_euler, measurement};
 use simnet::estimate::bvp::End;
 use simnet::estimate::{consensus_update, kalman_update, Gaussian, MissingChannels, Observation, Source};
@@ -304,6 +304,108 @@ fn cpu_s() -> f64 {
     (f.get(11).unwrap_or(&0.0) + f.get(12).unwrap_or(&0.0)) / 100.0
 }
 
+type M9 = SMatrix<f64, 9, 9>;
+type M6 = SMatrix<f64, 6, 6>;
+type M69 = SMatrix<f64, 6, 9>;
+type V9 = SVector<f64, 9>;
+type V6 = SVector<f64, 6>;
+
+/// The anchors of the kernel ratios: the pose step on static nalgebra types from end to end — no dynamic matrix,
+/// no conversion, every row present, nothing checked but the Cholesky factorisations.
+struct BareStatic {
+    x: DVector<f64>,
+    P: M9,
+    Q: M9,
+    H: M69,
+    R: M6,
+    z: V6,
+}
+
+impl BareStatic {
+    fn new(p: &PoseStep) -> BareStatic {
+        BareStatic {
+            x: p.g.x.clone(),
+            P: M9::from_column_slice(p.g.P.as_slice()),
+            Q: M9::from_column_slice(p.Q.as_slice()),
+            H: M69::from_column_slice(p.obs.H.as_slice()),
+            R: M6::from_column_slice(p.obs.R.as_slice()),
+            z: V6::from_column_slice(p.z.as_slice()),
+        }
+    }
+
+    /// Prediction (the model's own f and F) and the Joseph update.
+    fn kf_step(&self, imu: &ImuInterval) -> (V9, M9) {
+        let (x, F) = simnet::model::pose::step(&self.x, Some(imu), 0.01);
+        let x = V9::from_column_slice(x.as_slice());
+        let P = F * self.P * F.transpose() + self.Q;
+        let S = self.H * P * self.H.transpose() + self.R;
+        let K = nalgebra::Cholesky::new(S).unwrap().solve(&(self.H * P)).transpose();
+        let nu = self.z - self.H * x;
+        let IKH = M9::identity() - K * self.H;
+        (x + K * nu, IKH * P * IKH.transpose() + K * self.R * K.transpose())
+    }
+
+    /// Eqs. (5)–(10) over `zs` with weights `beta`, and the three Cholesky tests of (17), (19).
+    fn consensus(&self, zs: &[V6], beta: &[f64]) -> (V9, M9, bool) {
+        let x = V9::from_column_slice(self.x.as_slice());
+        let S = self.H * self.P * self.H.transpose() + self.R;
+        let K = nalgebra::Cholesky::new(S)
+            .unwrap()
+            .solve(&(self.H * self.P))
+            .transpose();
+        let mut c = V9::zeros();
+        let mut Pn = self.P - K * S * K.transpose() * (1.0 - 0.01);
+        for (z, b) in zs.iter().zip(beta) {
+            let kz = K * (z - self.H * x);
+            c += kz * *b;
+            Pn += kz * kz.transpose() * *b;
+        }
+        Pn -= c * c.transpose();
+        let Z = (Pn - self.P) * 1e-3;
+        let spd = |m: M9| nalgebra::Cholesky::new(m).is_some();
+        (x + c, Pn, spd(Pn) && spd(M9::identity() - Z) && spd(M9::identity() + Z))
+    }
+}
+
+/// The kernel targets: simnet's pose KF step and consensus against the same on bare static types, same run.
+fn kernel_ratios() {
+    let p = PoseStep::new();
+    let bare = BareStatic::new(&p);
+    let (mut ours, mut anchor) = (Vec::new(), Vec::new());
+    for _ in 0..3 {
+        anchor.push(time_per_call(|| {
+            black_box(bare.kf_step(black_box(&p.interval)));
+        }));
+        ours.push(time_per_call(|| {
+            let g = p.pose.predict(black_box(&p.g), Some(&p.interval), &p.Q, 0.01);
+            black_box(kalman_update(&g, &p.obs, &p.z, &p.present, MissingChannels::Drop).unwrap());
+        }));
+    }
+    let (o, a) = (median(ours), median(anchor));
+    println!(
+        "ratio pose_kf_step = {:.2} (target ≤ 1.3)   simnet {:.2} µs, bare static {:.2} µs",
+        o / a,
+        o / 1e3,
+        a / 1e3
+    );
+    let zs: Vec<V6> = (0..=2).map(|j| bare.z * (1.0 + 0.01 * j as f64)).collect();
+    let beta = [0.6, 0.2, 0.2];
+    let (mut ours, mut anchor) = (Vec::new(), Vec::new());
+    for _ in 0..3 {
+        anchor.push(time_per_call(|| {
+            black_box(bare.consensus(black_box(&zs), &beta));
+        }));
+        ours.push(p.consensus_ns(2));
+    }
+    let (o, a) = (median(ours), median(anchor));
+    println!(
+        "ratio consensus_2_neighbours = {:.2} (target ≤ 1.3)   simnet {:.2} µs, bare static {:.2} µs",
+        o / a,
+        o / 1e3,
+        a / 1e3
+    );
+}
+
 /// The estimation targets: a pose ring's node-step against the sum of its kernels (two predictions, the consensus
 /// over the own and two neighbours' measurements, the independent Kalman update), in memory (throughput, `Sim`) and
 /// over UDP (CPU per node-step, both cores).
@@ -527,7 +629,36 @@ fn main() {
         scaling();
         return;
     }
+    if args.iter().any(|a| a == "sim-loop") {
+        // For a profiler: ring100 in memory.
+        let s = Scenario::resolve("ring100")
+            .unwrap()
+            .with(&Overrides {
+                duration_s: Some(10.0),
+                ..Default::default()
+            })
+            .unwrap();
+        simnet::Sim::new(&s).unwrap().run().unwrap();
+        return;
+    }
+    if args.iter().any(|a| a == "kf-loop") {
+        // For a profiler: the pose KF step and the consensus, nothing else.
+        let p = PoseStep::new();
+        let t = Instant::now();
+        while t.elapsed() < Duration::from_secs(3) {
+            let g = p.pose.predict(black_box(&p.g), Some(&p.interval), &p.Q, 0.01);
+            black_box(kalman_update(&g, &p.obs, &p.z, &p.present, MissingChannels::Drop).unwrap());
+            let srcs = [Source {
+                beta: 1.0,
+                z: &p.z,
+                present: &p.present,
+            }];
+            black_box(consensus_update(&g, &p.obs, 0.01, &srcs, MissingChannels::Drop, 10, 1e3, 1e-5).unwrap());
+        }
+        return;
+    }
     if args.iter().any(|a| a == "estimation") {
+        kernel_ratios();
         estimation_ratios();
         return;
     }

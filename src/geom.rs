@@ -82,6 +82,10 @@ pub fn euler_rates_jacobian(e: &Vector3<f64>, w: &Vector3<f64>) -> Matrix3<f64> 
 
 /// Wrap to (−π, π].
 pub fn wrap_angle(a: f64) -> f64 {
+    // Most angles are in range already: returned as they are (no fmod, and no rounding through a + π − π).
+    if a > -PI && a <= PI {
+        return a;
+    }
     let mut x = (a + PI).rem_euclid(2.0 * PI) - PI;
     if x <= -PI {
         x += 2.0 * PI;

@@ -166,6 +166,56 @@ pub fn consensus_update(
     alpha: f64,
     gamma: f64,
 ) -> Result<ConsensusOutcome, EstimateError> {
+    if let Some(r) = fixed_update(prior, obs, beta0, sources, policy, k, alpha, gamma) {
+        return r;
+    }
+    dynamic_update(prior, obs, beta0, sources, policy, k, alpha, gamma)
+}
+
+/// The static-size path of [`consensus_update`], where the sizes are in its table, some source carries a row and
+/// every row is kept.
+#[allow(clippy::too_many_arguments)]
+fn fixed_update(
+    prior: &Gaussian,
+    obs: &Observation,
+    beta0: f64,
+    sources: &[Source<'_>],
+    policy: MissingChannels,
+    k: u64,
+    alpha: f64,
+    gamma: f64,
+) -> Option<Result<ConsensusOutcome, EstimateError>> {
+    let mut any = [false; 8];
+    let present_any = any.get_mut(..obs.dim())?;
+    for s in sources {
+        for (a, p) in present_any.iter_mut().zip(s.present) {
+            *a |= *p;
+        }
+    }
+    let lambda = match policy {
+        MissingChannels::Inflate(l) => l,
+        MissingChannels::Drop if present_any.iter().all(|p| *p) => 1.0,
+        MissingChannels::Drop => return None,
+    };
+    if !present_any.iter().any(|p| *p) {
+        return None;
+    }
+    let scale = (gamma * k as f64).exp() / alpha;
+    super::fixed::consensus_update(prior, obs, beta0, sources, present_any, lambda, scale)
+}
+
+/// [`consensus_update`] on dynamically sized matrices, through [`LmiTerms`].
+#[allow(clippy::too_many_arguments)]
+pub(super) fn dynamic_update(
+    prior: &Gaussian,
+    obs: &Observation,
+    beta0: f64,
+    sources: &[Source<'_>],
+    policy: MissingChannels,
+    k: u64,
+    alpha: f64,
+    gamma: f64,
+) -> Result<ConsensusOutcome, EstimateError> {
     let data: Vec<(&DVector<f64>, &[bool])> = sources.iter().map(|s| (s.z, s.present)).collect();
     let Some(terms) = LmiTerms::new(prior, obs, beta0, &data, policy, k, alpha, gamma)? else {
         // Intermittent observation: prediction only; Z = 0, and (19) is P_{k|k−1} ≻ 0.

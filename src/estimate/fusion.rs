@@ -92,6 +92,11 @@ pub fn trace_optimal_omega(a: &Gaussian, b: &Gaussian) -> Result<f64, EstimateEr
 
 /// Cascade: fuse the first two, then the result with the third, and so on (§7).
 pub fn cascade(estimates: &[Gaussian], omega: Omega, angle_states: &[bool]) -> Result<Gaussian, EstimateError> {
+    if let Omega::Fixed(w) = omega {
+        if let Some(r) = super::fixed::cascade(estimates, w, angle_states) {
+            return r;
+        }
+    }
     let mut it = estimates.iter();
     let Some(first) = it.next() else {
         return Err(EstimateError::Dimension {

@@ -104,6 +104,24 @@ pub fn kalman_update(
     if !present.iter().any(|p| *p) {
         return Ok(prior.clone());
     }
+    let lambda = match policy {
+        MissingChannels::Inflate(l) => Some(l),
+        MissingChannels::Drop => present.iter().all(|p| *p).then_some(1.0),
+    };
+    if let Some(r) = lambda.and_then(|l| super::fixed::kalman_update(prior, obs, z, present, l)) {
+        return r;
+    }
+    joseph(prior, obs, z, present, policy)
+}
+
+/// [`kalman_update`] on dynamically sized matrices, for any size and row selection.
+pub(super) fn joseph(
+    prior: &Gaussian,
+    obs: &Observation,
+    z: &DVector<f64>,
+    present: &[bool],
+    policy: MissingChannels,
+) -> Result<Gaussian, EstimateError> {
     let (H, R, keep) = effective_observation(obs, present, policy);
     let full = obs.innovation(z, &prior.x);
     let nu = DVector::from_iterator(keep.len(), keep.iter().map(|&i| if present[i] { full[i] } else { 0.0 }));
@@ -125,6 +143,9 @@ pub fn kalman_update(
 
 /// Normalised estimation error squared eᵀ P⁻¹ e, e = truth − estimate (angle states wrapped).
 pub fn nees(g: &Gaussian, truth: &DVector<f64>, angle_states: &[bool]) -> Option<f64> {
+    if let Some(v) = super::fixed::nees(g, truth, angle_states) {
+        return v;
+    }
     let mut e = truth - &g.x;
     wrap_rows(&mut e, angle_states);
     let chol = cholesky(&g.P, "P").ok()?;

@@ -7,6 +7,7 @@ pub mod attitude;
 pub mod bounds;
 pub mod bvp;
 pub mod consensus;
+mod fixed;
 pub mod fusion;
 pub mod kalman;
 pub mod rigid_pair;
@@ -14,6 +15,7 @@ pub mod rigid_pair;
 use nalgebra::{DMatrix, DVector};
 
 pub use consensus::{consensus_update, guarded_update, ConsensusOutcome, LmiCheck, LmiTerms, Source};
+pub(crate) use fixed::{dynamic, fixed, symmetrize as symmetrize_fixed};
 pub use kalman::{kalman_update, nees, predict, Gaussian, MissingChannels, Observation};
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

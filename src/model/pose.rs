@@ -1,10 +1,10 @@
 //! The pose model of Sequeira (2023), §2: x = [p, v, θ] (position, velocity, Euler ZYX angles) driven by the node's
 //! own IMU (eqs. (1)–(4)), measured by pose fixes z = [p, θ] + v in two channels (position, orientation).
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, Vector3};
 
 use super::{FusionLayout, ImuRow, Kind, Measurement, Model, Sensed, Truth};
-use crate::estimate::{symmetrize, wrap_rows, Gaussian, Observation};
+use crate::estimate::{wrap_rows, Gaussian, Observation};
 use crate::geom::{euler_rates, euler_rates_jacobian, rotation, rotation_partials, wrap_angle, GRAVITY};
 use crate::motion::PoseTruth;
 use crate::rng::Rng;
@@ -62,9 +62,14 @@ impl Pose {
     /// x_{k|k−1} = f(x_{k−1|k−1}), P_{k|k−1} = F P Fᵀ + Q (eq. (4)).
     pub fn propagate(g: &Gaussian, imu: Option<&ImuInterval>, Q: &DMatrix<f64>, dt: f64) -> Gaussian {
         let (x, F) = step(&g.x, imu, dt);
-        let mut P = &F * &g.P * F.transpose() + Q;
-        symmetrize(&mut P);
-        Gaussian { x, P }
+        // On the stack: a pose state has nine entries.
+        let nine = crate::estimate::fixed::<9, 9>;
+        let mut P = F * nine(g.P.as_slice()) * F.transpose() + nine(Q.as_slice());
+        crate::estimate::symmetrize_fixed(&mut P);
+        Gaussian {
+            x,
+            P: crate::estimate::dynamic(&P),
+        }
     }
 }
 
@@ -213,7 +218,7 @@ impl Model for Pose {
 /// f and its Jacobian F for the pose model: a trapezoid in the navigation frame, each sample rotated by the attitude
 /// at its own end of the interval (second-order accurate; holding the start sample leaves a systematic O(Δt²) error
 /// per step that the IMU noise model does not cover). Without samples the package is assumed unaccelerated.
-fn step(x: &DVector<f64>, imu: Option<&ImuInterval>, dt: f64) -> (DVector<f64>, DMatrix<f64>) {
+pub fn step(x: &DVector<f64>, imu: Option<&ImuInterval>, dt: f64) -> (DVector<f64>, SMatrix<f64, 9, 9>) {
     let p = Vector3::new(x[0], x[1], x[2]);
     let v = Vector3::new(x[3], x[4], x[5]);
     let e0 = Vector3::new(x[6], x[7], x[8]);
@@ -252,7 +257,7 @@ fn step(x: &DVector<f64>, imu: Option<&ImuInterval>, dt: f64) -> (DVector<f64>, 
         d1.set_column(i, &(a1 * f1));
     }
     let dA = (d0 + d1 * de1) * 0.5;
-    let mut F = DMatrix::identity(9, 9);
+    let mut F = SMatrix::<f64, 9, 9>::identity();
     for r in 0..3 {
         F[(r, 3 + r)] = dt;
         for c in 0..3 {
