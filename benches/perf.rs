@@ -606,7 +606,9 @@ fn realtime() {
 }
 
 fn main() {
-    // `cargo bench -- lockstep [N]` runs only the lockstep ratios (of the ring of N).
+    // `cargo bench --bench perf -- MODE` runs one part: `lockstep [N]` (the lockstep ratios, of the ring of N),
+    // `estimation` (the kernel and node-step ratios), `realtime`, `scale`, `scaling`; `kf-loop` and `sim-loop` are
+    // loops for a profiler. No mode: everything.
     let args: Vec<String> = std::env::args().collect();
     if let Some(i) = args.iter().position(|a| a == "scaling-one") {
         scaling_one(args[i + 1].parse().unwrap(), &args[i + 2]);
@@ -774,7 +776,9 @@ fn main() {
         );
     }
     lockstep_ratios(None);
+    kernel_ratios();
     estimation_ratios();
+    realtime();
     scale();
     scaling();
 }

@@ -41,6 +41,7 @@ pub mod checks;
 mod cli;
 mod compose;
 pub mod estimate;
+pub mod estimators;
 pub mod geom;
 pub mod imu_csv;
 pub mod link;

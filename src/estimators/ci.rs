@@ -1,0 +1,76 @@
+//! `ci`: each node updates with its own measurement, then for L rounds fuses its neighbours' estimates with its own
+//! by covariance intersection with consensus weights (Julier & Uhlmann 1997; the consensus on information of
+//! Battistelli & Chisci 2014): P⁻¹ = Σⱼ πᵢⱼ Pⱼ⁻¹, x = P Σⱼ πᵢⱼ Pⱼ⁻¹ xⱼ, over the node and the estimates that arrived,
+//! the weights of the missing renormalised away. Angle states of a neighbour's estimate are unwrapped towards the
+//! node's own first.
+
+use super::local::own_update;
+use super::{renormalised, Context, Estimator, Info, Message, StepInput};
+use crate::estimate::{wrap_rows, EstimateError, Gaussian, MissingChannels};
+
+pub struct Ci {
+    ctx: Context,
+    g: Gaussian,
+    policy: MissingChannels,
+}
+
+impl Ci {
+    pub fn new(ctx: Context, initial: Gaussian, policy: MissingChannels) -> Ci {
+        Ci {
+            ctx,
+            g: initial,
+            policy,
+        }
+    }
+}
+
+impl Estimator for Ci {
+    fn name(&self) -> &'static str {
+        "ci"
+    }
+    fn predict(&mut self, predict: &dyn Fn(&Gaussian) -> Gaussian) {
+        self.g = predict(&self.g);
+    }
+    fn begin(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
+        self.g = own_update(&self.g, input, self.policy)?;
+        Ok(())
+    }
+    fn message(&self, _round: usize) -> Option<Message> {
+        Some(Message::Estimate(self.g.clone()))
+    }
+    fn combine(&mut self, _: usize, arrived: &[(usize, &Message)], _: &StepInput<'_>) -> Result<(), EstimateError> {
+        let n = self.g.x.len();
+        let mut theirs = Vec::with_capacity(arrived.len());
+        for (j, m) in arrived {
+            if let Message::Estimate(o) = m {
+                if o.x.len() == n && o.P.shape() == (n, n) {
+                    let mut o = o.clone();
+                    for (i, a) in self.ctx.angle_states.iter().enumerate() {
+                        if *a {
+                            o.x[i] = self.g.x[i] + crate::geom::wrap_angle(o.x[i] - self.g.x[i]);
+                        }
+                    }
+                    theirs.push((*j, Info::of(&o)?));
+                }
+            }
+        }
+        let own = Info::of(&self.g)?;
+        let mut fused = Info::zero(n);
+        for (w, info) in renormalised(&self.ctx, &own, theirs.iter().map(|(j, t)| (*j, t))) {
+            fused.add(w, info);
+        }
+        let mut g = fused.gaussian()?;
+        wrap_rows(&mut g.x, &self.ctx.angle_states);
+        self.g = g;
+        Ok(())
+    }
+    fn finish(&mut self, _input: &StepInput<'_>) -> Result<(), EstimateError> {
+        Ok(())
+    }
+    fn estimate(&self) -> Option<&Gaussian> {
+        Some(&self.g)
+    }
+    fn reset(&mut self, g: Gaussian) {
+        self.g = g;
+    }
+}

@@ -1,0 +1,86 @@
+//! `kcf`: the Kalman-consensus filter of Olfati-Saber (2009), "Kalman-consensus filter: optimality, stability, and
+//! performance", Algorithm 1: each node's Kalman update with its own measurement plus a consensus term on the
+//! neighbours' priors,
+//!
+//!   x̂ᵢ = x̄ᵢ + Kᵢ (zᵢ − Hᵢ x̄ᵢ) + Cᵢ Σⱼ (x̄ⱼ − x̄ᵢ),   Cᵢ = γ Pᵢ / (1 + ‖Pᵢ‖_F),
+//!   Mᵢ = (I − KᵢHᵢ) Pᵢ (I − KᵢHᵢ)ᵀ + Kᵢ Rᵢ Kᵢᵀ.
+//!
+//! One exchange per step (round 0: the prior); further rounds carry nothing for it. The sum runs over the
+//! neighbours whose prior arrived: a lost message removes its term, as a link absent from the graph would.
+
+use nalgebra::DVector;
+
+use super::local::own_update;
+use super::{Context, Estimator, Message, StepInput};
+use crate::estimate::{wrap_rows, EstimateError, Gaussian, MissingChannels};
+
+pub struct Kcf {
+    ctx: Context,
+    g: Gaussian,
+    policy: MissingChannels,
+    /// The consensus gain γ.
+    gamma: f64,
+    /// Σⱼ (x̄ⱼ − x̄ᵢ) over the priors that arrived this step.
+    pull: DVector<f64>,
+}
+
+impl Kcf {
+    pub fn new(ctx: Context, initial: Gaussian, policy: MissingChannels, gamma: f64) -> Kcf {
+        let n = initial.x.len();
+        Kcf {
+            ctx,
+            g: initial,
+            policy,
+            gamma,
+            pull: DVector::zeros(n),
+        }
+    }
+}
+
+impl Estimator for Kcf {
+    fn name(&self) -> &'static str {
+        "kcf"
+    }
+    fn predict(&mut self, predict: &dyn Fn(&Gaussian) -> Gaussian) {
+        self.g = predict(&self.g);
+    }
+    fn begin(&mut self, _input: &StepInput<'_>) -> Result<(), EstimateError> {
+        self.pull.fill(0.0);
+        Ok(())
+    }
+    fn message(&self, round: usize) -> Option<Message> {
+        (round == 0).then(|| Message::Estimate(self.g.clone()))
+    }
+    fn combine(&mut self, round: usize, arrived: &[(usize, &Message)], _: &StepInput<'_>) -> Result<(), EstimateError> {
+        if round != 0 {
+            return Ok(());
+        }
+        for (_, m) in arrived {
+            if let Message::Estimate(o) = m {
+                if o.x.len() == self.g.x.len() {
+                    let mut d = &o.x - &self.g.x;
+                    wrap_rows(&mut d, &self.ctx.angle_states);
+                    self.pull += d;
+                }
+            }
+        }
+        Ok(())
+    }
+    fn finish(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
+        let prior_P = self.g.P.clone();
+        let mut post = own_update(&self.g, input, self.policy)?;
+        if self.gamma != 0.0 {
+            let C = &prior_P * (self.gamma / (1.0 + prior_P.norm()));
+            post.x += C * &self.pull;
+            wrap_rows(&mut post.x, &self.ctx.angle_states);
+        }
+        self.g = post;
+        Ok(())
+    }
+    fn estimate(&self) -> Option<&Gaussian> {
+        Some(&self.g)
+    }
+    fn reset(&mut self, g: Gaussian) {
+        self.g = g;
+    }
+}

@@ -1,0 +1,55 @@
+//! `independent`: the node's own Kalman filter (Joseph form), the baseline every scheme is measured against.
+
+use super::{Estimator, Message, StepInput};
+use crate::estimate::{kalman_update, EstimateError, Gaussian, MissingChannels};
+
+pub struct Local {
+    g: Gaussian,
+    policy: MissingChannels,
+}
+
+impl Local {
+    pub fn new(initial: Gaussian, policy: MissingChannels) -> Local {
+        Local { g: initial, policy }
+    }
+}
+
+/// The Kalman update with the node's own measurement, or the prior when it has none (intermittent observation).
+pub(super) fn own_update(
+    g: &Gaussian,
+    input: &StepInput<'_>,
+    policy: MissingChannels,
+) -> Result<Gaussian, EstimateError> {
+    match input.own {
+        Some(m) => kalman_update(g, input.obs, &m.z, &m.present, policy),
+        None => Ok(g.clone()),
+    }
+}
+
+impl Estimator for Local {
+    fn name(&self) -> &'static str {
+        "independent"
+    }
+    fn predict(&mut self, predict: &dyn Fn(&Gaussian) -> Gaussian) {
+        self.g = predict(&self.g);
+    }
+    fn begin(&mut self, _input: &StepInput<'_>) -> Result<(), EstimateError> {
+        Ok(())
+    }
+    fn message(&self, _round: usize) -> Option<Message> {
+        None
+    }
+    fn combine(&mut self, _: usize, _: &[(usize, &Message)], _: &StepInput<'_>) -> Result<(), EstimateError> {
+        Ok(())
+    }
+    fn finish(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
+        self.g = own_update(&self.g, input, self.policy)?;
+        Ok(())
+    }
+    fn estimate(&self) -> Option<&Gaussian> {
+        Some(&self.g)
+    }
+    fn reset(&mut self, g: Gaussian) {
+        self.g = g;
+    }
+}

@@ -1,0 +1,220 @@
+//! The distributed estimators simnet sets side by side, each one [`Estimator`]: a per-node state machine that
+//! predicts with the node's model, takes the node's own measurement, sends one [`Message`] per round, combines what
+//! arrived, and ends the step with its posterior. Pure: the node (or a test's graph) moves the messages and decides
+//! what is lost. A message that did not arrive is simply absent from `combine`; each scheme's file says how it
+//! treats the gap.
+//!
+//! | file | scheme |
+//! |---|---|
+//! | `local.rs` | `independent`: the node's own Kalman filter |
+//! | `centralized.rs` | `centralized`: one fusion center with every sensing node's measurement (the optimum for linear models) |
+//! | `kcf.rs` | `kcf`: Kalman-consensus filter, Olfati-Saber (2009) |
+//! | `icf.rs` | `icf`: information-weighted consensus filter, Kamal, Farrell & Roy-Chowdhury (2013) |
+//! | `hcmci.rs` | `hcmci`: hybrid consensus on measurements and information, Battistelli et al. (2015) |
+//! | `diffusion.rs` | `diffusion`: diffusion Kalman filter, adapt-then-combine, Cattivelli & Sayed (2010) |
+//! | `ci.rs` | `ci`: covariance intersection of the neighbours' estimates |
+//!
+//! Angle states (the pose model's attitude) are wrapped where an innovation or a difference of estimates is formed;
+//! information vectors of estimates on opposite sides of ±π are not unwrapped.
+#![allow(non_snake_case)]
+
+mod centralized;
+mod ci;
+mod diffusion;
+mod hcmci;
+mod icf;
+mod kcf;
+mod local;
+#[cfg(test)]
+mod tests;
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::estimate::{cholesky, symmetrize, wrap_rows, EstimateError, Gaussian, Observation};
+use crate::model::Measurement;
+
+pub use centralized::Centralized;
+pub use ci::Ci;
+pub use diffusion::Diffusion;
+pub use hcmci::Hcmci;
+pub use icf::Icf;
+pub use kcf::Kcf;
+pub use local::Local;
+
+/// What one node's estimator knows of the network.
+#[derive(Debug, Clone)]
+pub struct Context {
+    pub index: usize,
+    /// Nodes in the network (ICF and HCMCI scale information by it).
+    pub nodes: usize,
+    /// Consensus weights to each neighbour (sorted by node index) and to itself.
+    pub weights: Vec<(usize, f64)>,
+    pub self_weight: f64,
+    /// State rows that are angles.
+    pub angle_states: Vec<bool>,
+}
+
+impl Context {
+    fn weight(&self, j: usize) -> f64 {
+        self.weights
+            .binary_search_by_key(&j, |(s, _)| *s)
+            .map_or(0.0, |i| self.weights[i].1)
+    }
+}
+
+/// Metropolis–Hastings weights (Xiao, Boyd & Lall 2005): πᵢⱼ = 1 / (1 + max(dᵢ, dⱼ)) to each neighbour j,
+/// πᵢᵢ = 1 − Σⱼ πᵢⱼ; doubly stochastic on an undirected graph, so that consensus converges to the average.
+pub fn metropolis(neighbours: &[Vec<usize>]) -> Vec<(Vec<(usize, f64)>, f64)> {
+    neighbours
+        .iter()
+        .map(|ns| {
+            let mut w: Vec<(usize, f64)> = ns
+                .iter()
+                .map(|&j| (j, 1.0 / (1.0 + ns.len().max(neighbours[j].len()) as f64)))
+                .collect();
+            w.sort_by_key(|(j, _)| *j);
+            let own = 1.0 - w.iter().map(|(_, v)| v).sum::<f64>();
+            (w, own)
+        })
+        .collect()
+}
+
+/// An information pair: Y = P⁻¹ and y = P⁻¹ x.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Info {
+    pub Y: DMatrix<f64>,
+    pub y: DVector<f64>,
+}
+
+impl Info {
+    pub fn zero(n: usize) -> Info {
+        Info {
+            Y: DMatrix::zeros(n, n),
+            y: DVector::zeros(n),
+        }
+    }
+
+    pub fn of(g: &Gaussian) -> Result<Info, EstimateError> {
+        let Y = cholesky(&g.P, "P")?.inverse();
+        Ok(Info { y: &Y * &g.x, Y })
+    }
+
+    pub fn gaussian(&self) -> Result<Gaussian, EstimateError> {
+        let mut P = cholesky(&self.Y, "information matrix")?.inverse();
+        symmetrize(&mut P);
+        let x = &P * &self.y;
+        if x.iter().chain(P.iter()).any(|v| !v.is_finite()) {
+            return Err(EstimateError::NonFinite { what: "estimate" });
+        }
+        Ok(Gaussian { x, P })
+    }
+
+    /// The information of measurement `m` (the rows it carries): U = Hᵀ R⁻¹ H, u = Hᵀ R⁻¹ z, with angle rows of z
+    /// taken within π of H `about` (the node's prior), so that u − U·about is the wrapped innovation's information.
+    pub fn of_measurement(obs: &Observation, m: &Measurement, about: &DVector<f64>) -> Result<Info, EstimateError> {
+        let rows: Vec<usize> = (0..obs.dim()).filter(|&r| m.present.get(r) == Some(&true)).collect();
+        let n = obs.H.ncols();
+        if rows.is_empty() {
+            return Ok(Info::zero(n));
+        }
+        if m.z.len() != obs.dim() {
+            return Err(EstimateError::Dimension {
+                what: format!("measurement of {} rows, expected {}", m.z.len(), obs.dim()),
+            });
+        }
+        let H = obs.H.select_rows(rows.iter());
+        let R = obs.R.select_rows(rows.iter()).select_columns(rows.iter());
+        let Rinv = cholesky(&R, "R")?.inverse();
+        let predicted = &H * about;
+        let mut nu = DVector::from_iterator(rows.len(), rows.iter().map(|&r| m.z[r])) - &predicted;
+        let angles: Vec<bool> = rows.iter().map(|&r| obs.angle_rows[r]).collect();
+        wrap_rows(&mut nu, &angles);
+        let HtRinv = H.transpose() * Rinv;
+        Ok(Info {
+            Y: &HtRinv * &H,
+            y: &HtRinv * (predicted + nu),
+        })
+    }
+
+    fn scaled(&self, a: f64) -> Info {
+        Info {
+            Y: &self.Y * a,
+            y: &self.y * a,
+        }
+    }
+
+    fn add(&mut self, a: f64, o: &Info) {
+        self.Y += &o.Y * a;
+        self.y.axpy(a, &o.y, 1.0);
+    }
+}
+
+/// What travels between two nodes' estimators in one round.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Message {
+    /// A measurement and the rows it carries (centralized, diffusion's adapt step).
+    Measurement(Measurement),
+    /// An information pair (ICF).
+    Information(Info),
+    /// The prior's and the measurement's information pairs (HCMCI).
+    Hybrid { prior: Info, measurement: Info },
+    /// An estimate (KCF's prior, diffusion's combine step, CI).
+    Estimate(Gaussian),
+}
+
+/// What a node hands its estimators each step: the observation and the node's own measurement (none for a naive
+/// node, or when sensing failed).
+#[derive(Debug, Clone, Copy)]
+pub struct StepInput<'a> {
+    pub obs: &'a Observation,
+    pub own: Option<&'a Measurement>,
+}
+
+/// One distributed estimator at one node. Per step: [`Estimator::predict`], [`Estimator::begin`], then for each
+/// round r = 0 … L−1 [`Estimator::message`] (sent to every out-neighbour) and [`Estimator::combine`] (what arrived,
+/// sorted by source), then [`Estimator::finish`].
+pub trait Estimator: Send {
+    fn name(&self) -> &'static str;
+
+    /// The prediction to this step, by the node's model (the same for every estimator of the node).
+    fn predict(&mut self, predict: &dyn Fn(&Gaussian) -> Gaussian);
+
+    /// The step's own measurement has been taken.
+    fn begin(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError>;
+
+    /// What this node sends in round `round`, if anything.
+    fn message(&self, round: usize) -> Option<Message>;
+
+    /// Round `round`'s messages that arrived, by source, sorted by source.
+    fn combine(
+        &mut self,
+        round: usize,
+        arrived: &[(usize, &Message)],
+        input: &StepInput<'_>,
+    ) -> Result<(), EstimateError>;
+
+    /// The step ends after the last round.
+    fn finish(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError>;
+
+    /// The node's estimate (none at a node that only reports to a fusion center).
+    fn estimate(&self) -> Option<&Gaussian>;
+
+    /// Start again from `g` (a restart, or a failed update).
+    fn reset(&mut self, g: Gaussian);
+}
+
+/// (πᵢᵢ Xᵢ + Σ πᵢⱼ Xⱼ) / (πᵢᵢ + Σ πᵢⱼ) over the messages that arrived: the weights of the missing renormalised
+/// away, so that the combination stays convex.
+fn renormalised<'a, T: 'a>(
+    ctx: &Context,
+    own: &'a T,
+    arrived: impl Iterator<Item = (usize, &'a T)>,
+) -> Vec<(f64, &'a T)> {
+    let mut terms = vec![(ctx.self_weight, own)];
+    terms.extend(arrived.map(|(j, t)| (ctx.weight(j), t)).filter(|(w, _)| *w > 0.0));
+    let total: f64 = terms.iter().map(|(w, _)| w).sum();
+    if total > 0.0 {
+        terms.iter_mut().for_each(|(w, _)| *w /= total);
+    }
+    terms
+}
