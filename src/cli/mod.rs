@@ -58,6 +58,8 @@ pub enum Command {
     Run(RunArgs),
     /// List the built-in topologies.
     Topologies,
+    /// List the distributed estimators, with their references and parameters.
+    Estimators,
     /// Check topology files and explain every problem.
     Validate {
         /// Scenario files (TOML) to check.
@@ -130,6 +132,10 @@ pub fn main() -> ExitCode {
             list_topologies();
             Ok(ExitCode::SUCCESS)
         }
+        Some(Command::Estimators) => {
+            list_estimators();
+            Ok(ExitCode::SUCCESS)
+        }
         Some(Command::Validate { files }) => Ok(validate(&files)),
         Some(Command::Run(args)) => run(&args, cli.quiet),
         Some(Command::Node(args)) => run_node(&args, cli.quiet),
@@ -174,6 +180,20 @@ fn list_topologies() {
             .map(|t| t.description().to_string())
             .unwrap_or_else(|e| format!("(invalid: {e})"));
         println!("{name:<16} {d}");
+    }
+}
+
+fn list_estimators() {
+    for s in crate::estimators::SCHEMES {
+        let runs = if s.in_runs {
+            ""
+        } else {
+            " (library only: not yet in runs)"
+        };
+        println!(
+            "{}{runs}\n  {}\n  sends: {}\n  parameters: {}",
+            s.name, s.reference, s.messages, s.parameters
+        );
     }
 }
 

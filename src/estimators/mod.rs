@@ -41,6 +41,77 @@ pub use icf::Icf;
 pub use kcf::Kcf;
 pub use local::Local;
 
+/// One scheme as `simnet estimators` lists it.
+#[derive(Debug, Clone, Copy)]
+pub struct Scheme {
+    pub name: &'static str,
+    pub reference: &'static str,
+    /// What each round carries.
+    pub messages: &'static str,
+    pub parameters: &'static str,
+    /// Runs in a simnet run today (the others are library code, [`Estimator`]s driven by the caller).
+    pub in_runs: bool,
+}
+
+pub const SCHEMES: &[Scheme] = &[
+    Scheme {
+        name: "independent",
+        reference: "the node's own Kalman filter (Joseph form), the baseline of Sequeira (2023)",
+        messages: "none",
+        parameters: "-",
+        in_runs: true,
+    },
+    Scheme {
+        name: "sequeira",
+        reference: "Sequeira (2023), Sensors 23(18) 7838: beta-weighted consensus, eqs. 5-10, LMI guard (17), (19)",
+        messages: "round 0: the measurement",
+        parameters: "consensus.beta0, consensus.self / neighbor or matrix, consensus.lmi",
+        in_runs: true,
+    },
+    Scheme {
+        name: "centralized",
+        reference: "one fusion center, every sensing node's measurement stacked (the Kalman filter of the network)",
+        messages: "round 0: the measurement, to the center",
+        parameters: "the center node",
+        in_runs: false,
+    },
+    Scheme {
+        name: "kcf",
+        reference: "Olfati-Saber (2009), Kalman-consensus filter, Algorithm 1",
+        messages: "round 0: the prior estimate",
+        parameters: "gamma (consensus gain)",
+        in_runs: false,
+    },
+    Scheme {
+        name: "icf",
+        reference: "Kamal, Farrell & Roy-Chowdhury (2013), IEEE TAC 58(12), Algorithm 1",
+        messages: "every round: the information pair (V, v)",
+        parameters: "rounds; Metropolis weights",
+        in_runs: false,
+    },
+    Scheme {
+        name: "hcmci",
+        reference: "Battistelli, Chisci, Mugnai, Farina & Graziano (2015), IEEE TAC 60(5)",
+        messages: "every round: the prior's and the measurement's information pairs",
+        parameters: "rounds; omega (default: the number of nodes); Metropolis weights",
+        in_runs: false,
+    },
+    Scheme {
+        name: "diffusion",
+        reference: "Cattivelli & Sayed (2010), IEEE TAC 55(9), diffusion KF, adapt-then-combine",
+        messages: "round 0: the measurement; later rounds: the adapted estimate",
+        parameters: "rounds; share (adapt with the neighbours' measurements); combine (Metropolis or identity)",
+        in_runs: false,
+    },
+    Scheme {
+        name: "ci",
+        reference: "covariance intersection with consensus weights (Julier & Uhlmann 1997; Battistelli & Chisci 2014)",
+        messages: "every round: the estimate (x, P)",
+        parameters: "rounds; Metropolis weights",
+        in_runs: false,
+    },
+];
+
 /// What one node's estimator knows of the network.
 #[derive(Debug, Clone)]
 pub struct Context {

@@ -479,3 +479,27 @@ fn hcmci_is_stable_at_one_round_and_no_worse_with_more() {
     println!("hcmci L=1 MSE {m1:.4}, independent (naive nodes predict only) {mo:.4}");
     assert!(m1.is_finite() && m1 < mo, "HCMCI at L = 1: {m1} against {mo}");
 }
+
+/// Every scheme's estimator answers to its registry name.
+#[test]
+fn every_estimator_is_in_the_registry() {
+    let net = Net::rotating(chorded_ring(4), vec![true; 4]);
+    let c = net.contexts()[0].clone();
+    let g = Net::initial();
+    let all: Vec<Box<dyn Estimator>> = vec![
+        Box::new(Local::new(g.clone(), POLICY)),
+        Box::new(Centralized::new(c.clone(), Some(g.clone()))),
+        Box::new(Kcf::new(c.clone(), g.clone(), POLICY, 0.1)),
+        Box::new(Icf::new(c.clone(), g.clone())),
+        Box::new(Hcmci::new(c.clone(), g.clone(), 4.0)),
+        Box::new(Diffusion::new(c.clone(), g.clone(), POLICY, true, true)),
+        Box::new(Ci::new(c, g, POLICY)),
+    ];
+    for e in &all {
+        assert!(
+            SCHEMES.iter().any(|s| s.name == e.name()),
+            "{} is not in SCHEMES",
+            e.name()
+        );
+    }
+}

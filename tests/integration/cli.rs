@@ -160,6 +160,23 @@ fn every_builtin_validates_and_is_listed() {
     }
 }
 
+/// `simnet estimators` lists every scheme with its reference, and says which ones runs do not carry yet.
+#[test]
+fn every_estimator_is_listed_with_its_reference() {
+    let out = simnet().arg("estimators").output().unwrap();
+    assert!(out.status.success());
+    let listing = String::from_utf8_lossy(&out.stdout);
+    for s in simnet::estimators::SCHEMES {
+        let entry = listing
+            .split("\n")
+            .position(|l| l.starts_with(s.name))
+            .unwrap_or_else(|| panic!("{} is not listed", s.name));
+        let lines: Vec<&str> = listing.lines().skip(entry).take(4).collect();
+        assert!(lines[1].contains(s.reference), "{}: {lines:?}", s.name);
+        assert_eq!(lines[0].contains("library only"), !s.in_runs, "{}", s.name);
+    }
+}
+
 #[test]
 fn run_prints_the_table_and_writes_files() {
     let d = tmp("out");
