@@ -6,6 +6,7 @@ use super::{Checks, Role, Scenario, ScenarioError};
 use crate::link::{Jitter, LossModel};
 use crate::model::ModelConfig;
 use crate::motion::Trajectory;
+use rand::Rng;
 
 /// Link settings; unset ones keep the default (`[link]`) or, on the default itself, simnet's (no loss, no delay).
 #[derive(Debug, Clone, Default)]
@@ -155,6 +156,41 @@ impl ScenarioBuilder {
         self
     }
 
+    /// Undirected edges of a random geometric graph over the nodes given so far: positions uniform in the unit
+    /// square from `seed`, an edge between two nodes closer than r = c √(ln n / n) — the connectivity threshold
+    /// (Penrose 2003) — with c = 1 grown by 10 % until the graph is connected.
+    pub fn random_geometric(mut self, seed: u64) -> ScenarioBuilder {
+        let ids: Vec<u32> = self.raw.node.iter().filter_map(|n| n.id).map(|i| i as u32).collect();
+        let n = ids.len();
+        if n < 2 {
+            return self;
+        }
+        let mut rng = crate::rng::stream(seed, "random-geometric", n as u64, 0);
+        let at: Vec<(f64, f64)> = (0..n).map(|_| (rng.gen::<f64>(), rng.gen::<f64>())).collect();
+        let d = |a: usize, b: usize| ((at[a].0 - at[b].0).powi(2) + (at[a].1 - at[b].1).powi(2)).sqrt();
+        let mut r = ((n as f64).ln() / n as f64).sqrt();
+        let edges = loop {
+            let edges: Vec<(usize, usize)> = (0..n)
+                .flat_map(|a| ((a + 1)..n).map(move |b| (a, b)))
+                .filter(|&(a, b)| d(a, b) < r)
+                .collect();
+            if connected(n, &edges) {
+                break edges;
+            }
+            r *= 1.1;
+        };
+        for (a, b) in edges {
+            self = self.edge(ids[a], ids[b], LinkSpec::default());
+        }
+        self
+    }
+
+    /// β from the graph: Metropolis–Hastings weights (the file's `weights = "metropolis"`).
+    pub fn metropolis(mut self) -> ScenarioBuilder {
+        self.raw.consensus.get_or_insert_with(Default::default).weights = Some("metropolis".into());
+        self
+    }
+
     /// β weights: own measurement and each neighbour's (the file's `self` and `neighbor`).
     pub fn weights(mut self, own: f64, neighbour: f64) -> ScenarioBuilder {
         let c = self.raw.consensus.get_or_insert_with(Default::default);
@@ -224,9 +260,139 @@ impl ScenarioBuilder {
     }
 }
 
+/// Every node reachable from the first along `edges`.
+fn connected(n: usize, edges: &[(usize, usize)]) -> bool {
+    let mut around = vec![Vec::new(); n];
+    for &(a, b) in edges {
+        around[a].push(b);
+        around[b].push(a);
+    }
+    let mut seen = vec![false; n];
+    let mut stack = vec![0];
+    seen[0] = true;
+    while let Some(a) = stack.pop() {
+        for &b in &around[a] {
+            if !std::mem::replace(&mut seen[b], true) {
+                stack.push(b);
+            }
+        }
+    }
+    seen.into_iter().all(|s| s)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The rotating target of Kamal, Farrell & Roy-Chowdhury (2013): A a rotation by π/400, process noise 2I,
+    /// position observed with unit noise.
+    fn rotating_target() -> crate::model::Linear {
+        use nalgebra::{DMatrix, DVector};
+        let th = std::f64::consts::PI / 400.0;
+        crate::model::Linear::new(
+            DMatrix::from_row_slice(2, 2, &[th.cos(), -th.sin(), th.sin(), th.cos()]),
+            DMatrix::identity(2, 2),
+            DMatrix::identity(2, 2) * 2.0,
+            DMatrix::identity(2, 2),
+            DVector::zeros(2),
+            DMatrix::identity(2, 2),
+        )
+    }
+
+    /// rgg50 as `topologies/rgg50.toml` ships it: a 50-node random geometric graph from seed 1, every third node
+    /// naive (it estimates without observing), Metropolis weights, the rotating target.
+    fn rgg50() -> ScenarioBuilder {
+        let mut b = Scenario::builder()
+            .name("rgg50")
+            .rate_hz(100.0)
+            .duration_s(20.0)
+            .burn_in_s(1.0)
+            .seed(1)
+            .model(rotating_target());
+        for i in 0..50 {
+            b = b.node(i, if i % 3 == 2 { Role::Estimator } else { Role::Peer });
+        }
+        b.random_geometric(1).metropolis()
+    }
+
+    fn toml_of(name: &str, description: &str, b: &ScenarioBuilder) -> String {
+        let th = std::f64::consts::PI / 400.0;
+        let mut t = format!(
+            "name = \"{name}\"\ndescription = \"{description}\"\n\n[sim]\nrate_hz = 100.0\nduration_s = 20.0\nburn_in_s = 1.0\nseed = 1\n\n\
+             [model]\nkind = \"linear\"\na = [[{c:?}, {ms:?}], [{s:?}, {c:?}]]\nc = [[1.0, 0.0], [0.0, 1.0]]\n\
+             q = [[2.0, 0.0], [0.0, 2.0]]\nr = [[1.0, 0.0], [0.0, 1.0]]\nx0 = [0.0, 0.0]\np0 = [[1.0, 0.0], [0.0, 1.0]]\n\n\
+             [consensus]\nweights = \"metropolis\"\n",
+            c = th.cos(),
+            s = th.sin(),
+            ms = -th.sin()
+        );
+        for n in &b.raw.node {
+            t += &format!(
+                "\n[[node]]\nid = {}\nrole = \"{}\"\n",
+                n.id.unwrap(),
+                n.role.as_deref().unwrap()
+            );
+        }
+        for e in &b.raw.edge {
+            t += &format!("\n[[edge]]\nnodes = [{}, {}]\n", e.nodes[0], e.nodes[1]);
+        }
+        t
+    }
+
+    /// The shipped rgg50 is the builder's graph (`SIMNET_BLESS=1` writes it), connected, with Metropolis rows that
+    /// sum to one and weigh exactly the measurements a node can have.
+    #[test]
+    fn rgg50_is_the_seeded_random_geometric_graph() {
+        let b = rgg50();
+        let text = toml_of(
+            "rgg50",
+            "a 50-node random geometric graph (seed 1, radius at the connectivity threshold) with Metropolis weights; every third node naive; the rotating target of Kamal et al. (2013)",
+            &b,
+        );
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("topologies/rgg50.toml");
+        if std::env::var_os("SIMNET_BLESS").is_some() {
+            std::fs::write(&path, &text).unwrap();
+        }
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            text,
+            "topologies/rgg50.toml is not the builder's graph"
+        );
+        let built = b.build().unwrap();
+        let file = Scenario::from_toml(&text, "rgg50").unwrap();
+        assert_eq!(built.links().len(), file.links().len());
+        let n = file.nodes().len();
+        let beta = file.consensus().beta.to_dense();
+        let linked: std::collections::HashSet<(usize, usize)> = file.links().iter().map(|l| (l.from, l.to)).collect();
+        for (i, row) in beta.iter().enumerate() {
+            let sum: f64 = row.iter().sum();
+            assert!((sum - 1.0).abs() < 1e-12, "row {i} sums to {sum}");
+            for (j, b) in row.iter().enumerate() {
+                let carried = (i == j || linked.contains(&(j, i))) && file.nodes()[j].role.senses();
+                assert_eq!(*b > 0.0, carried, "β[{i}][{j}] = {b}");
+            }
+        }
+        assert!(super::connected(
+            n,
+            &file.links().iter().map(|l| (l.from, l.to)).collect::<Vec<_>>()
+        ));
+    }
+
+    /// `weights` names its rule and excludes the other ways of giving β; an unknown rule is named.
+    #[test]
+    fn metropolis_weights_are_checked() {
+        let base = "[[node]]\nid = 0\n[[node]]\nid = 1\n[[edge]]\nnodes = [0, 1]\n[consensus]\n";
+        let err = |extra: &str| {
+            Scenario::from_toml(&format!("{base}{extra}"), "t")
+                .unwrap_err()
+                .to_string()
+        };
+        assert!(err("weights = \"metropolis\"\nself = 0.5\n").contains("`consensus.weights`: give either `weights`"));
+        assert!(err("weights = \"uniform\"\n").contains("`consensus.weights`: unknown rule `uniform`"));
+        let ok = Scenario::from_toml(&format!("{base}weights = \"metropolis\"\n"), "t").unwrap();
+        // Two nodes of degree one: π₀₁ = 1/2, π₀₀ = 1/2.
+        assert_eq!(ok.consensus().beta.to_dense(), vec![vec![0.5, 0.5], vec![0.5, 0.5]]);
+    }
 
     /// ring3 built in code is ring3: the same summary, run for run.
     #[test]

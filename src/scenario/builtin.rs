@@ -12,6 +12,7 @@ pub const ALL: &[(&str, &str)] = &[
     ("sinopoli-scalar", include_str!("../../topologies/sinopoli-scalar.toml")),
     ("ring100", include_str!("../../topologies/ring100.toml")),
     ("attitude3", include_str!("../../topologies/attitude3.toml")),
+    ("rgg50", include_str!("../../topologies/rgg50.toml")),
 ];
 
 pub fn get(name: &str) -> Option<&'static str> {

@@ -44,6 +44,8 @@ pub struct RawConsensus {
     pub self_weight: Option<f64>,
     pub neighbor: Option<f64>,
     pub matrix: Option<Vec<Vec<f64>>>,
+    /// A rule for β instead of `matrix` or `self`/`neighbor`: "metropolis".
+    pub weights: Option<String>,
     pub lmi: Option<RawLmi>,
     pub inflation: Option<f64>,
 }

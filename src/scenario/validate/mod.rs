@@ -295,7 +295,25 @@ impl Checks {
                 "give either `matrix` or `self`/`neighbor`, not both",
             );
         }
+        let metropolis = match c.weights.as_deref() {
+            None => false,
+            Some("metropolis") => true,
+            Some(other) => {
+                self.bad(
+                    "consensus.weights",
+                    format!("unknown rule `{other}`: the rule simnet knows is \"metropolis\""),
+                );
+                false
+            }
+        };
+        if metropolis && (c.matrix.is_some() || c.self_weight.is_some() || c.neighbor.is_some()) {
+            self.bad(
+                "consensus.weights",
+                "give either `weights` or `matrix` or `self`/`neighbor`, not two of them",
+            );
+        }
         let beta = match &c.matrix {
+            _ if metropolis => metropolis_weights(nodes, linked),
             Some(m) => {
                 if m.len() != n || m.iter().any(|r| r.len() != n) {
                     self.bad(
@@ -379,6 +397,38 @@ impl Checks {
             inflation,
         }
     }
+}
+
+/// Metropolis–Hastings weights of the graph (Xiao, Boyd & Lall 2005): πᵢⱼ = 1 / (1 + max(dᵢ, dⱼ)) for each node j
+/// linked with i (either way), πᵢᵢ = 1 − Σⱼ πᵢⱼ. β weighs measurements, so each row keeps the measurements node i
+/// can have — its own if it senses, its sensing in-neighbours' — renormalised to sum to one.
+fn metropolis_weights(nodes: &[NodeConfig], linked: &std::collections::HashSet<(usize, usize)>) -> Beta {
+    let n = nodes.len();
+    let mut around: Vec<std::collections::BTreeSet<usize>> = vec![Default::default(); n];
+    for &(a, b) in linked {
+        around[a].insert(b);
+        around[b].insert(a);
+    }
+    let pi = |i: usize, j: usize| 1.0 / (1.0 + around[i].len().max(around[j].len()) as f64);
+    let rows = (0..n)
+        .map(|i| {
+            let mut row: Vec<(usize, f64)> = Vec::new();
+            if nodes[i].role.senses() {
+                row.push((i, 1.0 - around[i].iter().map(|&j| pi(i, j)).sum::<f64>()));
+            }
+            for &j in &around[i] {
+                if linked.contains(&(j, i)) && nodes[j].role.senses() {
+                    row.push((j, pi(i, j)));
+                }
+            }
+            let total: f64 = row.iter().map(|(_, w)| w).sum();
+            if total > 0.0 {
+                row.iter_mut().for_each(|(_, w)| *w /= total);
+            }
+            row
+        })
+        .collect();
+    Beta::from_rows(rows)
 }
 
 #[cfg(test)]
