@@ -36,10 +36,11 @@ impl Estimator for Centralized {
     fn name(&self) -> &'static str {
         "centralized"
     }
-    fn predict(&mut self, predict: &dyn Fn(&Gaussian) -> Gaussian) {
-        if let Some(g) = &mut self.g {
-            *g = predict(g);
-        }
+    fn state(&self) -> Option<&Gaussian> {
+        self.g.as_ref()
+    }
+    fn state_mut(&mut self) -> Option<&mut Gaussian> {
+        self.g.as_mut()
     }
     fn begin(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
         self.own = input.own.cloned();
@@ -82,13 +83,5 @@ impl Estimator for Centralized {
         wrap_rows(&mut g.x, &self.ctx.angle_states);
         self.g = Some(g);
         Ok(())
-    }
-    fn estimate(&self) -> Option<&Gaussian> {
-        self.g.as_ref()
-    }
-    fn reset(&mut self, g: Gaussian) {
-        if self.g.is_some() {
-            self.g = Some(g);
-        }
     }
 }

@@ -28,8 +28,11 @@ impl Estimator for Ci {
     fn name(&self) -> &'static str {
         "ci"
     }
-    fn predict(&mut self, predict: &dyn Fn(&Gaussian) -> Gaussian) {
-        self.g = predict(&self.g);
+    fn state(&self) -> Option<&Gaussian> {
+        Some(&self.g)
+    }
+    fn state_mut(&mut self) -> Option<&mut Gaussian> {
+        Some(&mut self.g)
     }
     fn begin(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
         self.g = own_update(&self.g, input, self.policy)?;
@@ -63,14 +66,5 @@ impl Estimator for Ci {
         wrap_rows(&mut g.x, &self.ctx.angle_states);
         self.g = g;
         Ok(())
-    }
-    fn finish(&mut self, _input: &StepInput<'_>) -> Result<(), EstimateError> {
-        Ok(())
-    }
-    fn estimate(&self) -> Option<&Gaussian> {
-        Some(&self.g)
-    }
-    fn reset(&mut self, g: Gaussian) {
-        self.g = g;
     }
 }

@@ -64,8 +64,11 @@ impl Estimator for Diffusion {
     fn name(&self) -> &'static str {
         "diffusion"
     }
-    fn predict(&mut self, predict: &dyn Fn(&Gaussian) -> Gaussian) {
-        self.g = predict(&self.g);
+    fn state(&self) -> Option<&Gaussian> {
+        Some(&self.g)
+    }
+    fn state_mut(&mut self) -> Option<&mut Gaussian> {
+        Some(&mut self.g)
     }
     fn begin(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
         self.adapted = false;
@@ -126,11 +129,5 @@ impl Estimator for Diffusion {
             self.adapted = true;
         }
         Ok(())
-    }
-    fn estimate(&self) -> Option<&Gaussian> {
-        Some(&self.g)
-    }
-    fn reset(&mut self, g: Gaussian) {
-        self.g = g;
     }
 }

@@ -39,8 +39,11 @@ impl Estimator for Hcmci {
     fn name(&self) -> &'static str {
         "hcmci"
     }
-    fn predict(&mut self, predict: &dyn Fn(&Gaussian) -> Gaussian) {
-        self.g = predict(&self.g);
+    fn state(&self) -> Option<&Gaussian> {
+        Some(&self.g)
+    }
+    fn state_mut(&mut self) -> Option<&mut Gaussian> {
+        Some(&mut self.g)
     }
     fn begin(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
         self.prior = Info::of(&self.g)?;
@@ -82,11 +85,5 @@ impl Estimator for Hcmci {
         fused.add(self.omega, &self.measurement);
         self.g = fused.gaussian()?;
         Ok(())
-    }
-    fn estimate(&self) -> Option<&Gaussian> {
-        Some(&self.g)
-    }
-    fn reset(&mut self, g: Gaussian) {
-        self.g = g;
     }
 }

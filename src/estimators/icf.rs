@@ -34,8 +34,11 @@ impl Estimator for Icf {
     fn name(&self) -> &'static str {
         "icf"
     }
-    fn predict(&mut self, predict: &dyn Fn(&Gaussian) -> Gaussian) {
-        self.g = predict(&self.g);
+    fn state(&self) -> Option<&Gaussian> {
+        Some(&self.g)
+    }
+    fn state_mut(&mut self) -> Option<&mut Gaussian> {
+        Some(&mut self.g)
     }
     fn begin(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
         let mut v = Info::of(&self.g)?.scaled(1.0 / self.ctx.nodes as f64);
@@ -68,11 +71,5 @@ impl Estimator for Icf {
             x: g.x,
         };
         Ok(())
-    }
-    fn estimate(&self) -> Option<&Gaussian> {
-        Some(&self.g)
-    }
-    fn reset(&mut self, g: Gaussian) {
-        self.g = g;
     }
 }

@@ -41,8 +41,11 @@ impl Estimator for Kcf {
     fn name(&self) -> &'static str {
         "kcf"
     }
-    fn predict(&mut self, predict: &dyn Fn(&Gaussian) -> Gaussian) {
-        self.g = predict(&self.g);
+    fn state(&self) -> Option<&Gaussian> {
+        Some(&self.g)
+    }
+    fn state_mut(&mut self) -> Option<&mut Gaussian> {
+        Some(&mut self.g)
     }
     fn begin(&mut self, _input: &StepInput<'_>) -> Result<(), EstimateError> {
         self.pull.fill(0.0);
@@ -76,11 +79,5 @@ impl Estimator for Kcf {
         }
         self.g = post;
         Ok(())
-    }
-    fn estimate(&self) -> Option<&Gaussian> {
-        Some(&self.g)
-    }
-    fn reset(&mut self, g: Gaussian) {
-        self.g = g;
     }
 }

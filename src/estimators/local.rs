@@ -30,11 +30,11 @@ impl Estimator for Local {
     fn name(&self) -> &'static str {
         "independent"
     }
-    fn predict(&mut self, predict: &dyn Fn(&Gaussian) -> Gaussian) {
-        self.g = predict(&self.g);
+    fn state(&self) -> Option<&Gaussian> {
+        Some(&self.g)
     }
-    fn begin(&mut self, _input: &StepInput<'_>) -> Result<(), EstimateError> {
-        Ok(())
+    fn state_mut(&mut self) -> Option<&mut Gaussian> {
+        Some(&mut self.g)
     }
     fn message(&self, _round: usize) -> Option<Message> {
         None
@@ -45,11 +45,5 @@ impl Estimator for Local {
     fn finish(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
         self.g = own_update(&self.g, input, self.policy)?;
         Ok(())
-    }
-    fn estimate(&self) -> Option<&Gaussian> {
-        Some(&self.g)
-    }
-    fn reset(&mut self, g: Gaussian) {
-        self.g = g;
     }
 }

@@ -247,11 +247,21 @@ pub struct StepInput<'a> {
 pub trait Estimator: Send {
     fn name(&self) -> &'static str;
 
+    /// The node's estimate (none at a node that only reports to a fusion center).
+    fn state(&self) -> Option<&Gaussian>;
+    fn state_mut(&mut self) -> Option<&mut Gaussian>;
+
     /// The prediction to this step, by the node's model (the same for every estimator of the node).
-    fn predict(&mut self, predict: &dyn Fn(&Gaussian) -> Gaussian);
+    fn predict(&mut self, predict: &dyn Fn(&Gaussian) -> Gaussian) {
+        if let Some(g) = self.state_mut() {
+            *g = predict(g);
+        }
+    }
 
     /// The step's own measurement has been taken.
-    fn begin(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError>;
+    fn begin(&mut self, _input: &StepInput<'_>) -> Result<(), EstimateError> {
+        Ok(())
+    }
 
     /// What this node sends in round `round`, if anything.
     fn message(&self, round: usize) -> Option<Message>;
@@ -265,13 +275,16 @@ pub trait Estimator: Send {
     ) -> Result<(), EstimateError>;
 
     /// The step ends after the last round.
-    fn finish(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError>;
-
-    /// The node's estimate (none at a node that only reports to a fusion center).
-    fn estimate(&self) -> Option<&Gaussian>;
+    fn finish(&mut self, _input: &StepInput<'_>) -> Result<(), EstimateError> {
+        Ok(())
+    }
 
     /// Start again from `g` (a restart, or a failed update).
-    fn reset(&mut self, g: Gaussian);
+    fn reset(&mut self, g: Gaussian) {
+        if let Some(s) = self.state_mut() {
+            *s = g;
+        }
+    }
 }
 
 /// (πᵢᵢ Xᵢ + Σ πᵢⱼ Xⱼ) / (πᵢᵢ + Σ πᵢⱼ) over the messages that arrived: the weights of the missing renormalised

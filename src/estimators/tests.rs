@@ -132,7 +132,7 @@ impl Net {
             for (i, e) in est.iter_mut().enumerate() {
                 e.finish(&inputs[i]).unwrap();
             }
-            out.push(est.iter().map(|e| e.estimate().cloned()).collect());
+            out.push(est.iter().map(|e| e.state().cloned()).collect());
         }
         out
     }

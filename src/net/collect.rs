@@ -22,23 +22,23 @@ pub(super) struct StepOut {
 }
 
 impl StepOut {
-    pub fn new(step: u64, nodes: usize) -> StepOut {
-        StepOut {
+    /// Close step `step` of `nodes`: their estimates and rows.
+    pub fn close<'a>(step: u64, nodes: impl ExactSizeIterator<Item = &'a mut crate::node::Node>) -> StepOut {
+        let mut out = StepOut {
             step,
-            estimates: Vec::with_capacity(nodes),
+            estimates: Vec::with_capacity(nodes.len()),
             rows: Vec::new(),
             imu: Vec::new(),
+        };
+        for node in nodes {
+            out.estimates.extend(node.handle_deadline(step));
+            out.rows.append(&mut node.take_trace());
+            let imu = node.take_imu();
+            if !imu.is_empty() {
+                out.imu.push((node.id(), imu));
+            }
         }
-    }
-
-    /// What `node` closed step `self.step` with.
-    pub fn add(&mut self, node: &mut crate::node::Node) {
-        self.estimates.extend(node.handle_deadline(self.step));
-        self.rows.append(&mut node.take_trace());
-        let imu = node.take_imu();
-        if !imu.is_empty() {
-            self.imu.push((node.id(), imu));
-        }
+        out
     }
 }
 

@@ -214,11 +214,10 @@ async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::Unbo
                 }
             }
         }
-        let mut step = StepOut::new(k, slots.len());
-        for slot in &mut slots {
-            step.add(&mut slot.node);
-        }
-        if out.send(step).is_err() {
+        if out
+            .send(StepOut::close(k, slots.iter_mut().map(|s| &mut s.node)))
+            .is_err()
+        {
             break;
         }
         done = k + 1;
