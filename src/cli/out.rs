@@ -9,6 +9,8 @@ pub(super) struct OutDir {
 }
 
 pub(super) const TRACE_TMP: &str = "trace.csv.tmp";
+/// Every sensing node's own measurements ([`crate::report::trace::MEASUREMENTS_HEADER`]).
+pub(super) const MEASUREMENTS: &str = "measurements.csv";
 
 /// A bad output directory is a usage error found before any work (exit 2), for every command that writes one.
 pub(crate) fn check_out(dir: &Path) -> Result<(), UsageError> {
@@ -50,6 +52,14 @@ impl OutDir {
             .unwrap_or_default();
         std::fs::rename(self.dir.join(TRACE_TMP), &path).with_context(|| format!("cannot write {}", path.display()))?;
         Ok(sample)
+    }
+
+    /// Opens `measurements.csv.tmp` for the recorder ([`OutDir::rename_tmp`] gives it its name at the end).
+    pub(super) fn measurements(&self) -> Result<Box<dyn Write + Send>, UsageError> {
+        let path = self.dir.join(format!("{MEASUREMENTS}.tmp"));
+        let f = std::fs::File::create(&path)
+            .map_err(|e| UsageError::Option(format!("--out: cannot write {}: {e}", path.display())))?;
+        Ok(Box::new(std::io::BufWriter::new(f)))
     }
 
     /// Opens `imu-ID.csv.tmp` for the recorder ([`OutDir::rename_tmp`] gives it its name at the end).

@@ -13,7 +13,12 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         clock: if args.realtime { Clock::Realtime } else { Clock::Virtual },
         trace: out_dir
             .as_ref()
-            .map(|d| d.trace(&topo).map(|t| t.with_imu(d.imu_opener())))
+            .map(|d| -> Result<TraceWriter, UsageError> {
+                let obs = topo.model().get().observation();
+                Ok(d.trace(&topo)?
+                    .with_imu(d.imu_opener())
+                    .with_measurements(d.measurements()?, obs))
+            })
             .transpose()?,
         progress: progress
             .clone()
@@ -38,6 +43,8 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             d.rename_tmp(&name)?;
             wrote.push(name);
         }
+        d.rename_tmp(MEASUREMENTS)?;
+        wrote.push(MEASUREMENTS.into());
     }
     print_summary(&s, args.json, None)?;
     if let (Some(d), false) = (&out_dir, args.json) {

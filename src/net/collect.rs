@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use tokio::sync::mpsc;
 
-use crate::node::{ImuRow, StepEstimate, TraceRow};
+use crate::node::{ImuRow, MeasurementRow, StepEstimate, TraceRow};
 use crate::observe::fusion::Observer;
 use crate::report::trace::TraceWriter;
 use crate::scenario::Scenario;
@@ -19,6 +19,7 @@ pub(super) struct StepOut {
     pub estimates: Vec<StepEstimate>,
     pub rows: Vec<TraceRow>,
     pub imu: Vec<(u32, Vec<ImuRow>)>,
+    pub measurements: Vec<MeasurementRow>,
 }
 
 impl StepOut {
@@ -29,8 +30,10 @@ impl StepOut {
             estimates: Vec::with_capacity(nodes.len()),
             rows: Vec::new(),
             imu: Vec::new(),
+            measurements: Vec::new(),
         };
         for node in nodes {
+            out.measurements.append(&mut node.take_measurements());
             out.estimates.extend(node.handle_deadline(step));
             out.rows.append(&mut node.take_trace());
             let imu = node.take_imu();
@@ -67,6 +70,7 @@ pub(super) async fn observe(
                 acc.estimates.append(&mut s.estimates);
                 acc.rows.append(&mut s.rows);
                 acc.imu.append(&mut s.imu);
+                acc.measurements.append(&mut s.measurements);
             }
         }
         while pending
@@ -81,6 +85,8 @@ pub(super) async fn observe(
                 for (id, rows) in &step.imu {
                     t.imu(*id, rows);
                 }
+                step.measurements.sort_by_key(|m| m.node);
+                t.measurements(&step.measurements);
                 step.rows.sort_by_key(|r| (r.node, !r.networked));
                 t.rows(step.rows);
                 t.fused(observer.drain_rows());

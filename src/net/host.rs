@@ -327,6 +327,8 @@ pub async fn run_node(
                 estimates.push(e);
             }
         }
+        // A part carries no measurements file (yet): the rows are not kept.
+        node.take_measurements();
         tracing::trace!(step = k, "step closed");
         if !offsets.is_empty() {
             let mean = offsets.iter().sum::<f64>() / offsets.len() as f64;

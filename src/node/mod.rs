@@ -44,7 +44,9 @@ pub use crate::imu_csv::ImuRow;
 pub use crate::link::Transmit;
 use crate::link::{Egress, Link, NodeEvent};
 use crate::model::{Measurement, Model, Truth};
-use crate::observe::{Filter, ImuRecorder, LmiRecorder, Probe, Probes, Scorer, TraceRecorder, Update};
+use crate::observe::{
+    Filter, ImuRecorder, LmiRecorder, MeasurementRecorder, Probe, Probes, Scorer, TraceRecorder, Update,
+};
 use crate::scenario::{Role, Scenario};
 use crate::sensor::{ImuInterval, ImuSample, Sensor};
 use crate::wire::{Datagram, Header, Payload, WireError};
@@ -52,7 +54,7 @@ use filters::Filters;
 use inbox::{Inbox, Received};
 use session::Session;
 
-pub use crate::observe::{LmiStep, StepEstimate, TraceRow};
+pub use crate::observe::{LmiStep, MeasurementRow, StepEstimate, TraceRow};
 pub use events::{Arrival, NodeCounters, NodeReport};
 
 pub struct Node {
@@ -150,6 +152,7 @@ impl Node {
             probes: Probes {
                 trace: record_trace.then(|| TraceRecorder::new(model.clone())),
                 imu: record_trace.then(ImuRecorder::default),
+                measurements: record_trace.then(MeasurementRecorder::default),
                 ..Default::default()
             },
             model,
@@ -247,6 +250,16 @@ impl Node {
         }
         // Sense first: the IMU sample at t_k closes the interval the prediction integrates over.
         let (imu, own) = self.sense(t);
+        if let (Some(m), false) = (&own, self.probes.is_empty()) {
+            let rows: Vec<usize> = (0..m.z.len()).filter(|&r| m.present[r]).collect();
+            let row = MeasurementRow {
+                step: k,
+                node: self.id,
+                values: rows.iter().map(|&r| m.z[r]).collect(),
+                rows,
+            };
+            self.probes.each().for_each(|p| p.on_measurement(&row));
+        }
         if k > 0 && !restarted {
             // Trapezoid: the mean of the samples at both ends of the interval, second-order accurate where a
             // sample held from the start leaves an O(Δt²) error per step that the IMU noise model does not cover.
@@ -543,6 +556,15 @@ impl Node {
                 .collect(),
             Err(_) => Vec::new(),
         }
+    }
+
+    /// The node's own measurements recorded since the last call.
+    pub fn take_measurements(&mut self) -> Vec<MeasurementRow> {
+        self.probes
+            .measurements
+            .as_mut()
+            .map(MeasurementRecorder::take)
+            .unwrap_or_default()
     }
 
     /// The IMU rows recorded since the last call.

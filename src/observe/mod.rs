@@ -19,7 +19,7 @@ use crate::estimate::Gaussian;
 use crate::imu_csv::ImuRow;
 
 pub use fusion::{FusedRow, Observer, StepEstimate};
-pub use recorders::{ImuRecorder, LmiRecorder, LmiStep, TraceRecorder, TraceRow};
+pub use recorders::{ImuRecorder, LmiRecorder, LmiStep, MeasurementRecorder, MeasurementRow, TraceRecorder, TraceRow};
 pub use scorer::Scorer;
 
 /// Which of a node's two filters.
@@ -71,6 +71,8 @@ pub trait Probe: Send {
     fn on_imu(&mut self, _row: &ImuRow) {}
     /// The β-independent LMI terms of one networked update.
     fn on_lmi(&mut self, _step: &LmiStep) {}
+    /// The node's own measurement of a step, as it was taken (before any link decided its fate).
+    fn on_measurement(&mut self, _m: &MeasurementRow) {}
 }
 
 /// The probes of one node: the recorders that are on, then any added ([`crate::node::Node::add_probe`]).
@@ -79,21 +81,28 @@ pub struct Probes {
     pub trace: Option<TraceRecorder>,
     pub imu: Option<ImuRecorder>,
     pub lmi: Option<LmiRecorder>,
+    pub measurements: Option<MeasurementRecorder>,
     pub added: Vec<Box<dyn Probe>>,
 }
 
 impl Probes {
     pub fn is_empty(&self) -> bool {
-        self.trace.is_none() && self.imu.is_none() && self.lmi.is_none() && self.added.is_empty()
+        self.trace.is_none()
+            && self.imu.is_none()
+            && self.lmi.is_none()
+            && self.measurements.is_none()
+            && self.added.is_empty()
     }
 
     pub fn each(&mut self) -> impl Iterator<Item = &mut dyn Probe> + '_ {
         let trace = self.trace.iter_mut().map(|p| p as &mut dyn Probe);
         let imu = self.imu.iter_mut().map(|p| p as &mut dyn Probe);
         let lmi = self.lmi.iter_mut().map(|p| p as &mut dyn Probe);
+        let measurements = self.measurements.iter_mut().map(|p| p as &mut dyn Probe);
         trace
             .chain(imu)
             .chain(lmi)
+            .chain(measurements)
             .chain(self.added.iter_mut().map(|p| &mut **p as &mut dyn Probe))
     }
 }

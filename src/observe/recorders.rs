@@ -116,3 +116,31 @@ impl Probe for LmiRecorder {
         self.steps.push(step.clone());
     }
 }
+
+/// One node's own measurement of one step: the rows it carries and their values (`measurements.csv`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeasurementRow {
+    pub step: u64,
+    pub node: u32,
+    /// Rows present, in order, and their values.
+    pub rows: Vec<usize>,
+    pub values: Vec<f64>,
+}
+
+/// Keeps each step's own measurement of a sensing node.
+#[derive(Default)]
+pub struct MeasurementRecorder {
+    rows: Vec<MeasurementRow>,
+}
+
+impl MeasurementRecorder {
+    pub fn take(&mut self) -> Vec<MeasurementRow> {
+        std::mem::take(&mut self.rows)
+    }
+}
+
+impl Probe for MeasurementRecorder {
+    fn on_measurement(&mut self, m: &MeasurementRow) {
+        self.rows.push(m.clone());
+    }
+}

@@ -12,6 +12,9 @@ use std::io::{self, Write};
 use crate::node::TraceRow;
 use crate::observe::fusion::FusedRow;
 
+/// The columns of `measurements.csv`: `rows`, `values` and `r` (R over those rows, row-major) are `;`-separated.
+pub const MEASUREMENTS_HEADER: &str = "step,t,node,channel,rows,values,r";
+
 /// Steps drawn per series before the plots thin the sample to every k-th step.
 pub const PLOT_STEPS: u64 = 5000;
 
@@ -57,6 +60,8 @@ pub struct TraceWriter {
     imu_files: Option<ImuOpener>,
     /// Open IMU files by node id, and whether each has magnetometer columns.
     imu: std::collections::BTreeMap<u32, (Box<dyn Write + Send>, bool)>,
+    /// `measurements.csv` and the observation its R columns come from.
+    measurements: Option<(Box<dyn Write + Send>, crate::estimate::Observation)>,
 }
 
 /// Opens the `imu-ID.csv` of node ID.
@@ -77,6 +82,7 @@ impl TraceWriter {
             error: None,
             imu_files: None,
             imu: Default::default(),
+            measurements: None,
         }
     }
 
@@ -108,6 +114,50 @@ impl TraceWriter {
     pub fn with_imu(mut self, open: ImuOpener) -> TraceWriter {
         self.imu_files = Some(open);
         self
+    }
+
+    /// Also stream every sensing node's own measurements to `w` ([`MEASUREMENTS_HEADER`]): one line per node,
+    /// step and channel, with the rows it carries, their values and the block of R over them, so that any
+    /// estimator can be recomputed from the file.
+    pub fn with_measurements(mut self, mut w: Box<dyn Write + Send>, obs: crate::estimate::Observation) -> TraceWriter {
+        match writeln!(w, "{MEASUREMENTS_HEADER}") {
+            Ok(()) => self.measurements = Some((w, obs)),
+            Err(e) => self.error = Some(e),
+        }
+        self
+    }
+
+    /// Nodes' own measurements of one step.
+    pub fn measurements(&mut self, rows: &[crate::node::MeasurementRow]) {
+        use std::fmt::Write as _;
+        let (Some((w, obs)), None) = (self.measurements.as_mut(), self.error.as_ref()) else {
+            return;
+        };
+        let join = |v: &mut dyn Iterator<Item = String>| v.collect::<Vec<_>>().join(";");
+        let mut text = String::new();
+        for m in rows {
+            let t = num((m.step as f64 * self.dt * 1e9).round() / 1e9);
+            for c in 0..obs.channels() {
+                let at: Vec<usize> = (0..m.rows.len())
+                    .filter(|&i| obs.channel_of_row.get(m.rows[i]) == Some(&c))
+                    .collect();
+                if at.is_empty() {
+                    continue;
+                }
+                let rows = join(&mut at.iter().map(|&i| m.rows[i].to_string()));
+                let values = join(&mut at.iter().map(|&i| num(m.values[i])));
+                let r = join(
+                    &mut at
+                        .iter()
+                        .flat_map(|&i| at.iter().map(move |&j| (m.rows[i], m.rows[j])))
+                        .map(|(a, b)| num(obs.R[(a, b)])),
+                );
+                let _ = writeln!(text, "{},{t},{},{c},{rows},{values},{r}", m.step, m.node);
+            }
+        }
+        if let Err(e) = w.write_all(text.as_bytes()) {
+            self.error = Some(e);
+        }
     }
 
     /// Whether IMU rows are wanted.
@@ -222,6 +272,11 @@ impl TraceWriter {
     pub fn finish(mut self) -> io::Result<(Vec<TraceRow>, Vec<FusedRow>)> {
         self.write(|w| w.flush());
         for (w, _) in self.imu.values_mut() {
+            if let Err(e) = w.flush() {
+                self.error.get_or_insert(e);
+            }
+        }
+        if let Some((w, _)) = self.measurements.as_mut() {
             if let Err(e) = w.flush() {
                 self.error.get_or_insert(e);
             }

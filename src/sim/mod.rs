@@ -128,12 +128,18 @@ impl Sim {
         };
         let estimates = lockstep(&mut self.nodes, k, window_end);
         let mut rows = Vec::new();
+        let mut measurements = Vec::new();
         for n in &mut self.nodes {
             rows.append(&mut n.take_trace());
+            measurements.append(&mut n.take_measurements());
             let imu = n.take_imu();
             if let Some(t) = self.trace.as_mut() {
                 t.imu(n.id(), &imu);
             }
+        }
+        if let Some(t) = self.trace.as_mut() {
+            measurements.sort_by_key(|m| m.node);
+            t.measurements(&measurements);
         }
         let returned = if keep { estimates.clone() } else { Vec::new() };
         if let Some(o) = self.observer.as_mut() {

@@ -343,3 +343,67 @@ fn the_command_line_says_what_is_wrong() {
     assert!(err.is_empty(), "-q keeps warnings quiet: {err}");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// `measurements.csv` holds what each node measured, so that a filter can be recomputed outside simnet: each node's
+/// independent Kalman filter of a scalar system, rerun here from the file (prior from `trace.csv`'s previous row),
+/// gives every posterior `trace.csv` reports.
+#[test]
+fn measurements_csv_recomputes_the_independent_filter() {
+    let d = tmp("measurements");
+    std::fs::create_dir_all(&d).unwrap();
+    let (a, q, r) = (0.95, 0.1, 0.5);
+    let toml = format!(
+        "name = \"scalar2\"\n[sim]\nrate_hz = 100.0\nduration_s = 2.0\nburn_in_s = 0.0\nseed = 3\n\
+         [model]\nkind = \"linear\"\na = [[{a}]]\nc = [[1.0]]\nq = [[{q}]]\nr = [[{r}]]\nx0 = [1.0]\np0 = [[1.0]]\n\
+         [[node]]\nid = 0\n[[node]]\nid = 1\n[[edge]]\nnodes = [0, 1]\n"
+    );
+    let file = d.join("scalar2.toml");
+    std::fs::write(&file, toml).unwrap();
+    let out = d.join("out");
+    let o = simnet()
+        .arg("-t")
+        .arg(&file)
+        .args(["--loss", "0.3", "-q", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let read = |name: &str| std::fs::read_to_string(out.join(name)).unwrap();
+    let measurements = read("measurements.csv");
+    let mut lines = measurements.lines();
+    assert_eq!(lines.next(), Some("step,t,node,channel,rows,values,r"));
+    let mut z = std::collections::HashMap::new();
+    for l in lines {
+        let f: Vec<&str> = l.split(',').collect();
+        assert_eq!((f[3], f[4], f[6]), ("0", "0", "0.5"), "{l}");
+        z.insert(
+            (f[0].parse::<u64>().unwrap(), f[2].to_string()),
+            f[5].parse::<f64>().unwrap(),
+        );
+    }
+    assert_eq!(z.len(), 2 * 200, "one measurement per node and step");
+    let trace = read("trace.csv");
+    let header: Vec<&str> = trace.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (est, var) = (col("est_x0"), col("var_x0"));
+    let mut last: std::collections::HashMap<String, (f64, f64)> = Default::default();
+    let mut checked = 0;
+    for l in trace.lines().skip(1).filter(|l| l.contains(",independent,")) {
+        let f: Vec<&str> = l.split(',').collect();
+        let (k, node) = (f[0].parse::<u64>().unwrap(), f[2].to_string());
+        let post = (f[est].parse::<f64>().unwrap(), f[var].parse::<f64>().unwrap());
+        if let Some((x, p)) = last.get(&node) {
+            let (xp, pp) = (a * x, a * a * p + q);
+            let kg = pp / (pp + r);
+            let want = (xp + kg * (z[&(k, node.clone())] - xp), (1.0 - kg) * pp);
+            assert!(
+                (want.0 - post.0).abs() < 1e-9 * (1.0 + want.0.abs()) && (want.1 - post.1).abs() < 1e-9 * want.1,
+                "node {node}, step {k}: recomputed {want:?}, trace {post:?}"
+            );
+            checked += 1;
+        }
+        last.insert(node, post);
+    }
+    assert_eq!(checked, 2 * 199);
+    let _ = std::fs::remove_dir_all(&d);
+}
