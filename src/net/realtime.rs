@@ -80,6 +80,9 @@ struct Slot {
 
 /// Read everything queued on `slot`'s socket into its node (the poll set is edge-triggered: drain to the end).
 fn drain(slot: &mut Slot, buf: &mut [u8], index_of: &HashMap<SocketAddr, usize>) {
+    // A UDP socket reports some errors per datagram (an ICMP "port unreachable" from a peer that has gone): read
+    // on past them, but not forever.
+    let mut errors = 0;
     loop {
         match slot.socket.recv_from(buf) {
             Ok((len, from)) => {
@@ -89,7 +92,10 @@ fn drain(slot: &mut Slot, buf: &mut [u8], index_of: &HashMap<SocketAddr, usize>)
             Err(e) if e.kind() == ErrorKind::Interrupted => {}
             Err(e) => {
                 tracing::warn!(node = slot.node.id(), "recv_from failed: {e}");
-                return;
+                errors += 1;
+                if errors >= 64 {
+                    return;
+                }
             }
         }
     }
