@@ -192,11 +192,7 @@ fn fixed_update(
             *a |= *p;
         }
     }
-    let lambda = match policy {
-        MissingChannels::Inflate(l) => l,
-        MissingChannels::Drop if present_any.iter().all(|p| *p) => 1.0,
-        MissingChannels::Drop => return None,
-    };
+    let lambda = policy.kept_rows_lambda(present_any)?;
     if !present_any.iter().any(|p| *p) {
         return None;
     }

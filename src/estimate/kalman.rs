@@ -49,6 +49,15 @@ pub enum MissingChannels {
 }
 
 impl MissingChannels {
+    /// The λ of a rule that keeps every row, given the rows `present`: λ itself when inflating, 1 when dropping
+    /// but nothing is missing; `None` when rows would be dropped.
+    pub fn kept_rows_lambda(self, present: &[bool]) -> Option<f64> {
+        match self {
+            MissingChannels::Inflate(l) => Some(l),
+            MissingChannels::Drop => present.iter().all(|p| *p).then_some(1.0),
+        }
+    }
+
     /// Inflate when R is diagonal, drop rows when it is correlated (inflation is then not equivalent).
     pub fn for_noise(R: &DMatrix<f64>, lambda: f64) -> MissingChannels {
         let diagonal = (0..R.nrows()).all(|i| (0..R.ncols()).all(|j| i == j || R[(i, j)] == 0.0));
@@ -104,11 +113,10 @@ pub fn kalman_update(
     if !present.iter().any(|p| *p) {
         return Ok(prior.clone());
     }
-    let lambda = match policy {
-        MissingChannels::Inflate(l) => Some(l),
-        MissingChannels::Drop => present.iter().all(|p| *p).then_some(1.0),
-    };
-    if let Some(r) = lambda.and_then(|l| super::fixed::kalman_update(prior, obs, z, present, l)) {
+    if let Some(r) = policy
+        .kept_rows_lambda(present)
+        .and_then(|l| super::fixed::kalman_update(prior, obs, z, present, l))
+    {
         return r;
     }
     joseph(prior, obs, z, present, policy)

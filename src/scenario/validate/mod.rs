@@ -399,28 +399,29 @@ impl Checks {
     }
 }
 
-/// Metropolis–Hastings weights of the graph (Xiao, Boyd & Lall 2005): πᵢⱼ = 1 / (1 + max(dᵢ, dⱼ)) for each node j
-/// linked with i (either way), πᵢᵢ = 1 − Σⱼ πᵢⱼ. β weighs measurements, so each row keeps the measurements node i
-/// can have — its own if it senses, its sensing in-neighbours' — renormalised to sum to one.
+/// β from the graph's Metropolis–Hastings weights ([`crate::estimators::metropolis`], over the nodes linked with
+/// each node either way). β weighs measurements, so each row keeps the measurements node i can have — its own if it
+/// senses, its sensing in-neighbours' — renormalised to sum to one.
 fn metropolis_weights(nodes: &[NodeConfig], linked: &std::collections::HashSet<(usize, usize)>) -> Beta {
-    let n = nodes.len();
-    let mut around: Vec<std::collections::BTreeSet<usize>> = vec![Default::default(); n];
+    let mut around: Vec<std::collections::BTreeSet<usize>> = vec![Default::default(); nodes.len()];
     for &(a, b) in linked {
         around[a].insert(b);
         around[b].insert(a);
     }
-    let pi = |i: usize, j: usize| 1.0 / (1.0 + around[i].len().max(around[j].len()) as f64);
-    let rows = (0..n)
-        .map(|i| {
+    let around: Vec<Vec<usize>> = around.into_iter().map(|s| s.into_iter().collect()).collect();
+    let rows = crate::estimators::metropolis(&around)
+        .into_iter()
+        .enumerate()
+        .map(|(i, (weights, own))| {
             let mut row: Vec<(usize, f64)> = Vec::new();
             if nodes[i].role.senses() {
-                row.push((i, 1.0 - around[i].iter().map(|&j| pi(i, j)).sum::<f64>()));
+                row.push((i, own));
             }
-            for &j in &around[i] {
-                if linked.contains(&(j, i)) && nodes[j].role.senses() {
-                    row.push((j, pi(i, j)));
-                }
-            }
+            row.extend(
+                weights
+                    .into_iter()
+                    .filter(|&(j, _)| linked.contains(&(j, i)) && nodes[j].role.senses()),
+            );
             let total: f64 = row.iter().map(|(_, w)| w).sum();
             if total > 0.0 {
                 row.iter_mut().for_each(|(_, w)| *w /= total);
