@@ -44,6 +44,12 @@ pub struct RunArgs {
     /// Run seed (every random stream derives from it).
     #[arg(allow_hyphen_values = true, long, env = "SIMNET_SEED")]
     pub seed: Option<u64>,
+    /// Distributed estimators to run beside the two filters, comma-separated, or `all` (see `simnet estimators`).
+    #[arg(long, env = "SIMNET_ESTIMATORS", value_delimiter = ',', value_parser = estimator)]
+    pub estimators: Option<Vec<EstimatorChoice>>,
+    /// Consensus rounds per step (1 to 100), each with its sub-deadline inside the step.
+    #[arg(long, env = "SIMNET_ROUNDS", value_parser = clap::value_parser!(u64).range(1..=crate::scenario::MAX_ROUNDS as u64))]
+    pub rounds: Option<u64>,
     /// Pace steps by the wall clock instead of the virtual lockstep clock.
     #[arg(long)]
     pub realtime: bool,
@@ -53,6 +59,14 @@ pub struct RunArgs {
     /// Print summary.json on stdout instead of the table.
     #[arg(long)]
     pub json: bool,
+}
+
+/// One `--estimators` entry: a scheme, or every scheme.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EstimatorChoice(Vec<crate::estimators::Kind>);
+
+fn estimator(s: &str) -> Result<EstimatorChoice, String> {
+    crate::estimators::Kind::parse_list(&[s.to_string()]).map(EstimatorChoice)
 }
 
 pub(super) fn parse_f64(s: &str) -> Result<f64, String> {
@@ -132,6 +146,13 @@ impl RunArgs {
             duration_s: self.duration,
             rate_hz: self.rate,
             seed: self.seed,
+            estimators: self.estimators.as_ref().map(|v| {
+                let mut all: Vec<_> = v.iter().flat_map(|c| c.0.iter().copied()).collect();
+                all.sort();
+                all.dedup();
+                all
+            }),
+            rounds: self.rounds,
         })
     }
 

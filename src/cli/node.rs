@@ -59,6 +59,14 @@ pub(super) fn peer(s: &str) -> Result<(u32, String), String> {
 pub(super) fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     use crate::net::host::{run_node, HostConfig};
     let topo = Arc::new(args.run.topology()?);
+    if !topo.estimators().run.is_empty() || topo.estimators().rounds > 1 {
+        return Err(UsageError::Option(
+            "simnet node runs the two filters only: --estimators, --rounds and [estimators] need one machine \
+             (simnet run) for now"
+                .into(),
+        )
+        .into());
+    }
     let index = topo.index_of(args.id).ok_or_else(|| {
         UsageError::Option(format!(
             "--id {}: no [[node]] has this id in `{}`",

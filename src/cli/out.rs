@@ -11,6 +11,8 @@ pub(super) struct OutDir {
 pub(super) const TRACE_TMP: &str = "trace.csv.tmp";
 /// Every sensing node's own measurements ([`crate::report::trace::MEASUREMENTS_HEADER`]).
 pub(super) const MEASUREMENTS: &str = "measurements.csv";
+/// Every distributed estimator's estimate at each node and step ([`crate::report::trace::ESTIMATORS_HEADER`]).
+pub(super) const ESTIMATORS: &str = "estimators.csv";
 
 /// A bad output directory is a usage error found before any work (exit 2), for every command that writes one.
 pub(crate) fn check_out(dir: &Path) -> Result<(), UsageError> {
@@ -56,7 +58,12 @@ impl OutDir {
 
     /// Opens `measurements.csv.tmp` for the recorder ([`OutDir::rename_tmp`] gives it its name at the end).
     pub(super) fn measurements(&self) -> Result<Box<dyn Write + Send>, UsageError> {
-        let path = self.dir.join(format!("{MEASUREMENTS}.tmp"));
+        self.tmp(MEASUREMENTS)
+    }
+
+    /// Opens `NAME.tmp` for a recorder ([`OutDir::rename_tmp`] gives it its name at the end).
+    pub(super) fn tmp(&self, name: &str) -> Result<Box<dyn Write + Send>, UsageError> {
+        let path = self.dir.join(format!("{name}.tmp"));
         let f = std::fs::File::create(&path)
             .map_err(|e| UsageError::Option(format!("--out: cannot write {}: {e}", path.display())))?;
         Ok(Box::new(std::io::BufWriter::new(f)))

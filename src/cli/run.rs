@@ -15,9 +15,15 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             .as_ref()
             .map(|d| -> Result<TraceWriter, UsageError> {
                 let obs = topo.model().get().observation();
-                Ok(d.trace(&topo)?
+                let t = d
+                    .trace(&topo)?
                     .with_imu(d.imu_opener())
-                    .with_measurements(d.measurements()?, obs))
+                    .with_measurements(d.measurements()?, obs);
+                Ok(if topo.estimators().run.is_empty() {
+                    t
+                } else {
+                    t.with_estimators(d.tmp(ESTIMATORS)?)
+                })
             })
             .transpose()?,
         progress: progress
@@ -45,6 +51,16 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         }
         d.rename_tmp(MEASUREMENTS)?;
         wrote.push(MEASUREMENTS.into());
+        if let Some(rows) = out.observer.as_ref().and_then(|o| o.schemes()).map(|s| s.rows()) {
+            d.rename_tmp(ESTIMATORS)?;
+            wrote.push(ESTIMATORS.into());
+            let title = format!("{} — every estimator's error (seed {})", s.topology, s.seed);
+            d.put(
+                "estimators.svg",
+                plot::estimators(rows, topo.sim().dt(), s.model, &title)?.as_bytes(),
+            )?;
+            wrote.push("estimators.svg".into());
+        }
     }
     print_summary(&s, args.json, None)?;
     if let (Some(d), false) = (&out_dir, args.json) {

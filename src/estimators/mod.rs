@@ -24,6 +24,7 @@ mod diffusion;
 mod hcmci;
 mod icf;
 mod kcf;
+mod kind;
 mod local;
 #[cfg(test)]
 mod tests;
@@ -39,6 +40,7 @@ pub use diffusion::Diffusion;
 pub use hcmci::Hcmci;
 pub use icf::Icf;
 pub use kcf::Kcf;
+pub use kind::{build, from_body, to_body, Kind, MessageError, Params};
 pub use local::Local;
 
 /// One scheme as `simnet estimators` lists it.
@@ -49,8 +51,6 @@ pub struct Scheme {
     /// What each round carries.
     pub messages: &'static str,
     pub parameters: &'static str,
-    /// Runs in a simnet run today (the others are library code, [`Estimator`]s driven by the caller).
-    pub in_runs: bool,
 }
 
 pub const SCHEMES: &[Scheme] = &[
@@ -59,56 +59,48 @@ pub const SCHEMES: &[Scheme] = &[
         reference: "the node's own Kalman filter (Joseph form), the baseline of Sequeira (2023)",
         messages: "none",
         parameters: "-",
-        in_runs: true,
     },
     Scheme {
         name: "sequeira",
         reference: "Sequeira (2023), Sensors 23(18) 7838: beta-weighted consensus, eqs. 5-10, LMI guard (17), (19)",
         messages: "round 0: the measurement",
         parameters: "consensus.beta0, consensus.self / neighbor or matrix, consensus.lmi",
-        in_runs: true,
     },
     Scheme {
         name: "centralized",
         reference: "one fusion center, every sensing node's measurement stacked (the Kalman filter of the network)",
         messages: "round 0: the measurement, to the center",
-        parameters: "the center node",
-        in_runs: false,
+        parameters: "none: the first sensing node is the center; every measurement reaches it with no loss",
     },
     Scheme {
         name: "kcf",
         reference: "Olfati-Saber (2009), Kalman-consensus filter, Algorithm 1",
         messages: "round 0: the prior estimate",
-        parameters: "gamma (consensus gain)",
-        in_runs: false,
+        parameters: "estimators.kcf_gamma (consensus gain; default 1/(1 + max degree))",
     },
     Scheme {
         name: "icf",
         reference: "Kamal, Farrell & Roy-Chowdhury (2013), IEEE TAC 58(12), Algorithm 1",
         messages: "every round: the information pair (V, v)",
-        parameters: "rounds; Metropolis weights",
-        in_runs: false,
+        parameters: "estimators.rounds; Metropolis weights",
     },
     Scheme {
         name: "hcmci",
         reference: "Battistelli, Chisci, Mugnai, Farina & Graziano (2015), IEEE TAC 60(5)",
         messages: "every round: the prior's and the measurement's information pairs",
-        parameters: "rounds; omega (default: the number of nodes); Metropolis weights",
-        in_runs: false,
+        parameters: "estimators.rounds; estimators.hcmci_omega (default: the number of nodes); Metropolis weights",
     },
     Scheme {
         name: "diffusion",
         reference: "Cattivelli & Sayed (2010), IEEE TAC 55(9), diffusion KF, adapt-then-combine",
         messages: "round 0: the measurement; later rounds: the adapted estimate",
-        parameters: "rounds; share (adapt with the neighbours' measurements); combine (Metropolis or identity)",
-        in_runs: false,
+        parameters: "estimators.rounds; Metropolis combination, adapting with the neighbours' measurements",
     },
     Scheme {
         name: "ci",
         reference: "covariance intersection with consensus weights (Julier & Uhlmann 1997; Battistelli & Chisci 2014)",
         messages: "every round: the estimate (x, P)",
-        parameters: "rounds; Metropolis weights",
-        in_runs: false,
+        parameters: "estimators.rounds; Metropolis weights",
     },
 ];
 

@@ -38,10 +38,22 @@ impl Ord for Pending {
     }
 }
 
+/// Which of a link's two seeded streams decides a group's fate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stream {
+    /// The measurements (and the round-0 messages that travel with them).
+    Measurement,
+    /// Consensus rounds with no measurement beside them: their own stream, so that the measurements' fates do not
+    /// depend on which estimators a run holds.
+    Round,
+}
+
 /// The outgoing links of one node and the copies they have yet to deliver.
 #[derive(Debug)]
 pub struct Egress {
     links: Vec<Link>,
+    /// The same links drawing from their round stream (empty when the run has no consensus rounds).
+    rounds: Vec<Link>,
     queue: BinaryHeap<Reverse<Pending>>,
     /// Ties in delivery time leave in the order they were queued.
     order: u64,
@@ -49,8 +61,14 @@ pub struct Egress {
 
 impl Egress {
     pub fn new(links: Vec<Link>) -> Egress {
+        Egress::with_rounds(links, Vec::new())
+    }
+
+    /// `rounds[i]`: link i on its round stream.
+    pub fn with_rounds(links: Vec<Link>, rounds: Vec<Link>) -> Egress {
         Egress {
             links,
+            rounds,
             queue: BinaryHeap::new(),
             order: 0,
         }
@@ -68,17 +86,34 @@ impl Egress {
     /// Send `bytes` at simulated time `now` on outgoing link `link`: the link decides (loss, outage, delay,
     /// duplication, corruption) and every copy it delivers is queued.
     pub fn push(&mut self, link: usize, now: f64, bytes: &Bytes, faults: &FaultSchedule) {
-        let l = &mut self.links[link];
+        self.push_group(link, now, std::slice::from_ref(bytes), faults, Stream::Measurement);
+    }
+
+    /// Send the datagrams of one slot under one verdict, drawn from `stream` for the first datagram: every copy
+    /// the link makes carries all of them with the same delay, and a corrupted copy has a bit flipped in each.
+    pub fn push_group(&mut self, link: usize, now: f64, group: &[Bytes], faults: &FaultSchedule, stream: Stream) {
+        let Some(first) = group.first() else { return };
+        let l = match stream {
+            Stream::Measurement => &mut self.links[link],
+            Stream::Round => match self.rounds.get_mut(link) {
+                Some(l) => l,
+                None => return,
+            },
+        };
         let to = l.to;
-        if let Verdict::Deliver(copies) = l.verdict(now, bytes.len(), faults) {
-            for c in copies {
+        let Verdict::Deliver(copies) = l.verdict(now, first.len(), faults) else {
+            return;
+        };
+        for c in copies {
+            for bytes in group {
                 let bytes = match c.flip_bit {
-                    Some(bit) => {
+                    Some(bit) if !bytes.is_empty() => {
+                        let bit = bit % (bytes.len() * 8);
                         let mut v = bytes.to_vec();
                         v[bit / 8] ^= 1 << (bit % 8);
                         Bytes::from(v)
                     }
-                    None => bytes.clone(),
+                    _ => bytes.clone(),
                 };
                 self.order += 1;
                 self.queue.push(Reverse(Pending {
@@ -107,5 +142,10 @@ impl Egress {
     /// Sender-side counters of each outgoing link, by destination.
     pub fn counters(&self) -> Vec<(usize, LinkCounters)> {
         self.links.iter().map(|l| (l.to, *l.counters())).collect()
+    }
+
+    /// The same for the round streams (empty without consensus rounds).
+    pub fn round_counters(&self) -> Vec<(usize, LinkCounters)> {
+        self.rounds.iter().map(|l| (l.to, *l.counters())).collect()
     }
 }

@@ -9,7 +9,7 @@ mod egress;
 pub mod rules;
 mod schedule;
 
-pub use egress::{Egress, Transmit};
+pub use egress::{Egress, Stream, Transmit};
 use rules::{rules_of, Context};
 pub use rules::{Delivery, Rule};
 pub use schedule::{FaultSchedule, NodeEvent, ScheduledFault};
@@ -130,6 +130,9 @@ pub enum Verdict {
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LinkCounters {
     pub sent: u64,
+    /// Bytes of the datagrams sent (one copy each).
+    #[serde(default)]
+    pub bytes: u64,
     pub lost_random: u64,
     pub lost_down: u64,
     pub duplicated: u64,
@@ -189,6 +192,7 @@ impl Link {
             faults,
         };
         self.counters.sent += 1;
+        self.counters.bytes += len as u64;
         for rule in &mut self.rules {
             if let Some(cause) = rule.admit(&cx, &mut self.rng) {
                 self.counters.current_run += 1;

@@ -293,6 +293,11 @@ pub trait Model: Send + Sync + std::fmt::Debug {
     /// One prediction step (eq. (4) of Sequeira (2023)); `imu` holds the samples at both ends of the interval.
     fn predict(&self, g: &Gaussian, imu: Option<&ImuInterval>, noise: &DMatrix<f64>, dt: f64) -> Gaussian;
 
+    /// H and R do not depend on the prior (the distributed schemes use them as they are).
+    fn fixed_observation(&self) -> bool {
+        true
+    }
+
     /// Bring an updated state back onto its manifold.
     fn normalize(&self, _g: &mut Gaussian) {}
 

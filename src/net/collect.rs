@@ -20,6 +20,7 @@ pub(super) struct StepOut {
     pub rows: Vec<TraceRow>,
     pub imu: Vec<(u32, Vec<ImuRow>)>,
     pub measurements: Vec<MeasurementRow>,
+    pub feeds: Vec<crate::node::Feed>,
 }
 
 impl StepOut {
@@ -31,10 +32,12 @@ impl StepOut {
             rows: Vec::new(),
             imu: Vec::new(),
             measurements: Vec::new(),
+            feeds: Vec::new(),
         };
         for node in nodes {
             out.measurements.append(&mut node.take_measurements());
             out.estimates.extend(node.handle_deadline(step));
+            out.feeds.extend(node.take_feed());
             out.rows.append(&mut node.take_trace());
             let imu = node.take_imu();
             if !imu.is_empty() {
@@ -71,6 +74,7 @@ pub(super) async fn observe(
                 acc.rows.append(&mut s.rows);
                 acc.imu.append(&mut s.imu);
                 acc.measurements.append(&mut s.measurements);
+                acc.feeds.append(&mut s.feeds);
             }
         }
         while pending
@@ -80,6 +84,7 @@ pub(super) async fn observe(
             let Some((_, (_, mut step))) = pending.pop_first() else {
                 break;
             };
+            observer.push_feeds(step.feeds);
             observer.push(step.estimates);
             if let Some(t) = trace.as_mut() {
                 for (id, rows) in &step.imu {
@@ -90,6 +95,7 @@ pub(super) async fn observe(
                 step.rows.sort_by_key(|r| (r.node, !r.networked));
                 t.rows(step.rows);
                 t.fused(observer.drain_rows());
+                t.estimators(&observer.drain_estimator_rows());
             }
             next += 1;
             on_fused(next);

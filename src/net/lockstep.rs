@@ -4,6 +4,7 @@
 //! empty frame, the marker. A node closes step k once it has the step-k frame of every in-neighbour, as conservative
 //! parallel discrete-event simulation closes a time step on its null messages; frames of later windows wait for their
 //! step. Datagrams due after the deadline go out in a later window and arrive late. Same seed, same results.
+//! With L consensus rounds a step has L windows, k·L + r closing round r at t_k + D(r+1)/L.
 //!
 //! Workers may run ahead of each other, and of the observer that fuses each step, by at most [`LEAD`] steps: that
 //! bounds the socket buffers and the estimates in flight. A frame that does not arrive within the receive timeout
@@ -130,8 +131,9 @@ struct Shared {
     addrs: Vec<SocketAddr>,
     index_of: HashMap<SocketAddr, usize>,
     steps: u64,
-    dt: f64,
-    deadline: f64,
+    /// Consensus rounds per step: windows per step.
+    rounds: usize,
+    topo: Arc<Scenario>,
     recv_timeout: Duration,
     sync: watch::Sender<Pace>,
 }
@@ -152,65 +154,78 @@ async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::Unbo
         if stop_at <= k {
             break;
         }
-        // The last window also flushes everything still queued, so late datagrams are counted as late.
-        let window_end = if k + 1 == sh.steps {
-            f64::INFINITY
-        } else {
-            k as f64 * sh.dt + sh.deadline
-        };
-        for slot in &mut slots {
-            begin_step(&mut slot.node, k);
-            bundles.resize_with(slot.outs.len(), Vec::new);
-            while let Some(tx) = slot.node.poll_transmit(window_end) {
-                if let Ok(j) = slot.outs.binary_search(&tx.to) {
-                    bundles[j].push(tx.bytes);
-                }
-            }
-            for (j, &to) in slot.outs.iter().enumerate() {
-                let parts = writer.pack(k, bundles[j].iter().map(|b| &b[..]));
-                bundles[j].clear();
-                for i in 0..parts {
-                    if let Err(e) = slot.socket.send_to(writer.part(i), sh.addrs[to]).await {
-                        tracing::warn!(node = slot.node.id(), "send_to failed: {e}");
-                    }
-                }
-            }
-        }
-        for slot in &mut slots {
-            slot.open(k);
-        }
-        // Read every owned socket until each node has its in-neighbours' frames of window k.
-        let mut waited_since = Instant::now();
-        loop {
-            let mut progressed = false;
-            for slot in slots.iter_mut().filter(|s| !s.complete()) {
-                while let Ok((len, from)) = slot.socket.try_recv_from(&mut buf) {
-                    progressed = true;
-                    let from = sh.index_of.get(&from).copied();
-                    slot.receive(from, &buf[..len], k);
-                    if slot.complete() {
-                        break;
-                    }
-                }
-            }
-            let Some(slot) = slots.iter_mut().find(|s| !s.complete()) else {
-                break;
+        for r in 0..sh.rounds {
+            // Window k·L + r closes round r of step k at t_k + D(r+1)/L; the last window also flushes everything
+            // still queued, so late datagrams are counted as late.
+            let window = k * sh.rounds as u64 + r as u64;
+            let last = r + 1 == sh.rounds;
+            let window_end = if last && k + 1 == sh.steps {
+                f64::INFINITY
+            } else {
+                crate::sim::round_end(&sh.topo, k, r)
             };
-            if progressed {
-                waited_since = Instant::now();
+            for slot in &mut slots {
+                if r == 0 {
+                    begin_step(&mut slot.node, k);
+                }
+                bundles.resize_with(slot.outs.len(), Vec::new);
+                while let Some(tx) = slot.node.poll_transmit(window_end) {
+                    if let Ok(j) = slot.outs.binary_search(&tx.to) {
+                        bundles[j].push(tx.bytes);
+                    }
+                }
+                for (j, &to) in slot.outs.iter().enumerate() {
+                    let parts = writer.pack(window, bundles[j].iter().map(|b| &b[..]));
+                    bundles[j].clear();
+                    for i in 0..parts {
+                        if let Err(e) = slot.socket.send_to(writer.part(i), sh.addrs[to]).await {
+                            tracing::warn!(node = slot.node.id(), "send_to failed: {e}");
+                        }
+                    }
+                }
             }
-            match tokio::time::timeout_at(waited_since + sh.recv_timeout, slot.socket.readable()).await {
-                Ok(Ok(())) => {}
-                Ok(Err(e)) => tracing::warn!(node = slot.node.id(), "socket not readable: {e}"),
-                Err(_) => {
-                    let missing: u64 = slots.iter_mut().filter(|s| !s.complete()).map(Slot::give_up).sum();
-                    tracing::warn!(
-                        step = k,
-                        "{} did not arrive within {:?}",
-                        crate::scenario::count(missing as usize, "frame"),
-                        sh.recv_timeout
-                    );
-                    socket_losses += missing;
+            for slot in &mut slots {
+                slot.open(window);
+            }
+            // Read every owned socket until each node has its in-neighbours' frames of window k.
+            let mut waited_since = Instant::now();
+            loop {
+                let mut progressed = false;
+                for slot in slots.iter_mut().filter(|s| !s.complete()) {
+                    while let Ok((len, from)) = slot.socket.try_recv_from(&mut buf) {
+                        progressed = true;
+                        let from = sh.index_of.get(&from).copied();
+                        slot.receive(from, &buf[..len], window);
+                        if slot.complete() {
+                            break;
+                        }
+                    }
+                }
+                let Some(slot) = slots.iter_mut().find(|s| !s.complete()) else {
+                    break;
+                };
+                if progressed {
+                    waited_since = Instant::now();
+                }
+                match tokio::time::timeout_at(waited_since + sh.recv_timeout, slot.socket.readable()).await {
+                    Ok(Ok(())) => {}
+                    Ok(Err(e)) => tracing::warn!(node = slot.node.id(), "socket not readable: {e}"),
+                    Err(_) => {
+                        let missing: u64 = slots.iter_mut().filter(|s| !s.complete()).map(Slot::give_up).sum();
+                        tracing::warn!(
+                            step = k,
+                            round = r,
+                            "{} did not arrive within {:?}",
+                            crate::scenario::count(missing as usize, "frame"),
+                            sh.recv_timeout
+                        );
+                        socket_losses += missing;
+                    }
+                }
+            }
+            if !last {
+                for slot in &mut slots {
+                    slot.node.handle_round(k, r);
                 }
             }
         }
@@ -227,7 +242,7 @@ async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::Unbo
     for slot in &mut slots {
         while let Ok((len, from)) = slot.socket.try_recv_from(&mut buf) {
             let from = sh.index_of.get(&from).copied();
-            slot.receive(from, &buf[..len], done);
+            slot.receive(from, &buf[..len], done * sh.rounds as u64);
         }
     }
     WorkerEnd {
@@ -256,8 +271,8 @@ pub(super) async fn run(
         index_of: addrs.iter().enumerate().map(|(i, a)| (*a, i)).collect(),
         addrs,
         steps,
-        dt: topo.sim().dt(),
-        deadline: topo.sim().deadline_s,
+        rounds: topo.estimators().rounds,
+        topo: topo.clone(),
         recv_timeout: opts.recv_timeout,
         sync: sync.clone(),
     });

@@ -38,7 +38,7 @@ struct Shared {
     t0: Instant,
     steps: u64,
     dt: f64,
-    deadline: f64,
+    topo: Arc<Scenario>,
     pace: Mutex<Pace>,
 }
 
@@ -144,38 +144,47 @@ fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedS
             schedule.record(Instant::now().saturating_duration_since(start).as_secs_f64(), sh.dt);
             begin_step(&mut slot.node, k);
         }
-        let close = sh.at(t_k + sh.deadline);
-        loop {
-            // Send whatever is due now; the next thing due bounds the wait.
-            let now = Instant::now();
-            let now_sim = now.saturating_duration_since(sh.t0).as_secs_f64();
-            let mut next = close;
-            for slot in &mut slots {
-                while let Some(tx) = slot.node.poll_transmit(now_sim) {
-                    match slot.socket.send_to(&tx.bytes, sh.addrs[tx.to]) {
-                        Ok(_) => {}
-                        Err(e) => tracing::warn!(node = slot.node.id(), "send_to failed: {e}"),
+        // Round r closes at t_k + D(r+1)/L, the last at the step's deadline.
+        for r in 0..sh.topo.estimators().rounds {
+            let last = r + 1 == sh.topo.estimators().rounds;
+            let close = sh.at(crate::sim::round_end(&sh.topo, k, r));
+            loop {
+                // Send whatever is due now; the next thing due bounds the wait.
+                let now = Instant::now();
+                let now_sim = now.saturating_duration_since(sh.t0).as_secs_f64();
+                let mut next = close;
+                for slot in &mut slots {
+                    while let Some(tx) = slot.node.poll_transmit(now_sim) {
+                        match slot.socket.send_to(&tx.bytes, sh.addrs[tx.to]) {
+                            Ok(_) => {}
+                            Err(e) => tracing::warn!(node = slot.node.id(), "send_to failed: {e}"),
+                        }
+                    }
+                    if let Some(t) = slot.node.poll_timeout() {
+                        next = next.min(sh.at(t));
                     }
                 }
-                if let Some(t) = slot.node.poll_timeout() {
-                    next = next.min(sh.at(t));
+                if now >= close {
+                    break;
+                }
+                let wait = next.saturating_duration_since(Instant::now()).min(STOP_CHECK);
+                match poll.poll(&mut events, Some(wait)) {
+                    Ok(()) => {}
+                    Err(e) if e.kind() == ErrorKind::Interrupted => continue,
+                    Err(e) => {
+                        tracing::error!(worker = w, "poll failed: {e}");
+                        break 'steps;
+                    }
+                }
+                for ev in events.iter() {
+                    if let Some(slot) = slots.get_mut(ev.token().0) {
+                        drain(slot, &mut buf, &sh.index_of);
+                    }
                 }
             }
-            if now >= close {
-                break;
-            }
-            let wait = next.saturating_duration_since(Instant::now()).min(STOP_CHECK);
-            match poll.poll(&mut events, Some(wait)) {
-                Ok(()) => {}
-                Err(e) if e.kind() == ErrorKind::Interrupted => continue,
-                Err(e) => {
-                    tracing::error!(worker = w, "poll failed: {e}");
-                    break 'steps;
-                }
-            }
-            for ev in events.iter() {
-                if let Some(slot) = slots.get_mut(ev.token().0) {
-                    drain(slot, &mut buf, &sh.index_of);
+            if !last {
+                for slot in &mut slots {
+                    slot.node.handle_round(k, r);
                 }
             }
         }
@@ -212,7 +221,7 @@ pub(super) async fn run(
         t0: Instant::now() + Duration::from_millis(50),
         steps,
         dt: topo.sim().dt(),
-        deadline: topo.sim().deadline_s,
+        topo: topo.clone(),
         pace: Mutex::new(Pace {
             started: vec![0; workers],
             stop_at: u64::MAX,

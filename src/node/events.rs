@@ -43,6 +43,12 @@ pub struct NodeReport {
     pub role: Role,
     pub networked: Option<FilterMetrics>,
     pub independent: Option<FilterMetrics>,
+    /// The distributed estimators' figures at this node, by kind (estimating nodes).
+    pub schemes: Vec<(crate::estimators::Kind, FilterMetrics)>,
+    /// What each distributed estimator sent from this node.
+    pub traffic: Vec<(crate::estimators::Kind, super::Traffic)>,
+    /// Round messages that came after their round closed.
+    pub rounds_late: u64,
     /// Outgoing links (sender-side counters).
     pub links_out: Vec<(usize, LinkCounters)>,
     /// Per-source receive counters, indexed by node index.

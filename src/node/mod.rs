@@ -33,6 +33,7 @@
 mod events;
 mod filters;
 mod inbox;
+mod schemes;
 mod session;
 
 use std::sync::Arc;
@@ -42,7 +43,7 @@ use nalgebra::{DMatrix, DVector};
 use crate::estimate::{Gaussian, MissingChannels, Observation};
 pub use crate::imu_csv::ImuRow;
 pub use crate::link::Transmit;
-use crate::link::{Egress, Link, NodeEvent};
+use crate::link::{Egress, Link, NodeEvent, Stream};
 use crate::model::{Measurement, Model, Truth};
 use crate::observe::{
     Filter, ImuRecorder, LmiRecorder, MeasurementRecorder, Probe, Probes, Scorer, TraceRecorder, Update,
@@ -52,7 +53,10 @@ use crate::sensor::{ImuInterval, ImuSample, Sensor};
 use crate::wire::{Datagram, Header, Payload, WireError};
 use filters::Filters;
 use inbox::{Inbox, Received};
+use schemes::Schemes;
 use session::Session;
+
+pub use schemes::Traffic;
 
 pub use crate::observe::{LmiStep, MeasurementRow, StepEstimate, TraceRow};
 pub use events::{Arrival, NodeCounters, NodeReport};
@@ -89,6 +93,25 @@ pub struct Node {
     session: Session,
     /// Sources whose measurements this node expects each step.
     in_sources: Vec<usize>,
+    /// The distributed estimators beside the two filters.
+    schemes: Schemes,
+    /// What the observer's centralized reference needs of this step (when the run holds it).
+    feed: Option<Feed>,
+}
+
+/// What a node hands the observer's centralized reference each step: its own measurement, and the prediction
+/// input of the step (the reference predicts with the center's IMU).
+#[derive(Debug, Clone)]
+pub struct Feed {
+    pub node: usize,
+    pub step: u64,
+    pub own: Option<Measurement>,
+    pub imu: Option<ImuInterval>,
+    /// The truth's re-basing shift this step (linear model).
+    pub shift: Option<DVector<f64>>,
+    /// The fresh prior the node started from this step (its first step, a restart, a late join).
+    pub prior: Option<Gaussian>,
+    pub truth: DVector<f64>,
 }
 
 impl Node {
@@ -108,17 +131,22 @@ impl Node {
                 dt,
             )
         });
-        let links = topo
-            .out_links(index)
-            .map(|l| {
-                Link::new(
-                    l.from,
-                    l.to,
-                    l.config,
-                    crate::rng::stream(seed, "link", l.from as u64, l.to as u64),
-                )
-            })
-            .collect();
+        let link_on = |l: &crate::scenario::DirectedLink, stream: &str| {
+            Link::new(
+                l.from,
+                l.to,
+                l.config,
+                crate::rng::stream(seed, stream, l.from as u64, l.to as u64),
+            )
+        };
+        let links = topo.out_links(index).map(|l| link_on(l, "link")).collect();
+        let in_node = topo.estimators().any_in_node();
+        let round_links = if in_node {
+            topo.out_links(index).map(|l| link_on(l, "link-round")).collect()
+        } else {
+            Vec::new()
+        };
+        let out_degree = topo.out_links(index).count();
         // The IMU file that replaces the simulated IMU, read at this run's steps.
         let recorded = cfg
             .recording
@@ -142,7 +170,7 @@ impl Node {
                 P: DMatrix::identity(1, 1),
             },
             last_imu: None,
-            egress: Egress::new(links),
+            egress: Egress::with_rounds(links, round_links),
             seq: 0,
             up: true,
             restarting: false,
@@ -163,6 +191,8 @@ impl Node {
                 .map(|l| l.from)
                 .filter(|&j| topo.nodes()[j].role.senses())
                 .collect(),
+            schemes: Schemes::new(Vec::new(), 1, 0),
+            feed: None,
             topo,
         };
         node.initial = node.initial_estimate(0, 0);
@@ -170,6 +200,20 @@ impl Node {
             networked: node.initial.clone(),
             independent: node.initial.clone(),
         });
+        if in_node {
+            let ctx = scheme_context(&node.topo, index, node.model.angle_states());
+            let e = node.topo.estimators();
+            let slots = e
+                .run
+                .iter()
+                .filter(|k| k.in_node())
+                .filter_map(|&k| {
+                    crate::estimators::build(k, ctx.clone(), node.initial.clone(), node.policy, &e.params)
+                        .map(|est| (k, est))
+                })
+                .collect();
+            node.schemes = Schemes::new(slots, e.rounds, out_degree);
+        }
         node
     }
 
@@ -227,6 +271,7 @@ impl Node {
         if !self.up {
             self.counters.steps_down += 1;
             self.inbox.close_down();
+            self.schemes.close_down();
             return;
         }
         let joining = !self.started && k > 0;
@@ -236,12 +281,15 @@ impl Node {
         }
         self.counters.steps_run += 1;
         let restarted = joining || (k > 0 && std::mem::take(&mut self.restarting));
+        let mut fresh = (k == 0).then(|| self.initial.clone());
         if restarted {
             // Restart, or a late join: no state, the filters start from a fresh prior at the current truth.
             if !joining {
                 self.counters.restarts += 1;
             }
             let g = self.initial_estimate(self.counters.restarts + k, k);
+            self.schemes.reset(&g);
+            fresh = Some(g.clone());
             if let Some(f) = &mut self.filters {
                 f.networked = g.clone();
                 f.independent = g;
@@ -260,14 +308,40 @@ impl Node {
             };
             self.probes.each().for_each(|p| p.on_measurement(&row));
         }
+        // Trapezoid: the mean of the samples at both ends of the interval, second-order accurate where a
+        // sample held from the start leaves an O(Δt²) error per step that the IMU noise model does not cover.
+        let u = match (self.last_imu, imu) {
+            (Some(start), Some(end)) => Some(ImuInterval { start, end }),
+            (None, Some(end)) => Some(ImuInterval { start: end, end }),
+            _ => None,
+        };
+        if self
+            .topo
+            .estimators()
+            .run
+            .contains(&crate::estimators::Kind::Centralized)
+        {
+            self.feed = Some(Feed {
+                node: self.index,
+                step: k,
+                own: own.clone(),
+                imu: u.filter(|_| k > 0 && !restarted),
+                shift: shift.clone(),
+                prior: (k == 0 || restarted).then(|| fresh.clone()).flatten(),
+                truth: self.truth.state(&*self.model),
+            });
+        }
         if k > 0 && !restarted {
-            // Trapezoid: the mean of the samples at both ends of the interval, second-order accurate where a
-            // sample held from the start leaves an O(Δt²) error per step that the IMU noise model does not cover.
-            let u = match (self.last_imu, imu) {
-                (Some(start), Some(end)) => Some(ImuInterval { start, end }),
-                (None, Some(end)) => Some(ImuInterval { start: end, end }),
-                _ => None,
-            };
+            if !self.schemes.is_empty() {
+                let (model, Q) = (&self.model, &self.Q);
+                self.schemes.predict(&|g: &Gaussian| {
+                    let mut p = model.predict(g, u.as_ref(), Q, dt);
+                    if let Some(s) = &shift {
+                        p.x += s;
+                    }
+                    p
+                });
+            }
             if let Some(f) = &mut self.filters {
                 f.networked = self.model.predict(&f.networked, u.as_ref(), &self.Q, dt);
                 f.independent = self.model.predict(&f.independent, u.as_ref(), &self.Q, dt);
@@ -278,10 +352,35 @@ impl Node {
             }
         }
         self.last_imu = imu;
-        if let Some(own) = &own {
-            self.send(k, t, own);
-        }
+        let round0 = if self.schemes.is_empty() {
+            Vec::new()
+        } else {
+            self.schemes.begin(k, &schemes::input(&self.obs, own.as_ref()), self.id)
+        };
+        self.send(k, t, own.as_ref(), &round0);
         self.inbox.open(k, own);
+    }
+
+    /// The sub-deadline of round `r` of step k, t_k + D(r+1)/L, for r < L − 1 (the last round closes at
+    /// [`Node::handle_deadline`]): every distributed estimator combines round r's messages and queues round r + 1's.
+    pub fn handle_round(&mut self, k: u64, r: usize) {
+        if self.schemes.is_empty() || !self.up {
+            return;
+        }
+        let input = schemes::input(&self.obs, self.inbox.own());
+        let out = self.schemes.close_round(k, r, &input, self.id);
+        if out.is_empty() {
+            return;
+        }
+        let t = crate::sim::round_end(&self.topo, k, r);
+        for li in 0..self.egress.len() {
+            self.egress.push_group(li, t, &out, self.topo.faults(), Stream::Round);
+        }
+    }
+
+    /// Consensus rounds per step.
+    pub fn rounds(&self) -> usize {
+        self.topo.estimators().rounds
     }
 
     /// This step's IMU sample and the node's own measurement ([`Model::sense`]).
@@ -296,7 +395,17 @@ impl Node {
         (sensed.imu, sensed.z)
     }
 
-    fn send(&mut self, k: u64, t: f64, own: &Measurement) {
+    /// The step's measurement datagrams on every out-link, and `round0` (the estimators' round-0 messages) under
+    /// the verdict of the first of them, or under their own from the round stream when there is no measurement.
+    fn send(&mut self, k: u64, t: f64, own: Option<&Measurement>, round0: &[bytes::Bytes]) {
+        let Some(own) = own else {
+            if !round0.is_empty() {
+                for li in 0..self.egress.len() {
+                    self.egress.push_group(li, t, round0, self.topo.faults(), Stream::Round);
+                }
+            }
+            return;
+        };
         let (z, m) = (&own.z, own.z.len());
         let have = (0..m).filter(|&r| own.present[r]).fold(0u64, |acc, r| acc | 1 << r);
         let groups: Vec<u64> = if self.topo.sim().split_channels {
@@ -312,7 +421,9 @@ impl Node {
         } else {
             vec![have]
         };
+        let rides = !round0.is_empty();
         for li in 0..self.egress.len() {
+            let mut first = true;
             for rows in &groups {
                 let values: Vec<f64> = (0..m).filter(|r| rows & (1 << r) != 0).map(|r| z[r]).collect();
                 let dg = Datagram {
@@ -321,9 +432,19 @@ impl Node {
                 };
                 self.seq = self.seq.wrapping_add(1);
                 match dg.encode() {
+                    Ok(bytes) if first && rides => {
+                        let mut group = vec![bytes];
+                        group.extend_from_slice(round0);
+                        self.egress
+                            .push_group(li, t, &group, self.topo.faults(), Stream::Measurement);
+                    }
                     Ok(bytes) => self.egress.push(li, t, &bytes, self.topo.faults()),
                     Err(e) => tracing::error!(node = self.id, "cannot encode a measurement: {e}"),
                 }
+                first = false;
+            }
+            if groups.is_empty() && rides {
+                self.egress.push_group(li, t, round0, self.topo.faults(), Stream::Round);
             }
         }
     }
@@ -368,7 +489,7 @@ impl Node {
         }
         let peer_step = match &dg.payload {
             Payload::Hello { running } => *running,
-            Payload::Measurement { .. } => Some(dg.header.step),
+            Payload::Measurement { .. } | Payload::Round { .. } => Some(dg.header.step),
         };
         self.session.heard_from(src, peer_step);
         let arrival = Arrival {
@@ -376,6 +497,22 @@ impl Node {
             step: dg.header.step,
             measurement: matches!(dg.payload, Payload::Measurement { .. }),
         };
+        if let Payload::Round { round, scheme, body } = &dg.payload {
+            if !self.up {
+                return None;
+            }
+            let (states, rows) = (self.initial.x.len(), self.obs.dim());
+            if self
+                .schemes
+                .receive(src, dg.header.step, *round, *scheme, body, states, rows)
+                .is_err()
+            {
+                // A round this run does not hold, a scheme it does not run, or a message of the wrong size.
+                self.counters.malformed += 1;
+                return None;
+            }
+            return Some(arrival);
+        }
         let Payload::Measurement { rows, values } = dg.payload else {
             return Some(arrival);
         };
@@ -397,6 +534,7 @@ impl Node {
     /// The deadline of step k: update both filters with what arrived, record metrics.
     pub fn handle_deadline(&mut self, k: u64) -> Option<StepEstimate> {
         let inbox = self.inbox.close(k, &self.in_sources)?;
+        let mut schemes = self.finish_schemes(k);
         let filters = self.filters.as_mut()?;
         let topo = &self.topo;
         let c = topo.consensus();
@@ -492,6 +630,15 @@ impl Node {
                 self.initial.clone()
             };
         }
+        let run = &self.topo.estimators().run;
+        for (kind, g) in [
+            (crate::estimators::Kind::Independent, &filters.independent),
+            (crate::estimators::Kind::Sequeira, &filters.networked),
+        ] {
+            if run.contains(&kind) {
+                schemes.push((kind, g.x.clone()));
+            }
+        }
         Some(StepEstimate {
             node: self.index,
             step: k,
@@ -499,7 +646,55 @@ impl Node {
             frame: self.truth.frame(),
             networked: filters.networked.clone(),
             diverged: self.scorer.metrics(Filter::Networked).diverged,
+            schemes,
         })
+    }
+
+    /// The distributed estimators' last round and posteriors of step k, scored at an estimating node; each one's
+    /// estimate, by kind.
+    fn finish_schemes(&mut self, k: u64) -> Vec<(crate::estimators::Kind, DVector<f64>)> {
+        if self.schemes.is_empty() {
+            return Vec::new();
+        }
+        let input = schemes::input(&self.obs, self.inbox.own());
+        let Some(posts) = self.schemes.finish(k, &input, self.id) else {
+            return Vec::new();
+        };
+        if !self.role.estimates() {
+            return Vec::new();
+        }
+        let truth = self.truth.state(&*self.model);
+        let t = k as f64 * self.topo.sim().dt();
+        let kinds: Vec<_> = self.schemes.kinds().collect();
+        kinds
+            .into_iter()
+            .zip(posts)
+            .map(|(kind, (prior, post, failed))| {
+                self.scorer.score(&Update {
+                    node: self.id,
+                    step: k,
+                    t,
+                    filter: Filter::Scheme(kind),
+                    truth: &truth,
+                    prior: &prior,
+                    post: &post,
+                    failed,
+                    feasible: true,
+                    received: &[],
+                });
+                (kind, post.x)
+            })
+            .collect()
+    }
+
+    /// What the centralized reference needs of the last step (none unless the run holds it).
+    pub fn take_feed(&mut self) -> Option<Feed> {
+        self.feed.take()
+    }
+
+    /// Every distributed estimator's traffic from this node.
+    pub fn scheme_traffic(&self) -> Vec<(crate::estimators::Kind, Traffic)> {
+        self.schemes.traffic()
     }
 
     /// Keep the LMI terms of every networked update from now on (for a protocol search; costs one extra
@@ -585,6 +780,13 @@ impl Node {
             role: self.role,
             networked: est.then(|| self.scorer.metrics(Filter::Networked).clone()),
             independent: est.then(|| self.scorer.metrics(Filter::Independent).clone()),
+            schemes: if est {
+                self.scorer.scheme_metrics().to_vec()
+            } else {
+                Vec::new()
+            },
+            traffic: self.schemes.traffic(),
+            rounds_late: self.schemes.late,
             links_out: self.egress.counters(),
             rx: self.inbox.rx.clone(),
             counters: self.counters,
@@ -596,3 +798,18 @@ impl Node {
 
 #[cfg(test)]
 mod tests;
+
+/// Node `index`'s view of the graph for the distributed estimators: Metropolis weights over the nodes it hears from
+/// (the in-neighbours), on the graph of every node's in-neighbours.
+fn scheme_context(topo: &Scenario, index: usize, angle_states: Vec<bool>) -> crate::estimators::Context {
+    let n = topo.nodes().len();
+    let neighbours: Vec<Vec<usize>> = (0..n).map(|i| topo.in_links(i).map(|l| l.from).collect()).collect();
+    let (weights, self_weight) = crate::estimators::metropolis(&neighbours).swap_remove(index);
+    crate::estimators::Context {
+        index,
+        nodes: n,
+        weights,
+        self_weight,
+        angle_states,
+    }
+}

@@ -21,6 +21,8 @@ pub struct StepEstimate {
     pub frame: u64,
     pub networked: Gaussian,
     pub diverged: bool,
+    /// Each distributed estimator's estimate, by kind (the run's order).
+    pub schemes: Vec<(crate::estimators::Kind, DVector<f64>)>,
 }
 
 /// The trace-optimal cascade runs a line search per stage; above this many nodes it is skipped.
@@ -74,6 +76,8 @@ pub struct Observer {
     rows: Vec<FusedRow>,
     nodes: usize,
     record: bool,
+    /// The distributed estimators' agreement and the centralized reference (when the run holds any).
+    schemes: Option<super::schemes::SchemeObserver>,
 }
 
 impl Observer {
@@ -92,7 +96,30 @@ impl Observer {
             rows: Vec::new(),
             nodes: 0,
             record,
+            schemes: None,
         }
+    }
+
+    /// Also follow the distributed estimators.
+    pub fn with_schemes(mut self, s: super::schemes::SchemeObserver) -> Observer {
+        self.schemes = Some(s);
+        self
+    }
+
+    pub fn schemes(&self) -> Option<&super::schemes::SchemeObserver> {
+        self.schemes.as_ref()
+    }
+
+    /// One step's reference feeds (before [`Observer::push`] of the same step).
+    pub fn push_feeds(&mut self, feeds: Vec<crate::node::Feed>) {
+        if let Some(s) = self.schemes.as_mut() {
+            s.push_feeds(feeds);
+        }
+    }
+
+    /// The estimators' node rows since the last call (with `record`), for `estimators.csv`.
+    pub fn drain_estimator_rows(&mut self) -> Vec<super::schemes::EstimatorRow> {
+        self.schemes.as_mut().map(|s| s.drain_node_rows()).unwrap_or_default()
     }
 
     pub fn layout(&self) -> &FusionLayout {
@@ -105,8 +132,11 @@ impl Observer {
 
     /// Fuse one step's estimates (any order; they are sorted by node).
     pub fn push(&mut self, mut estimates: Vec<StepEstimate>) {
-        estimates.retain(|e| !e.diverged);
         estimates.sort_by_key(|e| e.node);
+        if let Some(s) = self.schemes.as_mut() {
+            s.push(&estimates);
+        }
+        estimates.retain(|e| !e.diverged);
         let Some(first) = estimates.first() else { return };
         // The truth of the first node that knows it (a recording without reference columns does not).
         let scored = estimates

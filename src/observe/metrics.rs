@@ -23,6 +23,23 @@ pub struct FilterMetrics {
 }
 
 impl FilterMetrics {
+    /// No step recorded.
+    pub const EMPTY: FilterMetrics = FilterMetrics {
+        n: 0,
+        n_error: 0,
+        sum_error: 0.0,
+        sum_sq_error: 0.0,
+        sum_trace_prior: 0.0,
+        sum_trace_post: 0.0,
+        max_trace_post: 0.0,
+        sum_nees: 0.0,
+        n_nees: 0,
+        feasible: 0,
+        infeasible: 0,
+        final_error: None,
+        diverged: false,
+    };
+
     /// Record one step. `counted` is false during the burn-in (only divergence and the final error are tracked);
     /// `error` is `None` where the truth is unknown.
     pub fn record(

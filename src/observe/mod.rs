@@ -7,10 +7,12 @@
 //! | `recorders.rs` | [`TraceRecorder`] (the rows of `trace.csv`), [`ImuRecorder`], [`LmiRecorder`] |
 //! | `metrics.rs` | running statistics of one filter ([`metrics::FilterMetrics`]), per-source receive counters |
 //! | `fusion.rs` | the observer: covariance-intersection fusion of the nodes' estimates each step, and its median |
+//! | `schemes.rs` | the distributed estimators' disagreement and median error each step, the centralized reference |
 
 pub mod fusion;
 pub mod metrics;
 mod recorders;
+pub mod schemes;
 mod scorer;
 
 use nalgebra::DVector;
@@ -29,6 +31,8 @@ pub enum Filter {
     Networked,
     /// The node's own measurement only: the baseline.
     Independent,
+    /// A distributed estimator of the run ([`crate::estimators::Kind`]); not handed to probes.
+    Scheme(crate::estimators::Kind),
 }
 
 /// One filter's update at the deadline of one step, as probes see it.

@@ -8,6 +8,8 @@ use crate::estimate::nees;
 use crate::model::Model;
 
 /// Scores every update of one node's two filters and keeps their running figures.
+static EMPTY: FilterMetrics = FilterMetrics::EMPTY;
+
 pub struct Scorer {
     model: Arc<dyn Model>,
     angle_states: Vec<bool>,
@@ -19,6 +21,8 @@ pub struct Scorer {
     divergence_trace: f64,
     networked: FilterMetrics,
     independent: FilterMetrics,
+    /// The distributed estimators', by kind.
+    schemes: Vec<(crate::estimators::Kind, FilterMetrics)>,
 }
 
 impl Scorer {
@@ -31,6 +35,7 @@ impl Scorer {
             divergence_trace,
             networked: FilterMetrics::default(),
             independent: FilterMetrics::default(),
+            schemes: Vec::new(),
         }
     }
 
@@ -39,6 +44,13 @@ impl Scorer {
         let m = match u.filter {
             Filter::Networked => &mut self.networked,
             Filter::Independent => &mut self.independent,
+            Filter::Scheme(kind) => match self.schemes.iter().position(|(k, _)| *k == kind) {
+                Some(i) => &mut self.schemes[i].1,
+                None => {
+                    self.schemes.push((kind, FilterMetrics::default()));
+                    &mut self.schemes.last_mut().expect("just pushed").1
+                }
+            },
         };
         if u.failed {
             m.mark_diverged();
@@ -63,6 +75,12 @@ impl Scorer {
         match f {
             Filter::Networked => &self.networked,
             Filter::Independent => &self.independent,
+            Filter::Scheme(kind) => self.schemes.iter().find(|(k, _)| *k == kind).map_or(&EMPTY, |(_, m)| m),
         }
+    }
+
+    /// Every distributed estimator's figures, by kind.
+    pub fn scheme_metrics(&self) -> &[(crate::estimators::Kind, FilterMetrics)] {
+        &self.schemes
     }
 }

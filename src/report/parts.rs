@@ -85,6 +85,7 @@ pub fn read_estimates(r: impl BufRead, node: usize, file: &str) -> Result<Vec<St
                 P: DMatrix::from_column_slice(n, n, &v[2 * n..]),
             },
             diverged: false,
+            schemes: Vec::new(),
         });
     }
     Ok(out)
@@ -219,6 +220,8 @@ pub fn merge(
         nodes,
         links,
         fused: observer.summary(),
+        // The distributed estimators do not run across processes yet (`simnet node` refuses them).
+        estimators: Default::default(),
         settings: first.settings.clone(),
         part: None,
         schedule: parts.iter().filter_map(|p| p.schedule).reduce(|mut a, b| {

@@ -14,6 +14,8 @@ use crate::observe::fusion::FusedRow;
 
 /// The columns of `measurements.csv`: `rows`, `values` and `r` (R over those rows, row-major) are `;`-separated.
 pub const MEASUREMENTS_HEADER: &str = "step,t,node,channel,rows,values,r";
+/// The columns of `estimators.csv`: each estimator's estimate at each node and step, its error rows `;`-separated.
+pub const ESTIMATORS_HEADER: &str = "step,t,estimator,node,error,values";
 
 /// Steps drawn per series before the plots thin the sample to every k-th step.
 pub const PLOT_STEPS: u64 = 5000;
@@ -62,6 +64,8 @@ pub struct TraceWriter {
     imu: std::collections::BTreeMap<u32, (Box<dyn Write + Send>, bool)>,
     /// `measurements.csv` and the observation its R columns come from.
     measurements: Option<(Box<dyn Write + Send>, crate::estimate::Observation)>,
+    /// `estimators.csv`.
+    estimators: Option<Box<dyn Write + Send>>,
 }
 
 /// Opens the `imu-ID.csv` of node ID.
@@ -83,6 +87,7 @@ impl TraceWriter {
             imu_files: None,
             imu: Default::default(),
             measurements: None,
+            estimators: None,
         }
     }
 
@@ -125,6 +130,40 @@ impl TraceWriter {
             Err(e) => self.error = Some(e),
         }
         self
+    }
+
+    /// Also stream every distributed estimator's estimates to `w` ([`ESTIMATORS_HEADER`]).
+    pub fn with_estimators(mut self, mut w: Box<dyn Write + Send>) -> TraceWriter {
+        match writeln!(w, "{ESTIMATORS_HEADER}") {
+            Ok(()) => self.estimators = Some(w),
+            Err(e) => self.error = Some(e),
+        }
+        self
+    }
+
+    /// The estimators' rows of a step.
+    pub fn estimators(&mut self, rows: &[crate::observe::schemes::EstimatorRow]) {
+        use std::fmt::Write as _;
+        let (Some(w), None) = (self.estimators.as_mut(), self.error.as_ref()) else {
+            return;
+        };
+        let mut text = String::new();
+        for r in rows {
+            let t = num((r.step as f64 * self.dt * 1e9).round() / 1e9);
+            let values: Vec<String> = r.values.iter().map(|v| num(*v)).collect();
+            let _ = writeln!(
+                text,
+                "{},{t},{},{},{},{}",
+                r.step,
+                r.kind.name(),
+                r.node,
+                num(r.error),
+                values.join(";")
+            );
+        }
+        if let Err(e) = w.write_all(text.as_bytes()) {
+            self.error = Some(e);
+        }
     }
 
     /// Nodes' own measurements of one step.
@@ -277,6 +316,11 @@ impl TraceWriter {
             }
         }
         if let Some((w, _)) = self.measurements.as_mut() {
+            if let Err(e) = w.flush() {
+                self.error.get_or_insert(e);
+            }
+        }
+        if let Some(w) = self.estimators.as_mut() {
             if let Err(e) = w.flush() {
                 self.error.get_or_insert(e);
             }

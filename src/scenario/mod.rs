@@ -188,6 +188,26 @@ pub struct ConsensusConfig {
     pub inflation: f64,
 }
 
+/// The distributed estimators a run holds beside the node's two filters, and their consensus rounds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EstimatorsConfig {
+    /// Sorted; empty: only the two filters (`networked` = sequeira and `independent`).
+    pub run: Vec<crate::estimators::Kind>,
+    /// Message exchanges per step, each with its sub-deadline t_k + D(r+1)/L inside the step.
+    pub rounds: usize,
+    pub params: crate::estimators::Params,
+}
+
+impl EstimatorsConfig {
+    /// A scheme the nodes run over the rounds (not only the two filters or the observer's reference).
+    pub fn any_in_node(&self) -> bool {
+        self.run.iter().any(|k| k.in_node())
+    }
+}
+
+/// Most consensus rounds per step.
+pub const MAX_ROUNDS: usize = 100;
+
 #[derive(Debug, Clone)]
 pub struct NodeConfig {
     /// The id written in the file; nodes are indexed by position everywhere else.
@@ -225,6 +245,7 @@ pub struct Scenario {
     sim: SimConfig,
     model: ModelConfig,
     consensus: ConsensusConfig,
+    estimators: EstimatorsConfig,
     nodes: Vec<NodeConfig>,
     links: Vec<DirectedLink>,
     /// Indices into `links` of each node's incoming and outgoing links.
@@ -258,6 +279,9 @@ impl Scenario {
     }
     pub fn consensus(&self) -> &ConsensusConfig {
         &self.consensus
+    }
+    pub fn estimators(&self) -> &EstimatorsConfig {
+        &self.estimators
     }
     /// The nodes in file order; a node's index is its position here.
     pub fn nodes(&self) -> &[NodeConfig] {

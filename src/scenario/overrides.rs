@@ -24,6 +24,12 @@ pub struct Overrides {
     pub rate_hz: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub seed: Option<u64>,
+    /// The distributed estimators run beside the two filters (`--estimators`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimators: Option<Vec<crate::estimators::Kind>>,
+    /// Consensus rounds per step (`--rounds`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rounds: Option<u64>,
 }
 
 impl Overrides {
@@ -70,6 +76,8 @@ impl Overrides {
             duration_s: b.duration_s.or(self.duration_s),
             rate_hz: b.rate_hz.or(self.rate_hz),
             seed: b.seed.or(self.seed),
+            estimators: b.estimators.clone().or(self.estimators.clone()),
+            rounds: b.rounds.or(self.rounds),
         }
     }
 }
@@ -127,6 +135,13 @@ impl Scenario {
         }
         if let Some(s) = o.seed {
             sim.seed = Some(s);
+        }
+        if o.estimators.is_some() || o.rounds.is_some() {
+            let e = raw.estimators.get_or_insert_with(Default::default);
+            if let Some(run) = &o.estimators {
+                e.run = Some(run.iter().map(|k| k.name().to_string()).collect());
+            }
+            e.rounds = o.rounds.or(e.rounds);
         }
         let mut t = self.revalidate(raw, c)?;
         t.sim.burn_in_shortened_from = shortened;

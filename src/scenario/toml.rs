@@ -15,6 +15,7 @@ pub struct RawTopology {
     pub consensus: Option<RawConsensus>,
     pub link: Option<RawLink>,
     pub sensor: Option<RawSensor>,
+    pub estimators: Option<RawEstimators>,
     #[serde(default)]
     pub node: Vec<RawNode>,
     #[serde(default)]
@@ -48,6 +49,17 @@ pub struct RawConsensus {
     pub weights: Option<String>,
     pub lmi: Option<RawLmi>,
     pub inflation: Option<f64>,
+}
+
+/// `[estimators]`: the distributed schemes run beside the node's two filters.
+#[derive(Debug, Deserialize, Default, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct RawEstimators {
+    /// Names from `simnet estimators`, or "all".
+    pub run: Option<Vec<String>>,
+    pub rounds: Option<u64>,
+    pub kcf_gamma: Option<f64>,
+    pub hcmci_omega: Option<f64>,
 }
 
 #[derive(Debug, Deserialize, Default, Clone)]

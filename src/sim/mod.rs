@@ -129,6 +129,10 @@ impl Sim {
         let estimates = lockstep(&mut self.nodes, k, window_end);
         let mut rows = Vec::new();
         let mut measurements = Vec::new();
+        let feeds: Vec<_> = self.nodes.iter_mut().filter_map(Node::take_feed).collect();
+        if let Some(o) = self.observer.as_mut() {
+            o.push_feeds(feeds);
+        }
         for n in &mut self.nodes {
             rows.append(&mut n.take_trace());
             measurements.append(&mut n.take_measurements());
@@ -150,6 +154,7 @@ impl Sim {
             t.rows(rows);
             if let Some(o) = self.observer.as_mut() {
                 t.fused(o.drain_rows());
+                t.estimators(&o.drain_estimator_rows());
             }
         }
         self.next = k + 1;
@@ -208,22 +213,48 @@ pub fn begin_step(node: &mut Node, k: u64) {
 
 /// Step `k` of nodes wired together in memory; datagrams due by `window_end` (simulated s) reach their receivers
 /// before the step closes.
+/// Round r of L closes at t_k + D(r+1)/L, the last one at `window_end`.
 pub(crate) fn lockstep(nodes: &mut [Node], k: u64, window_end: f64) -> Vec<StepEstimate> {
     for n in nodes.iter_mut() {
         begin_step(n, k);
     }
-    let mut moved = Vec::new();
-    for n in nodes.iter_mut() {
-        while let Some(tx) = n.poll_transmit(window_end) {
-            moved.push((n.index(), tx));
+    let Some(s) = nodes.first().map(|n| n.scenario().clone()) else {
+        return Vec::new();
+    };
+    let rounds = s.estimators().rounds;
+    for r in 0..rounds {
+        let end = if r + 1 == rounds {
+            window_end
+        } else {
+            round_end(&s, k, r)
+        };
+        let mut moved = Vec::new();
+        for n in nodes.iter_mut() {
+            while let Some(tx) = n.poll_transmit(end) {
+                moved.push((n.index(), tx));
+            }
         }
-    }
-    for (from, tx) in moved {
-        nodes[tx.to].handle_datagram(Some(from), &tx.bytes);
+        for (from, tx) in moved {
+            nodes[tx.to].handle_datagram(Some(from), &tx.bytes);
+        }
+        if r + 1 < rounds {
+            nodes.iter_mut().for_each(|n| n.handle_round(k, r));
+        }
     }
     nodes.iter_mut().filter_map(|n| n.handle_deadline(k)).collect()
 }
 
+/// The sub-deadline of round r of step k: t_k + D(r+1)/L.
+pub fn round_end(s: &Scenario, k: u64, r: usize) -> f64 {
+    let sim = s.sim();
+    k as f64 * sim.dt() + sim.deadline_s * (r + 1) as f64 / s.estimators().rounds as f64
+}
+
 pub(crate) fn observer_for(scenario: &Scenario, record: bool) -> Observer {
-    Observer::new(scenario.sim().burn_in_steps(), scenario.model().get().fusion(), record)
+    let o = Observer::new(scenario.sim().burn_in_steps(), scenario.model().get().fusion(), record);
+    if scenario.estimators().run.is_empty() {
+        o
+    } else {
+        o.with_schemes(crate::observe::schemes::SchemeObserver::new(scenario, record))
+    }
 }

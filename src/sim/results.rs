@@ -45,6 +45,11 @@ impl RunResults {
             self.socket_losses,
         );
         s.schedule = self.schedule;
+        s.estimators = crate::report::summary::EstimatorSummary::of_run(
+            &self.scenario,
+            &self.reports,
+            self.observer.as_ref().and_then(Observer::schemes),
+        );
         s
     }
 }

@@ -3,8 +3,11 @@
 //! ```text
 //! | header: magic u16 | version u8 | kind u8 | flags u8 | src u32 | seq u32 | step u64 |   (postcard varints)
 //! | payload: rows u64 (bit i = row i present) | values: [f64] (one per present row)     |
+//! |       or round u8 | scheme u8 | body: a measurement, information pair(s) or estimate |
 //! | crc32 (4 bytes, little endian) of all bytes above                                   |
 //! ```
+//! A [`Payload::Round`] carries one distributed estimator's message of one consensus round; matrices travel as
+//! their upper triangle, row by row (they are symmetric), so that a 9-state hybrid message fits one datagram.
 //! At most [`MAX_DATAGRAM`] bytes. `flags` bit 0 is reserved for an authentication tag that would trail the
 //! payload; version 1 senders write 0 and receivers reject any set flag. Decoding untrusted bytes never panics:
 //! every failure is a [`WireError`].
@@ -79,6 +82,14 @@ impl Header {
         }
     }
 
+    /// A consensus round's message of step `step`.
+    pub fn round(src: u32, seq: u32, step: u64) -> Header {
+        Header {
+            kind: KIND_ROUND,
+            ..Header::new(src, seq, step)
+        }
+    }
+
     pub fn hello(src: u32, seq: u32) -> Header {
         Header {
             kind: KIND_HELLO,
@@ -89,6 +100,9 @@ impl Header {
 
 pub const KIND_MEASUREMENT: u8 = 1;
 pub const KIND_HELLO: u8 = 2;
+pub const KIND_ROUND: u8 = 3;
+/// Largest state a round's message may carry (a 16-state information pair is 1,216 bytes: too long anyway).
+pub const MAX_STATES: usize = 15;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum Payload {
@@ -96,6 +110,78 @@ pub enum Payload {
     Measurement { rows: u64, values: Vec<f64> },
     /// Start handshake of separate processes: "I am here", and the step I am running, if any (`header.step` is 0).
     Hello { running: Option<u64> },
+    /// One estimator's message of consensus round `round` of `header.step`; `scheme` is its index in
+    /// `simnet estimators`.
+    Round { round: u8, scheme: u8, body: Body },
+}
+
+/// What a round's message carries: `n` is the state dimension, `sym` a symmetric n×n matrix's upper triangle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Body {
+    Measurement {
+        rows: u64,
+        values: Vec<f64>,
+    },
+    /// (Y, y): an information matrix and vector.
+    Information {
+        n: u8,
+        sym: Vec<f64>,
+        vec: Vec<f64>,
+    },
+    /// The prior's and the measurement's information pairs.
+    Hybrid {
+        n: u8,
+        prior: (Vec<f64>, Vec<f64>),
+        measurement: (Vec<f64>, Vec<f64>),
+    },
+    /// (x, P).
+    Estimate {
+        n: u8,
+        x: Vec<f64>,
+        sym: Vec<f64>,
+    },
+}
+
+impl Body {
+    fn validate(&self) -> Result<(), WireError> {
+        let pair = |n: u8, sym: &[f64], vec: &[f64]| {
+            let n = n as usize;
+            if n == 0 || n > MAX_STATES {
+                return Err(WireError::Invalid("state dimension out of range"));
+            }
+            if sym.len() != n * (n + 1) / 2 || vec.len() != n {
+                return Err(WireError::Invalid(
+                    "matrix or vector length does not match the state dimension",
+                ));
+            }
+            if sym.iter().chain(vec).any(|v| !v.is_finite()) {
+                return Err(WireError::Invalid("non-finite value"));
+            }
+            Ok(())
+        };
+        match self {
+            Body::Measurement { rows, values } => check_measurement(*rows, values),
+            Body::Information { n, sym, vec } => pair(*n, sym, vec),
+            Body::Hybrid { n, prior, measurement } => {
+                pair(*n, &prior.0, &prior.1)?;
+                pair(*n, &measurement.0, &measurement.1)
+            }
+            Body::Estimate { n, x, sym } => pair(*n, sym, x),
+        }
+    }
+}
+
+fn check_measurement(rows: u64, values: &[f64]) -> Result<(), WireError> {
+    if rows == 0 {
+        return Err(WireError::Invalid("measurement with no rows"));
+    }
+    if rows.count_ones() as usize != values.len() {
+        return Err(WireError::Invalid("row mask and value count disagree"));
+    }
+    if values.iter().any(|v| !v.is_finite()) {
+        return Err(WireError::Invalid("non-finite value"));
+    }
+    Ok(())
 }
 
 impl Payload {
@@ -107,6 +193,7 @@ impl Payload {
         match self {
             Payload::Measurement { .. } => KIND_MEASUREMENT,
             Payload::Hello { .. } => KIND_HELLO,
+            Payload::Round { .. } => KIND_ROUND,
         }
     }
 }
@@ -169,17 +256,8 @@ impl Datagram {
         }
         match &self.payload {
             Payload::Hello { .. } => {}
-            Payload::Measurement { rows, values } => {
-                if *rows == 0 {
-                    return Err(WireError::Invalid("measurement with no rows"));
-                }
-                if rows.count_ones() as usize != values.len() {
-                    return Err(WireError::Invalid("row mask and value count disagree"));
-                }
-                if values.iter().any(|v| !v.is_finite()) {
-                    return Err(WireError::Invalid("non-finite value"));
-                }
-            }
+            Payload::Measurement { rows, values } => check_measurement(*rows, values)?,
+            Payload::Round { body, .. } => body.validate()?,
         }
         Ok(())
     }
@@ -244,6 +322,58 @@ mod tests {
             payload: Payload::Hello { running: None },
         };
         assert!(bad.encode().is_err());
+    }
+
+    #[test]
+    fn round_messages_round_trip_and_are_checked() {
+        let n = 9;
+        let tri = |v: f64| vec![v; n * (n + 1) / 2];
+        let d = Datagram {
+            header: Header::round(1, 5, 77),
+            payload: Payload::Round {
+                round: 2,
+                scheme: 5,
+                body: Body::Hybrid {
+                    n: n as u8,
+                    prior: (tri(0.5), vec![1.0; n]),
+                    measurement: (tri(-0.25), vec![2.0; n]),
+                },
+            },
+        };
+        let bytes = d.encode().unwrap();
+        assert!(bytes.len() <= MAX_DATAGRAM);
+        assert_eq!(Datagram::decode(&bytes).unwrap(), d);
+        for bad in [
+            Body::Estimate {
+                n: 3,
+                x: vec![0.0; 3],
+                sym: vec![0.0; 5],
+            },
+            Body::Estimate {
+                n: 0,
+                x: vec![],
+                sym: vec![],
+            },
+            Body::Information {
+                n: 2,
+                sym: vec![1.0, f64::INFINITY, 1.0],
+                vec: vec![0.0; 2],
+            },
+            Body::Measurement {
+                rows: 0b11,
+                values: vec![1.0],
+            },
+        ] {
+            let d = Datagram {
+                header: Header::round(1, 5, 77),
+                payload: Payload::Round {
+                    round: 0,
+                    scheme: 3,
+                    body: bad,
+                },
+            };
+            assert!(matches!(d.encode(), Err(WireError::Invalid(_))), "{d:?}");
+        }
     }
 
     #[test]

@@ -4,6 +4,7 @@ mod attitude;
 mod cli;
 mod common;
 mod estimation;
+mod estimators;
 mod fusion;
 mod golden;
 mod loss;

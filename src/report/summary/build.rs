@@ -45,6 +45,7 @@ impl Settings {
             deadline_s: topo.sim().deadline_s,
             trajectory: topo.sim().trajectory,
             split_channels: topo.sim().split_channels,
+            rounds: topo.estimators().rounds,
             overrides: topo.applied().clone(),
             links: topo
                 .links()
@@ -125,6 +126,7 @@ impl Summary {
             nodes,
             links,
             fused,
+            estimators: Default::default(),
             settings: Some(Settings::of(topo)),
             part: None,
             schedule: None,

@@ -3,9 +3,11 @@
 
 mod build;
 mod csv;
+mod estimators;
 mod table;
 
 pub use csv::write_links;
+pub use estimators::{EstimatorNode, EstimatorSummary};
 
 use serde::{Deserialize, Serialize};
 
@@ -56,10 +58,17 @@ pub struct Settings {
     pub deadline_s: f64,
     pub trajectory: crate::motion::Trajectory,
     pub split_channels: bool,
+    /// Consensus rounds per step (1 unless the run holds distributed estimators).
+    #[serde(default = "one")]
+    pub rounds: usize,
     /// The command-line (or environment) overrides applied to the file.
     pub overrides: crate::scenario::Overrides,
     /// Every directed link's resolved settings (loss model, delay, jitter, duplication, corruption).
     pub links: Vec<LinkSetting>,
+}
+
+fn one() -> usize {
+    1
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -90,6 +99,9 @@ pub struct Summary {
     pub nodes: Vec<NodeSummary>,
     pub links: Vec<LinkSummary>,
     pub fused: Option<FusedSummary>,
+    /// Every estimator the run held (`[estimators] run`, `--estimators`), by name; absent when it held none.
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty", default)]
+    pub estimators: std::collections::BTreeMap<String, EstimatorSummary>,
     #[serde(default)]
     pub settings: Option<Settings>,
     /// Set in the part a `simnet node` writes; absent from whole-run summaries.

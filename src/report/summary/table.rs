@@ -109,6 +109,7 @@ impl Summary {
                 l.mean_loss_run
             )?;
         }
+        self.write_estimators(w)?;
         if let Some(fu) = &self.fused {
             writeln!(w)?;
             writeln!(
@@ -134,6 +135,90 @@ impl Summary {
                 w,
                 "note: {} of the virtual clock lost in the socket layer (each carries one step's datagrams on one link)",
                 crate::scenario::count(self.socket_losses as usize, "frame")
+            )?;
+        }
+        Ok(())
+    }
+
+    /// One column per estimator, node by node, then each estimator's figures against the centralized reference.
+    fn write_estimators(&self, w: &mut impl Write) -> io::Result<()> {
+        if self.estimators.is_empty() {
+            return Ok(());
+        }
+        let f = |v: Option<f64>| {
+            v.map_or("—".to_string(), |x| {
+                if x.abs() < 1e4 {
+                    format!("{x:.4}")
+                } else {
+                    format!("{x:.2e}")
+                }
+            })
+        };
+        let rounds = self.settings.as_ref().map_or(1, |s| s.rounds);
+        // The reference first, then the schemes in `simnet estimators` order.
+        let mut names: Vec<&String> = self.estimators.keys().collect();
+        let order = |n: &str| crate::estimators::SCHEMES.iter().position(|s| s.name == n);
+        names.sort_by_key(|n| (n.as_str() != "centralized", order(n)));
+        writeln!(
+            w,
+            "estimators ({}): mean error per node, side by side on the same samples and link verdicts",
+            crate::scenario::count(rounds, "consensus round")
+        )?;
+        write!(w, "{:>5} │", "node")?;
+        for n in &names {
+            write!(w, " {:>11}", n)?;
+        }
+        writeln!(w)?;
+        writeln!(w, "{}", "─".repeat(8 + 12 * names.len()))?;
+        for node in &self.nodes {
+            let cells: Vec<String> = names
+                .iter()
+                .map(|n| {
+                    let e = &self.estimators[*n];
+                    e.nodes.iter().find(|x| x.id == node.id).map_or("·".to_string(), |x| {
+                        if x.figures.diverged {
+                            "DIVERGED".to_string()
+                        } else {
+                            f(x.figures.mean_error)
+                        }
+                    })
+                })
+                .collect();
+            if cells.iter().all(|c| c == "·") {
+                continue;
+            }
+            write!(w, "{:>5} │", node.id)?;
+            for c in cells {
+                write!(w, " {c:>11}")?;
+            }
+            writeln!(w)?;
+        }
+        writeln!(w)?;
+        writeln!(
+            w,
+            "{:>12} │ {:>10} {:>9} {:>10} │ {:>12} │ {:>10} {:>10} │ diverged",
+            "estimator", "mean err", "× central", "median err", "disagreement", "messages", "kB sent"
+        )?;
+        writeln!(w, "{}", "─".repeat(100))?;
+        for n in &names {
+            let e = &self.estimators[*n];
+            writeln!(
+                w,
+                "{:>12} │ {:>10} {:>9} {:>10} │ {:>12} │ {:>10} {:>10.1} │ {}",
+                n,
+                f(e.mean_error),
+                e.ratio_to_centralized.map_or("—".into(), |r| format!("{r:.3}")),
+                f(e.median_error),
+                f(e.disagreement),
+                e.messages,
+                e.bytes as f64 / 1e3,
+                e.diverged
+            )?;
+        }
+        if self.estimators.contains_key("centralized") {
+            writeln!(
+                w,
+                "centralized: every sensing node's measurement reaches one center with no loss (the reference; exact for linear models)"
             )?;
         }
         Ok(())

@@ -8,8 +8,8 @@ use std::path::Path;
 
 use super::toml::*;
 use super::{
-    Beta, Checks, ConsensusConfig, DirectedLink, LmiConfig, NodeConfig, Overrides, Role, Scenario, ScenarioError,
-    SimConfig,
+    Beta, Checks, ConsensusConfig, DirectedLink, EstimatorsConfig, LmiConfig, NodeConfig, Overrides, Role, Scenario,
+    ScenarioError, SimConfig, MAX_ROUNDS,
 };
 use crate::link::LinkConfig;
 use crate::motion::Trajectory;
@@ -180,6 +180,8 @@ impl Checks {
         }
 
         let consensus = self.consensus(raw.consensus.unwrap_or_default(), &nodes, &linked);
+        let max_degree = ins.iter().map(Vec::len).max().unwrap_or(0);
+        let estimators = self.estimators(raw.estimators.unwrap_or_default(), &model, max_degree);
         let faults = self.faults(&raw.fault, &ids, n);
 
         if sim.split_channels && model.get().observation().channels() < 2 {
@@ -196,6 +198,7 @@ impl Checks {
             sim,
             model,
             consensus,
+            estimators,
             applied: Overrides::default(),
             raw: kept,
             nodes,
@@ -205,6 +208,60 @@ impl Checks {
             by_id,
             faults,
         })
+    }
+
+    /// `max_degree`: the most in-neighbours of a node (KCF's default gain is the consensus step bound 1/(1 + Δ)).
+    fn estimators(
+        &mut self,
+        e: RawEstimators,
+        model: &crate::model::ModelConfig,
+        max_degree: usize,
+    ) -> EstimatorsConfig {
+        use crate::estimators::{Kind, Params};
+        let run = match Kind::parse_list(e.run.as_deref().unwrap_or_default()) {
+            Ok(run) => run,
+            Err(msg) => {
+                self.bad("estimators.run", msg);
+                Vec::new()
+            }
+        };
+        let rounds = match e.rounds {
+            None => 1,
+            Some(r) if (1..=MAX_ROUNDS as u64).contains(&r) => r as usize,
+            Some(r) => {
+                self.bad("estimators.rounds", format!("must be 1 to {MAX_ROUNDS}, got {r}"));
+                1
+            }
+        };
+        let kcf_gamma = self.non_negative("estimators.kcf_gamma", e.kcf_gamma, 1.0 / (1.0 + max_degree as f64));
+        let hcmci_omega = e
+            .hcmci_omega
+            .map(|w| self.positive("estimators.hcmci_omega", Some(w), 1.0));
+        let m = model.get();
+        if run.iter().any(|k| k.in_node() || *k == Kind::Centralized) && !m.fixed_observation() {
+            self.bad(
+                "estimators.run",
+                format!(
+                    "the {} model linearises its observation about each prior; only independent and sequeira run on it",
+                    m.kind()
+                ),
+            );
+        }
+        let states = m.angle_states().len();
+        if states > crate::wire::MAX_STATES && run.iter().any(|k| k.in_node()) {
+            self.bad(
+                "estimators.run",
+                format!(
+                    "the model has {states} states; a round's message carries at most {}",
+                    crate::wire::MAX_STATES
+                ),
+            );
+        }
+        EstimatorsConfig {
+            run,
+            rounds,
+            params: Params { kcf_gamma, hcmci_omega },
+        }
     }
 
     fn sim(&mut self, s: RawSim) -> SimConfig {

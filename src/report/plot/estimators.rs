@@ -1,0 +1,74 @@
+//! Every estimator's median-over-nodes error against time, the centralized reference drawn as the line to beat.
+
+use std::collections::BTreeMap;
+
+use plotters::prelude::*;
+
+use super::{axis, draw_runs, err, font, legend, palette, runs, tick, PlotError, SIZE};
+use crate::estimators::Kind;
+use crate::model::Kind as ModelKind;
+use crate::observe::schemes::SchemeRow;
+
+/// (step, t, value) points of one line.
+type Line = Vec<(u64, f64, f64)>;
+
+/// Points per line: each is the mean of the per-step medians over a bin of steps.
+const BINS: u64 = 250;
+
+pub fn estimators(rows: &[SchemeRow], dt: f64, model: ModelKind, title: &str) -> Result<String, PlotError> {
+    const NAME: &str = "estimators";
+    font();
+    let steps = rows.iter().map(|r| r.step + 1).max().unwrap_or(1);
+    let bin = steps.div_ceil(BINS).max(1);
+    let mut lines: BTreeMap<Kind, BTreeMap<u64, (f64, u32)>> = BTreeMap::new();
+    for r in rows.iter().filter(|r| r.median_error.is_finite()) {
+        let e = lines.entry(r.kind).or_default().entry(r.step / bin).or_default();
+        e.0 += r.median_error;
+        e.1 += 1;
+    }
+    let pts: Vec<(Kind, Line)> = lines
+        .into_iter()
+        .map(|(k, bins)| {
+            let v = bins
+                .into_iter()
+                .map(|(b, (s, n))| (b * bin, (b * bin) as f64 * dt, s / f64::from(n)))
+                .collect();
+            (k, v)
+        })
+        .collect();
+    let (lo, hi) = axis(pts.iter().flat_map(|(_, v)| v.iter().map(|p| p.2)), true);
+    let t_max = (steps as f64 * dt).max(dt);
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(err(NAME))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 22))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..t_max, (lo..hi).log_scale())
+            .map_err(err(NAME))?;
+        chart
+            .configure_mesh()
+            .x_desc("t (s)")
+            .y_desc(format!(
+                "{}: median over nodes, mean per {bin} steps",
+                model.error_text().axis
+            ))
+            .y_label_formatter(&|v| tick(*v))
+            .draw()
+            .map_err(err(NAME))?;
+        for (i, (kind, v)) in pts.into_iter().enumerate() {
+            let (style, label) = if kind == Kind::Centralized {
+                (BLACK.stroke_width(3), "centralized (reference: no loss)".to_string())
+            } else {
+                (palette(i).stroke_width(2), kind.name().to_string())
+            };
+            draw_runs(&mut chart, runs(v.into_iter(), lo, hi), style, Some(label), NAME)?;
+        }
+        legend(&mut chart, NAME)?;
+        root.present().map_err(err(NAME))?;
+    }
+    Ok(out)
+}

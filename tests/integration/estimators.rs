@@ -1,0 +1,261 @@
+//! The distributed estimators in whole runs: fairness (the schemes leave the two filters and the link verdicts as
+//! they were), determinism over sockets and in memory, the summary's figures against `estimators.csv`, every
+//! covariance valid under loss, the centralized reference lowest, the rounds on the wall clock.
+
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex};
+
+use simnet::estimators::Kind;
+use simnet::net::{Clock, RunOptions};
+use simnet::report::summary::Summary;
+use simnet::report::trace::TraceWriter;
+use simnet::scenario::Overrides;
+use simnet::sim::SimOptions;
+
+use crate::common;
+
+fn all(rounds: u64, o: Overrides) -> Overrides {
+    Overrides {
+        estimators: Some(Kind::ALL.to_vec()),
+        rounds: Some(rounds),
+        ..o
+    }
+}
+
+fn lossy(p: f64, seed: u64, duration_s: f64) -> Overrides {
+    Overrides {
+        duration_s: Some(duration_s),
+        delay_ms: Some(2.0),
+        jitter_ms: Some(2.0),
+        duplicate: Some(0.05),
+        ..common::bernoulli(p, seed)
+    }
+}
+
+fn without_wall(mut s: Summary) -> String {
+    s.wall_s = 0.0;
+    s.to_json()
+}
+
+/// Adding every scheme and three rounds changes neither filter of any node nor any link's fate: the schemes' round-0
+/// messages ride under the measurements' verdicts and later rounds draw from their own streams.
+#[test]
+fn the_schemes_leave_the_two_filters_and_the_links_unchanged() {
+    let o = lossy(0.3, 5, 3.0);
+    let plain = common::simulate(common::topology("rgg50", o.clone()));
+    let with = common::simulate(common::topology("rgg50", all(3, o)));
+    assert!(plain.estimators.is_empty());
+    assert_eq!(with.estimators.len(), Kind::ALL.len());
+    assert_eq!(plain.nodes, with.nodes);
+    assert_eq!(plain.links, with.links);
+    assert_eq!(plain.fused, with.fused);
+    // `sequeira` and `independent` are the two filters, node by node.
+    for (name, pick) in [("sequeira", true), ("independent", false)] {
+        let e = &with.estimators[name];
+        for (n, en) in plain.nodes.iter().filter(|n| n.networked.is_some()).zip(&e.nodes) {
+            let want = if pick { &n.networked } else { &n.independent };
+            assert_eq!((n.id, want.as_ref()), (en.id, Some(&en.figures)), "{name}");
+        }
+    }
+}
+
+/// Same seed, same bytes: two socket runs with every scheme, and the in-memory run, give one summary.json (apart
+/// from wall time).
+#[test]
+fn runs_with_every_scheme_are_deterministic_and_sockets_agree_with_memory() {
+    let topo = || common::topology("ring3", all(3, lossy(0.2, 11, 4.0)));
+    let a = without_wall(common::run(topo()));
+    let b = without_wall(common::run(topo()));
+    assert_eq!(a, b);
+    let m = without_wall(common::simulate(topo()));
+    assert_eq!(a, m, "the virtual clock over UDP and the in-memory Sim agree");
+    let s: Summary = serde_json::from_str(&a).unwrap();
+    for (name, e) in &s.estimators {
+        assert!(e.mean_error.is_some_and(f64::is_finite), "{name}: {e:?}");
+    }
+}
+
+/// A `Write` the test reads back.
+#[derive(Clone, Default)]
+struct Shared(Arc<Mutex<Vec<u8>>>);
+impl std::io::Write for Shared {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        self.0.lock().unwrap().extend_from_slice(b);
+        Ok(b.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+/// One line of `estimators.csv` under (estimator, step): node, error, values.
+type Row = (u32, f64, Vec<f64>);
+
+/// The summary's disagreement, median and mean errors are what `estimators.csv` says, recomputed here: mean over
+/// the counted steps of the mean distance of the node estimates from their average, and of the median error; each
+/// node's mean error.
+#[test]
+fn the_summary_figures_are_those_of_estimators_csv() {
+    let topo = common::topology("rgg50", all(2, lossy(0.1, 3, 2.0)));
+    let buf = Shared::default();
+    let trace = TraceWriter::for_topology(&topo).with_estimators(Box::new(buf.clone()));
+    let sim = simnet::Sim::with_options(
+        &topo,
+        SimOptions {
+            trace: Some(trace),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let s = sim.run().unwrap().summary();
+    let text = String::from_utf8(buf.0.lock().unwrap().clone()).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some(simnet::report::trace::ESTIMATORS_HEADER));
+    let mut rows: BTreeMap<(String, u64), Vec<Row>> = BTreeMap::new();
+    for l in lines {
+        let f: Vec<&str> = l.split(',').collect();
+        let values = f[5].split(';').map(|v| v.parse().unwrap()).collect();
+        rows.entry((f[2].to_string(), f[0].parse().unwrap()))
+            .or_default()
+            .push((f[3].parse().unwrap(), f[4].parse().unwrap(), values));
+    }
+    let burn_in = s.burn_in_steps;
+    for (name, e) in &s.estimators {
+        let steps: Vec<&Vec<Row>> = rows
+            .iter()
+            .filter(|((n, k), _)| n == name && *k >= burn_in)
+            .map(|(_, v)| v)
+            .collect();
+        assert!(!steps.is_empty(), "{name} has rows");
+        let (mut dis, mut med) = (0.0, 0.0);
+        for nodes in &steps {
+            let dim = nodes[0].2.len();
+            let mean: Vec<f64> = (0..dim)
+                .map(|d| nodes.iter().map(|n| n.2[d]).sum::<f64>() / nodes.len() as f64)
+                .collect();
+            let dist = |v: &[f64]| v.iter().zip(&mean).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
+            dis += nodes.iter().map(|n| dist(&n.2)).sum::<f64>() / nodes.len() as f64;
+            let mut errs: Vec<f64> = nodes.iter().map(|n| n.1).collect();
+            errs.sort_by(f64::total_cmp);
+            let m = errs.len() / 2;
+            med += if errs.len() % 2 == 1 {
+                errs[m]
+            } else {
+                0.5 * (errs[m - 1] + errs[m])
+            };
+        }
+        let n = steps.len() as f64;
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * (1.0 + b.abs());
+        if name != "centralized" {
+            assert!(
+                close(e.disagreement.unwrap(), dis / n),
+                "{name}: {:?} vs {}",
+                e.disagreement,
+                dis / n
+            );
+        }
+        assert!(
+            close(e.median_error.unwrap(), med / n),
+            "{name}: median {:?} vs {}",
+            e.median_error,
+            med / n
+        );
+        for node in &e.nodes {
+            let errs: Vec<f64> = steps
+                .iter()
+                .flat_map(|v| v.iter().filter(|r| r.0 == node.id).map(|r| r.1))
+                .collect();
+            let mean = errs.iter().sum::<f64>() / errs.len() as f64;
+            assert!(close(node.figures.mean_error.unwrap(), mean), "{name} node {}", node.id);
+        }
+    }
+}
+
+/// 30 % loss, a third of the nodes naive, three rounds: no estimator diverges or fails an update at any node (a
+/// posterior that is not finite and SPD counts as a failed update, and a failed update as diverged).
+#[test]
+fn every_estimator_keeps_valid_covariances_under_30_percent_loss() {
+    for seed in [1, 2, 3] {
+        let s = common::simulate(common::topology("rgg50", all(3, lossy(0.3, seed, 3.0))));
+        for (name, e) in &s.estimators {
+            assert_eq!(e.diverged, 0, "seed {seed}: {name} diverged at {} nodes", e.diverged);
+            assert!(e
+                .nodes
+                .iter()
+                .all(|n| n.figures.mean_trace_p_post.is_some_and(f64::is_finite)));
+        }
+    }
+}
+
+/// Over 20 seeds on the rotating target without loss, the centralized reference has the lowest mean squared error
+/// of every estimator, within sampling error (one-sided, 3σ of the difference of the seed means).
+#[test]
+fn the_centralized_reference_has_the_lowest_error() {
+    let runs: Vec<Summary> = (1..=20)
+        .map(|seed| {
+            common::simulate(common::topology(
+                "rgg50",
+                all(
+                    3,
+                    Overrides {
+                        duration_s: Some(2.0),
+                        ..common::seed(seed)
+                    },
+                ),
+            ))
+        })
+        .collect();
+    let mse = |name: &str| -> Vec<f64> {
+        runs.iter()
+            .map(|s| {
+                let e = &s.estimators[name];
+                let rms: Vec<f64> = e.nodes.iter().map(|n| n.figures.rms_error.unwrap().powi(2)).collect();
+                rms.iter().sum::<f64>() / rms.len() as f64
+            })
+            .collect()
+    };
+    let central = mse("centralized");
+    for k in Kind::ALL.iter().filter(|k| **k != Kind::Centralized) {
+        let other = mse(k.name());
+        let d: Vec<f64> = other.iter().zip(&central).map(|(o, c)| o - c).collect();
+        let n = d.len() as f64;
+        let mean = d.iter().sum::<f64>() / n;
+        let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        println!("{}: MSE − centralized's = {mean:.4} ± {:.4}", k.name(), sd / n.sqrt());
+        assert!(
+            mean > -3.0 * sd / n.sqrt(),
+            "{} beats the centralized reference",
+            k.name()
+        );
+    }
+}
+
+/// On the wall clock each round closes at its sub-deadline: every node sends each round's message on every out-link
+/// (ICF sends in every round), and the run's estimators all finish.
+#[test]
+fn realtime_runs_every_round() {
+    let topo = common::topology(
+        "ring3",
+        all(
+            3,
+            Overrides {
+                duration_s: Some(1.0),
+                ..common::seed(2)
+            },
+        ),
+    );
+    let links = topo.links().len() as u64;
+    let steps = topo.sim().steps();
+    let (s, _) = common::run_with(
+        topo,
+        RunOptions {
+            clock: Clock::Realtime,
+            ..Default::default()
+        },
+    );
+    assert_eq!(s.steps, steps);
+    assert_eq!(s.estimators["icf"].messages, steps * 3 * links);
+    for (name, e) in &s.estimators {
+        assert!(e.mean_error.is_some_and(f64::is_finite), "{name}");
+    }
+}
