@@ -106,3 +106,52 @@ fn attitude_node_is_the_quaternion_ekf() {
     }
     assert!(worst < 1e-10, "largest gap {worst:e}");
 }
+
+/// A forged round message — a scheme the run does not hold, a round past L, a state of the wrong size, a source
+/// that is not a peer — is counted as malformed and changes nothing; a valid one is taken.
+#[test]
+fn forged_round_messages_are_counted_not_used() {
+    use crate::estimators::Kind;
+    use crate::wire::Body;
+    let topo = Scenario::resolve("ring3")
+        .unwrap()
+        .with(&crate::scenario::Overrides {
+            estimators: Some(vec![Kind::Icf]),
+            rounds: Some(2),
+            ..Default::default()
+        })
+        .unwrap();
+    let mut node = Node::new(Arc::new(topo), 0, false);
+    node.handle_step(0);
+    let info = |n: u8| Body::Information {
+        n,
+        sym: vec![1.0; (n as usize) * (n as usize + 1) / 2],
+        vec: vec![0.0; n as usize],
+    };
+    let dg = |src: u32, round: u8, scheme: Kind, body: Body| {
+        Datagram {
+            header: Header::round(src, 0, 0),
+            payload: Payload::Round {
+                round,
+                scheme: scheme as u8,
+                body,
+            },
+        }
+        .encode()
+        .unwrap()
+    };
+    let forged = [
+        dg(1, 0, Kind::Kcf, info(9)),
+        dg(1, 2, Kind::Icf, info(9)),
+        dg(1, 0, Kind::Icf, info(3)),
+    ];
+    for (i, bytes) in forged.iter().enumerate() {
+        assert!(node.handle_datagram(Some(1), bytes).is_none(), "forgery {i} was taken");
+        assert_eq!(node.counters.malformed, i as u64 + 1);
+    }
+    // From a socket that is not the header's source.
+    assert!(node.handle_datagram(Some(2), &dg(1, 0, Kind::Icf, info(9))).is_none());
+    assert_eq!(node.counters.malformed, 4);
+    assert!(node.handle_datagram(Some(1), &dg(1, 0, Kind::Icf, info(9))).is_some());
+    assert_eq!(node.counters.malformed, 4);
+}

@@ -276,11 +276,25 @@ mod tests {
 
     #[test]
     fn every_single_bit_flip_is_caught() {
-        let bytes = sample().encode().unwrap();
-        for bit in 0..bytes.len() * 8 {
-            let mut b = bytes.to_vec();
-            b[bit / 8] ^= 1 << (bit % 8);
-            assert!(Datagram::decode(&b).is_err(), "bit {bit} went undetected");
+        let round = Datagram {
+            header: Header::round(2, 5, 9),
+            payload: Payload::Round {
+                round: 1,
+                scheme: 4,
+                body: Body::Information {
+                    n: 2,
+                    sym: vec![1.0, 0.5, 2.0],
+                    vec: vec![0.25, -1.0],
+                },
+            },
+        };
+        for d in [sample(), round] {
+            let bytes = d.encode().unwrap();
+            for bit in 0..bytes.len() * 8 {
+                let mut b = bytes.to_vec();
+                b[bit / 8] ^= 1 << (bit % 8);
+                assert!(Datagram::decode(&b).is_err(), "{d:?}: bit {bit} went undetected");
+            }
         }
     }
 
@@ -341,7 +355,8 @@ mod tests {
             },
         };
         let bytes = d.encode().unwrap();
-        assert!(bytes.len() <= MAX_DATAGRAM);
+        // A 9-state hybrid message (the pose model's HCMCI) fits one datagram.
+        assert_eq!(bytes.len(), 886);
         assert_eq!(Datagram::decode(&bytes).unwrap(), d);
         for bad in [
             Body::Estimate {
