@@ -15,7 +15,11 @@
 //! 3. [`Node::handle_datagram`]`(from, bytes)` for every datagram that arrives, in any order, `from` the sender's
 //!    node index when the shell knows it by address. A measurement for the open step is collected; one for a later
 //!    step is held (bounded); one for a closed step counts as late.
-//! 4. [`Node::handle_deadline`]`(k)` at t_k + D: both filters update with what arrived; each update goes to the
+//! 4. With L consensus rounds ([`crate::scenario::EstimatorsConfig`]), [`Node::handle_round`]`(k, r)` at each
+//!    sub-deadline t_k + D(r+1)/L for r < L − 1: the distributed estimators combine round r and queue round r + 1
+//!    (then steps 2 and 3 again).
+//! 5. [`Node::handle_deadline`]`(k)` at t_k + D: both filters update with what arrived (and the estimators close
+//!    their last round); each update goes to the
 //!    node's [`crate::observe::Scorer`] and then to its probes (the trace, IMU and LMI recorders when on, any
 //!    [`Node::add_probe`] added); the networked estimate is returned for the fusion observer.
 //!
@@ -26,6 +30,7 @@
 //! |---|---|
 //! | `inbox.rs` | step collection, the early buffer, receive counters |
 //! | `filters.rs` | the networked and independent filters' update over any [`crate::model::Model`] |
+//! | `schemes.rs` | the distributed estimators beside them: each round's messages, what arrived, their traffic |
 //! | `session.rs` | neighbours heard from and the highest step they reported (the multi-host handshake) |
 //! | `events.rs` | what a node reports: trace rows, step estimates, counters |
 #![allow(non_snake_case)]

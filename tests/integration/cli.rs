@@ -226,6 +226,61 @@ fn the_table_has_a_column_per_estimator() {
     }
 }
 
+/// `simnet compare` prints one markdown row per loss × rounds cell, a column per estimator, and Sequeira's rank; the
+/// ratios are those of single runs with the same settings.
+#[test]
+fn compare_prints_the_findings_table() {
+    let out = simnet()
+        .args([
+            "compare",
+            "-t",
+            "ring3",
+            "--seeds",
+            "2",
+            "--duration",
+            "1",
+            "--rounds",
+            "1,2",
+            "--loss",
+            "0.2",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let table = String::from_utf8_lossy(&out.stdout);
+    let rows: Vec<&str> = table.lines().filter(|l| l.starts_with("| 20 %")).collect();
+    assert_eq!(rows.len(), 2, "{table}");
+    let header = table.lines().find(|l| l.starts_with("| loss")).unwrap();
+    for s in simnet::estimators::SCHEMES.iter().filter(|s| s.name != "centralized") {
+        assert!(header.contains(&format!(" {} |", s.name)), "{}: {header}", s.name);
+    }
+    // The cell of L = 1 is the mean over seeds 1 and 2 of each run's own ratio.
+    let ratio = |seed: u64| {
+        let o = simnet()
+            .args([
+                "-t",
+                "ring3",
+                "--duration",
+                "1",
+                "--loss",
+                "0.2",
+                "--estimators",
+                "all",
+                "--json",
+                "--seed",
+            ])
+            .arg(seed.to_string())
+            .output()
+            .unwrap();
+        let s: simnet::Summary = serde_json::from_slice(&o.stdout).unwrap();
+        s.estimators["icf"].ratio_to_centralized.unwrap()
+    };
+    let mean = (ratio(1) + ratio(2)) / 2.0;
+    let col = header.split('|').position(|c| c.trim() == "icf").unwrap();
+    let cell = rows[0].split('|').nth(col).unwrap().trim();
+    assert!(cell.starts_with(&format!("{mean:.3} ±")), "icf: {cell} vs {mean:.3}");
+}
+
 /// `simnet estimators` lists every scheme with its reference.
 #[test]
 fn every_estimator_is_listed_with_its_reference() {
