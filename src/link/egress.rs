@@ -43,17 +43,17 @@ impl Ord for Pending {
 pub enum Stream {
     /// The measurements (and the round-0 messages that travel with them).
     Measurement,
-    /// Consensus rounds with no measurement beside them: their own stream, so that the measurements' fates do not
-    /// depend on which estimators a run holds.
-    Round,
+    /// Consensus round r with no measurement beside it: a stream of its own per round, so that the measurements'
+    /// fates do not depend on which estimators a run holds, nor round r's on how many rounds there are.
+    Round(usize),
 }
 
 /// The outgoing links of one node and the copies they have yet to deliver.
 #[derive(Debug)]
 pub struct Egress {
     links: Vec<Link>,
-    /// The same links drawing from their round stream (empty when the run has no consensus rounds).
-    rounds: Vec<Link>,
+    /// `rounds[r][i]`: link i drawing from its stream of round r (empty when the run has no consensus rounds).
+    rounds: Vec<Vec<Link>>,
     queue: BinaryHeap<Reverse<Pending>>,
     /// Ties in delivery time leave in the order they were queued.
     order: u64,
@@ -64,8 +64,8 @@ impl Egress {
         Egress::with_rounds(links, Vec::new())
     }
 
-    /// `rounds[i]`: link i on its round stream.
-    pub fn with_rounds(links: Vec<Link>, rounds: Vec<Link>) -> Egress {
+    /// `rounds[r][i]`: link i on its stream of round r.
+    pub fn with_rounds(links: Vec<Link>, rounds: Vec<Vec<Link>>) -> Egress {
         Egress {
             links,
             rounds,
@@ -95,7 +95,7 @@ impl Egress {
         let Some(first) = group.first() else { return };
         let l = match stream {
             Stream::Measurement => &mut self.links[link],
-            Stream::Round => match self.rounds.get_mut(link) {
+            Stream::Round(r) => match self.rounds.get_mut(r).and_then(|ls| ls.get_mut(link)) {
                 Some(l) => l,
                 None => return,
             },
@@ -144,8 +144,11 @@ impl Egress {
         self.links.iter().map(|l| (l.to, *l.counters())).collect()
     }
 
-    /// The same for the round streams (empty without consensus rounds).
-    pub fn round_counters(&self) -> Vec<(usize, LinkCounters)> {
-        self.rounds.iter().map(|l| (l.to, *l.counters())).collect()
+    /// The same for the round streams, by round (empty without consensus rounds).
+    pub fn round_counters(&self) -> Vec<Vec<(usize, LinkCounters)>> {
+        self.rounds
+            .iter()
+            .map(|ls| ls.iter().map(|l| (l.to, *l.counters())).collect())
+            .collect()
     }
 }

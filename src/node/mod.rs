@@ -146,11 +146,15 @@ impl Node {
         };
         let links = topo.out_links(index).map(|l| link_on(l, "link")).collect();
         let in_node = topo.estimators().any_in_node();
-        let round_links = if in_node {
-            topo.out_links(index).map(|l| link_on(l, "link-round")).collect()
-        } else {
-            Vec::new()
-        };
+        // One stream per round and link: round r meets the same fates whatever L is.
+        let rounds = if in_node { topo.estimators().rounds } else { 0 };
+        let round_links = (0..rounds)
+            .map(|r| {
+                topo.out_links(index)
+                    .map(|l| link_on(l, &format!("link-round-{r}")))
+                    .collect()
+            })
+            .collect();
         let out_degree = topo.out_links(index).count();
         // The IMU file that replaces the simulated IMU, read at this run's steps.
         let recorded = cfg
@@ -379,7 +383,8 @@ impl Node {
         }
         let t = crate::sim::round_end(&self.topo, k, r);
         for li in 0..self.egress.len() {
-            self.egress.push_group(li, t, &out, self.topo.faults(), Stream::Round);
+            self.egress
+                .push_group(li, t, &out, self.topo.faults(), Stream::Round(r + 1));
         }
     }
 
@@ -406,7 +411,8 @@ impl Node {
         let Some(own) = own else {
             if !round0.is_empty() {
                 for li in 0..self.egress.len() {
-                    self.egress.push_group(li, t, round0, self.topo.faults(), Stream::Round);
+                    self.egress
+                        .push_group(li, t, round0, self.topo.faults(), Stream::Round(0));
                 }
             }
             return;
@@ -449,7 +455,8 @@ impl Node {
                 first = false;
             }
             if groups.is_empty() && rides {
-                self.egress.push_group(li, t, round0, self.topo.faults(), Stream::Round);
+                self.egress
+                    .push_group(li, t, round0, self.topo.faults(), Stream::Round(0));
             }
         }
     }

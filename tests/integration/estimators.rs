@@ -59,6 +59,27 @@ fn the_schemes_leave_the_two_filters_and_the_links_unchanged() {
     }
 }
 
+/// Round r of every link draws from a stream of its own: KCF, which exchanges in round 0 only, meets the same
+/// fates with one round as with four, naive nodes included (without delay: with it, round 0's sub-deadline D/L
+/// leaves less time to arrive).
+#[test]
+fn a_round_meets_the_same_fates_whatever_the_number_of_rounds() {
+    let kcf = |rounds| {
+        let o = Overrides {
+            estimators: Some(vec![Kind::Kcf, Kind::Icf]),
+            rounds: Some(rounds),
+            duration_s: Some(2.0),
+            duplicate: Some(0.05),
+            ..common::bernoulli(0.3, 8)
+        };
+        common::simulate(common::topology("rgg50", o)).estimators["kcf"].clone()
+    };
+    let (one, four) = (kcf(1), kcf(4));
+    assert_eq!(one.nodes, four.nodes);
+    // The bytes differ by the sequence numbers' varints: ICF's later rounds advance the sender's count.
+    assert_eq!(one.messages, four.messages);
+}
+
 /// Same seed, same bytes: two socket runs with every scheme, and the in-memory run, give one summary.json (apart
 /// from wall time).
 #[test]
