@@ -3,18 +3,21 @@
 use super::*;
 use std::io::{self, Write};
 
+/// A figure of the table: four decimals, or three significant digits in exponent form from 1e4 on; `—` unknown.
+fn figure(v: Option<f64>) -> String {
+    v.map_or("—".to_string(), |x| {
+        if x.abs() < 1e4 {
+            format!("{x:.4}")
+        } else {
+            format!("{x:.3e}")
+        }
+    })
+}
+
 impl Summary {
     /// The human-readable table printed on stdout.
     pub fn write_table(&self, w: &mut impl Write) -> io::Result<()> {
-        let f = |v: Option<f64>| {
-            v.map_or("—".to_string(), |x| {
-                if x.abs() < 1e4 {
-                    format!("{x:.4}")
-                } else {
-                    format!("{x:.3e}")
-                }
-            })
-        };
+        let f = figure;
         let e = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{x:.3e}"));
         let pct = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{:.1} %", 100.0 * x));
         writeln!(
@@ -145,15 +148,7 @@ impl Summary {
         if self.estimators.is_empty() {
             return Ok(());
         }
-        let f = |v: Option<f64>| {
-            v.map_or("—".to_string(), |x| {
-                if x.abs() < 1e4 {
-                    format!("{x:.4}")
-                } else {
-                    format!("{x:.2e}")
-                }
-            })
-        };
+        let f = figure;
         let rounds = self.settings.as_ref().map_or(1, |s| s.rounds);
         // The reference first, then the schemes in `simnet estimators` order.
         let mut names: Vec<&String> = self.estimators.keys().collect();
