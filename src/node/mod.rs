@@ -19,9 +19,9 @@
 //!    sub-deadline t_k + D(r+1)/L for r < L − 1: the distributed estimators combine round r and queue round r + 1
 //!    (then steps 2 and 3 again).
 //! 5. [`Node::handle_deadline`]`(k)` at t_k + D: both filters update with what arrived (and the estimators close
-//!    their last round); each update goes to the
-//!    node's [`crate::observe::Scorer`] and then to its probes (the trace, IMU and LMI recorders when on, any
-//!    [`Node::add_probe`] added); the networked estimate is returned for the fusion observer.
+//!    their last round); each update goes to the node's [`crate::observe::Scorer`] and then to its probes (the
+//!    trace, IMU and LMI recorders when on, any [`Node::add_probe`] added); the networked estimate is returned for
+//!    the fusion observer.
 //!
 //! A node whose step k is skipped (down, or joining late) keeps its counters honest: a crash drops what arrives,
 //! a restart re-initialises both filters.
@@ -386,11 +386,6 @@ impl Node {
             self.egress
                 .push_group(li, t, &out, self.topo.faults(), Stream::Round(r + 1));
         }
-    }
-
-    /// Consensus rounds per step.
-    pub fn rounds(&self) -> usize {
-        self.topo.estimators().rounds
     }
 
     /// This step's IMU sample and the node's own measurement ([`Model::sense`]).
