@@ -11,7 +11,7 @@
 //! convex combination.
 
 use super::{renormalised, Context, Estimator, Info, Message, StepInput};
-use crate::estimate::{EstimateError, Gaussian};
+use crate::estimate::{wrap_rows, EstimateError, Gaussian};
 
 pub struct Hcmci {
     ctx: Context,
@@ -66,7 +66,14 @@ impl Estimator for Hcmci {
             .iter()
             .filter_map(|(j, m)| match m {
                 Message::Hybrid { prior, measurement } if prior.y.len() == n && measurement.y.len() == n => {
-                    Some((*j, (prior.clone(), measurement.clone())))
+                    // Both pairs were formed about the sender's prior: one shift moves them to this side of ±π.
+                    Some((
+                        *j,
+                        match prior.turns(&self.g.x, &self.ctx.angle_states) {
+                            Some(d) => (prior.shifted(&d), measurement.shifted(&d)),
+                            None => (prior.clone(), measurement.clone()),
+                        },
+                    ))
                 }
                 _ => None,
             })
@@ -84,6 +91,7 @@ impl Estimator for Hcmci {
         let mut fused = self.prior.clone();
         fused.add(self.omega, &self.measurement);
         self.g = fused.gaussian()?;
+        wrap_rows(&mut self.g.x, &self.ctx.angle_states);
         Ok(())
     }
 }

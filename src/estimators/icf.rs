@@ -10,7 +10,7 @@
 //! preserved exactly under loss: that bias is what a lossy network does to ICF.
 
 use super::{Context, Estimator, Info, Message, StepInput};
-use crate::estimate::{EstimateError, Gaussian};
+use crate::estimate::{wrap_rows, EstimateError, Gaussian};
 
 pub struct Icf {
     ctx: Context,
@@ -57,7 +57,10 @@ impl Estimator for Icf {
             if let Message::Information(o) = m {
                 if o.y.len() == own.y.len() {
                     let w = self.ctx.weight(*j);
-                    self.v.add(w, o);
+                    match o.turns(&self.g.x, &self.ctx.angle_states) {
+                        Some(d) => self.v.add(w, &o.shifted(&d)),
+                        None => self.v.add(w, o),
+                    }
                     self.v.add(-w, &own);
                 }
             }
@@ -70,6 +73,7 @@ impl Estimator for Icf {
             P: g.P / self.ctx.nodes as f64,
             x: g.x,
         };
+        wrap_rows(&mut self.g.x, &self.ctx.angle_states);
         Ok(())
     }
 }

@@ -14,8 +14,9 @@
 //! | `diffusion.rs` | `diffusion`: diffusion Kalman filter, adapt-then-combine, Cattivelli & Sayed (2010) |
 //! | `ci.rs` | `ci`: covariance intersection of the neighbours' estimates |
 //!
-//! Angle states (the pose model's attitude) are wrapped where an innovation or a difference of estimates is formed;
-//! information vectors of estimates on opposite sides of ±π are not unwrapped.
+//! Angle states (the pose model's attitude) are wrapped where an innovation or a difference of estimates is formed,
+//! and a neighbour's information pair is moved by whole turns to the node's side of ±π before it is averaged
+//! ([`Info::turns`]): the average of y = Y x over estimates at +π − ε and −π + ε would otherwise point at 0.
 #![allow(non_snake_case)]
 
 mod centralized;
@@ -197,6 +198,32 @@ impl Info {
             Y: &HtRinv * &H,
             y: &HtRinv * (predicted + nu),
         })
+    }
+
+    /// Whole turns δ on the angle rows that bring the estimate this pair carries, x = Y⁻¹ y, within π of `about`;
+    /// none when there is no angle row, nothing to move, or Y is singular.
+    fn turns(&self, about: &DVector<f64>, angles: &[bool]) -> Option<DVector<f64>> {
+        if !angles.iter().any(|a| *a) {
+            return None;
+        }
+        let x = cholesky(&self.Y, "information matrix").ok()?.solve(&self.y);
+        let d = DVector::from_fn(x.len(), |i, _| {
+            if angles.get(i) == Some(&true) {
+                let wrapped = about[i] + crate::geom::wrap_angle(x[i] - about[i]);
+                wrapped - x[i]
+            } else {
+                0.0
+            }
+        });
+        d.iter().any(|v| *v != 0.0).then_some(d)
+    }
+
+    /// The pair of the same estimate moved by `d`: (Y, y + Y d).
+    fn shifted(&self, d: &DVector<f64>) -> Info {
+        Info {
+            y: &self.y + &self.Y * d,
+            Y: self.Y.clone(),
+        }
     }
 
     fn scaled(&self, a: f64) -> Info {
