@@ -16,7 +16,7 @@
 //!
 //! Angle states (the pose model's attitude) are wrapped where an innovation or a difference of estimates is formed,
 //! and a neighbour's information pair is moved by whole turns to the node's side of ±π before it is averaged
-//! ([`Info::turns`]): the average of y = Y x over estimates at +π − ε and −π + ε would otherwise point at 0.
+//! (`Info::turns`): the average of y = Y x over estimates at +π − ε and −π + ε would otherwise point at 0.
 #![allow(non_snake_case)]
 
 mod centralized;
