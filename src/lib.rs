@@ -18,7 +18,7 @@
 //! | [`wire`] | the datagram format: postcard + CRC-32, checked decode |
 //! | [`link`] | per-datagram rules (outage, Bernoulli / Gilbert–Elliott loss, duplication, delay and jitter, corruption), the egress queue, fault schedules |
 //! | [`node`] | one node's sans-IO state machine: `handle_crash`/`handle_restart`, `handle_step`, `handle_datagram`, `handle_round`, `handle_deadline`, `poll_transmit`, over any [`model::Model`]; simulated or recorded IMU |
-//! | [`observe`] | what is measured as a run goes: the [`observe::Probe`]s a node feeds (the scorer, the trace, IMU and LMI recorders, your own), per-filter metrics, the fusion observer, the estimators' agreement and the centralized reference |
+//! | [`observe`] | what is measured as a run goes: the [`observe::Probe`]s a node feeds (the scorer, the trace, IMU and LMI recorders, your own), per-filter metrics, the fusion observer, the estimators' agreement and the two fusion centers (centralized, and centralized-net over lossy links) |
 //! | [`sim`] | whole runs in memory: [`Sim`] steps every node in lockstep and returns [`RunResults`], the same as over UDP |
 //! | [`net`] | the only I/O: one UDP socket per node served by one worker per core, virtual and realtime clocks, shutdown; `net::host` runs one node per process (`simnet node`) |
 //! | [`report`] | `summary.json` (with the settings that made it), the table, `trace.csv` and IMU files streamed as a run goes (`report::trace`), `links.csv`, SVG plots |

@@ -3,7 +3,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::{Centralized, Ci, Context, Diffusion, Estimator, Hcmci, Icf, Info, Kcf, Message};
+use super::{Ci, Context, Diffusion, Estimator, Hcmci, Icf, Info, Kcf, Message};
 use crate::estimate::{Gaussian, MissingChannels};
 use crate::model::Measurement;
 use crate::wire::Body;
@@ -15,6 +15,7 @@ pub enum Kind {
     Independent,
     Sequeira,
     Centralized,
+    CentralizedNet,
     Kcf,
     Icf,
     Hcmci,
@@ -23,10 +24,11 @@ pub enum Kind {
 }
 
 impl Kind {
-    pub const ALL: [Kind; 8] = [
+    pub const ALL: [Kind; 9] = [
         Kind::Independent,
         Kind::Sequeira,
         Kind::Centralized,
+        Kind::CentralizedNet,
         Kind::Kcf,
         Kind::Icf,
         Kind::Hcmci,
@@ -65,9 +67,14 @@ impl Kind {
     }
 
     /// Run by the node itself over the scheme rounds (independent and sequeira are the node's two filters; the
-    /// centralized reference is the observer's).
+    /// two fusion centers are the observer's).
     pub fn in_node(self) -> bool {
-        !matches!(self, Kind::Independent | Kind::Sequeira | Kind::Centralized)
+        !matches!(self, Kind::Independent | Kind::Sequeira) && !self.is_center()
+    }
+
+    /// One fusion center of the whole network, hosted by the observer: `centralized` and `centralized-net`.
+    pub fn is_center(self) -> bool {
+        matches!(self, Kind::Centralized | Kind::CentralizedNet)
     }
 }
 
@@ -105,8 +112,7 @@ pub fn build(
         Kind::Hcmci => Box::new(Hcmci::new(ctx, initial, params.hcmci_omega.unwrap_or(nodes))),
         Kind::Diffusion => Box::new(Diffusion::new(ctx, initial, policy, true, true)),
         Kind::Ci => Box::new(Ci::new(ctx, initial, policy)),
-        Kind::Centralized => Box::new(Centralized::new(ctx, Some(initial))),
-        Kind::Independent | Kind::Sequeira => return None,
+        Kind::Independent | Kind::Sequeira | Kind::Centralized | Kind::CentralizedNet => return None,
     })
 }
 

@@ -71,7 +71,15 @@ pub const SCHEMES: &[Scheme] = &[
         name: "centralized",
         reference: "one fusion center, every sensing node's measurement stacked (the Kalman filter of the network)",
         messages: "round 0: the measurement, to the center",
-        parameters: "none: the first sensing node is the center; every measurement reaches it with no loss",
+        parameters:
+            "estimators.sink (the center; default: the first sensing node); every measurement reaches it with no loss",
+    },
+    Scheme {
+        name: "centralized-net",
+        reference: "the same fusion center, reached over lossy links: a star from every sensing node to the sink",
+        messages: "round 0: the measurement, to the sink, by the step's deadline",
+        parameters:
+            "estimators.sink; the scenario's link to the sink where one exists, else a star link with [link]'s faults",
     },
     Scheme {
         name: "kcf",

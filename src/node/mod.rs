@@ -100,8 +100,10 @@ pub struct Node {
     in_sources: Vec<usize>,
     /// The distributed estimators beside the two filters.
     schemes: Schemes,
-    /// What the observer's centralized reference needs of this step (when the run holds it).
+    /// What the observer's fusion centers need of this step (when the run holds one).
     feed: Option<Feed>,
+    /// The fusion center of a run that holds centralized-net: hands on what it heard.
+    star_sink: bool,
 }
 
 /// What a node hands the observer's centralized reference each step: its own measurement, and the prediction
@@ -117,6 +119,9 @@ pub struct Feed {
     /// The fresh prior the node started from this step (its first step, a restart, a late join).
     pub prior: Option<Gaussian>,
     pub truth: DVector<f64>,
+    /// At the sink, when the run holds centralized-net: the neighbours' measurements that arrived over the
+    /// scenario's links by the deadline (the same datagrams `sequeira` fused).
+    pub heard: Option<std::collections::BTreeMap<usize, Measurement>>,
 }
 
 impl Node {
@@ -202,6 +207,8 @@ impl Node {
                 .collect(),
             schemes: Schemes::new(Vec::new(), 1, 0),
             feed: None,
+            star_sink: topo.estimators().sink == Some(index)
+                && topo.estimators().run.contains(&crate::estimators::Kind::CentralizedNet),
             topo,
         };
         node.initial = node.initial_estimate(0, 0);
@@ -324,12 +331,7 @@ impl Node {
             (None, Some(end)) => Some(ImuInterval { start: end, end }),
             _ => None,
         };
-        if self
-            .topo
-            .estimators()
-            .run
-            .contains(&crate::estimators::Kind::Centralized)
-        {
+        if self.topo.estimators().run.iter().any(|k| k.is_center()) {
             self.feed = Some(Feed {
                 node: self.index,
                 step: k,
@@ -338,6 +340,7 @@ impl Node {
                 shift: shift.clone(),
                 prior: (k == 0 || restarted).then(|| fresh.clone()).flatten(),
                 truth: self.truth.state(&*self.model),
+                heard: None,
             });
         }
         if k > 0 && !restarted {
@@ -541,6 +544,9 @@ impl Node {
     /// The deadline of step k: update both filters with what arrived, record metrics.
     pub fn handle_deadline(&mut self, k: u64) -> Option<StepEstimate> {
         let inbox = self.inbox.close(k, &self.in_sources)?;
+        if let Some(f) = self.feed.as_mut().filter(|_| self.star_sink) {
+            f.heard = Some(inbox.clone());
+        }
         let mut schemes = self.finish_schemes(k);
         let filters = self.filters.as_mut()?;
         let topo = &self.topo;

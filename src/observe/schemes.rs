@@ -1,6 +1,7 @@
 //! The observer's view of the distributed estimators: each one's disagreement across nodes and median-over-nodes
-//! error every step, and the centralized reference — one fusion center that has every sensing node's measurement
-//! of the step, with no loss, predicting with the center's IMU (the optimum for a linear model).
+//! error every step, and the two fusion centers at the sink, predicting with its IMU: `centralized`, which has every
+//! sensing node's measurement of the step with no loss (the optimum for a linear model), and `centralized-net`,
+//! which has those that reach the sink over lossy links by the deadline.
 #![allow(non_snake_case)]
 
 use std::collections::BTreeMap;
@@ -11,11 +12,14 @@ use serde::{Deserialize, Serialize};
 
 use crate::estimate::{Gaussian, Observation};
 use crate::estimators::{Centralized, Context, Estimator, Kind, Message, StepInput};
+use crate::link::{Link, Verdict};
+use crate::model::Measurement;
 use crate::model::{FusionLayout, Model};
 use crate::node::Feed;
 use crate::observe::metrics::FilterMetrics;
 use crate::observe::StepEstimate;
 use crate::scenario::Scenario;
+use crate::wire::{Datagram, Header, Payload};
 
 /// One estimator's error at one step, for plots: the median over the nodes (the reference's own).
 #[derive(Debug, Clone, PartialEq)]
@@ -59,7 +63,8 @@ pub struct SchemeObserver {
     layout: FusionLayout,
     burn_in: u64,
     sums: BTreeMap<Kind, Sums>,
-    reference: Option<Reference>,
+    /// `centralized` and `centralized-net`, when the run holds them.
+    references: Vec<Reference>,
     rows: Vec<SchemeRow>,
     node_rows: Vec<EstimatorRow>,
     ids: Vec<u32>,
@@ -73,11 +78,12 @@ impl SchemeObserver {
             layout: scenario.model().get().fusion(),
             burn_in: scenario.sim().burn_in_steps(),
             sums: BTreeMap::new(),
-            reference: e
+            references: e
                 .run
-                .contains(&Kind::Centralized)
-                .then(|| Reference::new(scenario))
-                .flatten(),
+                .iter()
+                .filter(|k| k.is_center())
+                .filter_map(|&k| Reference::new(scenario, k))
+                .collect(),
             rows: Vec::new(),
             node_rows: Vec::new(),
             ids: scenario.nodes().iter().map(|n| n.id).collect(),
@@ -164,20 +170,25 @@ impl SchemeObserver {
         m
     }
 
-    /// One step's feeds of every node that was up: the reference updates.
-    pub fn push_feeds(&mut self, feeds: Vec<Feed>) {
-        let Some(r) = self.reference.as_mut() else { return };
-        if let Some((step, error, values)) = r.step(feeds, &self.layout) {
+    /// One step's feeds of every node that was up: the fusion centers update.
+    pub fn push_feeds(&mut self, mut feeds: Vec<Feed>) {
+        feeds.sort_by_key(|f| f.node);
+        for i in 0..self.references.len() {
+            let r = &mut self.references[i];
+            let Some((step, error, values)) = r.step(&feeds, &self.layout) else {
+                continue;
+            };
+            let (kind, center) = (r.kind, r.center);
             if self.record {
                 self.node_rows.push(EstimatorRow {
                     step,
-                    kind: Kind::Centralized,
-                    node: self.ids.get(r.center).copied().unwrap_or(r.center as u32),
+                    kind,
+                    node: self.ids.get(center).copied().unwrap_or(center as u32),
                     error: error.unwrap_or(f64::NAN),
                     values,
                 });
             }
-            self.record(step, Kind::Centralized, error, 0.0);
+            self.record(step, kind, error, 0.0);
         }
     }
 
@@ -202,16 +213,24 @@ impl SchemeObserver {
         }
     }
 
-    /// The reference's figures and its center node.
-    pub fn reference(&self) -> Option<(usize, &FilterMetrics)> {
-        self.reference
-            .as_ref()
+    /// A fusion center's figures (`centralized` or `centralized-net`) and its node.
+    pub fn center(&self, kind: Kind) -> Option<(usize, &FilterMetrics)> {
+        self.references
+            .iter()
+            .find(|r| r.kind == kind)
             .map(|r| (r.center, r.scorer.metrics(crate::observe::Filter::Networked)))
+    }
+
+    /// What centralized-net's measurements to the sink came to.
+    pub fn star_traffic(&self) -> Option<StarTraffic> {
+        self.references.iter().find_map(|r| r.star.as_ref()).map(|s| s.traffic)
     }
 }
 
-/// The centralized reference: [`Centralized`] at the center node, fed every sensing node's measurement.
+/// A fusion center at the sink: [`Centralized`] fed every sensing node's measurement of the step (`centralized`),
+/// or only those that reach the sink by the deadline ([`Star`], `centralized-net`).
 struct Reference {
+    kind: Kind,
     center: usize,
     model: Arc<dyn Model>,
     obs: Observation,
@@ -220,16 +239,100 @@ struct Reference {
     est: Option<Centralized>,
     ctx: Context,
     scorer: crate::observe::Scorer,
+    star: Option<Star>,
+}
+
+/// centralized-net's links to the sink. From a node the scenario links to the sink, the measurement is the datagram
+/// the sink itself received by the deadline ([`Feed::heard`]): that slot's verdict is the link layer's one decision.
+/// From any other node a star link with the `[link]` faults and its own seeded stream decides, on the step's
+/// send time, whether the datagram arrives intact by the deadline; it travels no socket.
+struct Star {
+    /// By node index: `None` for the sink and for a node with a scenario link to it.
+    links: Vec<Option<Link>>,
+    faults: crate::link::FaultSchedule,
+    deadline: f64,
+    ids: Vec<u32>,
+    traffic: StarTraffic,
+}
+
+/// What centralized-net's measurements to the sink came to.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StarTraffic {
+    /// Datagrams sent to the sink (one per sensing node that was up and step), and their bytes.
+    pub messages: u64,
+    pub bytes: u64,
+    /// Those the sink had by the deadline.
+    pub delivered: u64,
+}
+
+impl Star {
+    fn new(s: &Scenario, sink: usize) -> Star {
+        let e = s.estimators();
+        let linked: std::collections::HashSet<usize> = s.in_links(sink).map(|l| l.from).collect();
+        Star {
+            links: (0..s.nodes().len())
+                .map(|j| {
+                    (j != sink && !linked.contains(&j) && s.nodes()[j].role.senses()).then(|| {
+                        Link::new(
+                            j,
+                            sink,
+                            e.star_link,
+                            crate::rng::stream(s.sim().seed, "star", j as u64, sink as u64),
+                        )
+                    })
+                })
+                .collect(),
+            faults: s.faults().clone(),
+            deadline: s.sim().deadline_s,
+            ids: s.nodes().iter().map(|n| n.id).collect(),
+            traffic: StarTraffic::default(),
+        }
+    }
+
+    /// Whether node `f`'s measurement of its step reaches the sink, which `heard` what its scenario links carried.
+    fn reaches(
+        &mut self,
+        f: &Feed,
+        m: &Measurement,
+        heard: Option<&BTreeMap<usize, Measurement>>,
+        dt: f64,
+    ) -> Option<Measurement> {
+        let rows = (0..m.z.len())
+            .filter(|&r| m.present[r])
+            .fold(0u64, |acc, r| acc | 1 << r);
+        let values = (0..m.z.len()).filter(|&r| m.present[r]).map(|r| m.z[r]).collect();
+        let dg = Datagram {
+            header: Header::new(self.ids[f.node], f.step as u32, f.step),
+            payload: Payload::measurement(rows, values),
+        };
+        let len = dg.encode().map_or(0, |b| b.len());
+        self.traffic.messages += 1;
+        self.traffic.bytes += len as u64;
+        let got = match self.links.get_mut(f.node).and_then(Option::as_mut) {
+            Some(link) => match link.verdict(f.step as f64 * dt, len, &self.faults) {
+                // A corrupted copy fails its checksum; a duplicate may still arrive whole.
+                Verdict::Deliver(copies) => copies
+                    .iter()
+                    .any(|c| c.flip_bit.is_none() && c.delay <= self.deadline)
+                    .then(|| m.clone()),
+                Verdict::Drop(_) => None,
+            },
+            None => heard.and_then(|h| h.get(&f.node)).cloned(),
+        };
+        self.traffic.delivered += got.is_some() as u64;
+        got
+    }
 }
 
 impl Reference {
-    /// The center is the first sensing node (its IMU drives the prediction); none in a network without one.
-    fn new(s: &Scenario) -> Option<Reference> {
-        let center = s.nodes().iter().position(|n| n.role.senses())?;
+    /// At the sink (`estimators.sink`); none in a network without a sensing node.
+    fn new(s: &Scenario, kind: Kind) -> Option<Reference> {
+        let center = s.estimators().sink?;
         let model = s.model().shared();
         let dt = s.sim().dt();
         let obs = model.observation();
         Some(Reference {
+            kind,
             center,
             Q: model.process_noise(Some(&s.nodes()[center].sensor), dt),
             ctx: Context {
@@ -244,14 +347,13 @@ impl Reference {
             dt,
             model,
             est: None,
+            star: (kind == Kind::CentralizedNet).then(|| Star::new(s, center)),
         })
     }
 
-    /// Step with `feeds`; the step and the error.
-    fn step(&mut self, mut feeds: Vec<Feed>, layout: &FusionLayout) -> Option<(u64, Option<f64>, Vec<f64>)> {
-        feeds.sort_by_key(|f| f.node);
-        let c = feeds.iter().position(|f| f.node == self.center)?;
-        let center = feeds.remove(c);
+    /// Step with `feeds` (sorted by node); the step, the error and the estimate's error rows.
+    fn step(&mut self, feeds: &[Feed], layout: &FusionLayout) -> Option<(u64, Option<f64>, Vec<f64>)> {
+        let center = feeds.iter().find(|f| f.node == self.center)?;
         let est = match (&mut self.est, &center.prior) {
             (Some(e), None) => {
                 let (model, Q, dt, u, shift) = (&self.model, &self.Q, self.dt, center.imu, &center.shift);
@@ -277,9 +379,18 @@ impl Reference {
             obs: &self.obs,
             own: center.own.as_ref(),
         };
+        let dt = self.dt;
         let messages: Vec<(usize, Message)> = feeds
-            .into_iter()
-            .filter_map(|f| f.own.map(|m| (f.node, Message::Measurement(m))))
+            .iter()
+            .filter(|f| f.node != self.center)
+            .filter_map(|f| {
+                let m = f.own.as_ref()?;
+                let m = match self.star.as_mut() {
+                    Some(star) => star.reaches(f, m, center.heard.as_ref(), dt)?,
+                    None => m.clone(),
+                };
+                Some((f.node, Message::Measurement(m)))
+            })
             .collect();
         let arrived: Vec<(usize, &Message)> = messages.iter().map(|(j, m)| (*j, m)).collect();
         let ok = est

@@ -196,6 +196,10 @@ pub struct EstimatorsConfig {
     /// Message exchanges per step, each with its sub-deadline t_k + D(r+1)/L inside the step.
     pub rounds: usize,
     pub params: crate::estimators::Params,
+    /// The fusion center of `centralized` and `centralized-net` (a sensing node); none without one.
+    pub sink: Option<usize>,
+    /// The faults of centralized-net's link to the sink from a node the scenario does not link to it.
+    pub star_link: LinkConfig,
 }
 
 impl EstimatorsConfig {

@@ -60,6 +60,8 @@ pub struct RawEstimators {
     pub rounds: Option<u64>,
     pub kcf_gamma: Option<f64>,
     pub hcmci_omega: Option<f64>,
+    /// The node id of both centralized schemes' fusion center.
+    pub sink: Option<i64>,
 }
 
 #[derive(Debug, Deserialize, Default, Clone)]

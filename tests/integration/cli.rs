@@ -41,6 +41,11 @@ fn broken_topology_exits_2_naming_the_key() {
             "estimators.run",
         ),
         ("[estimators]\nrounds = 0\n[[node]]\nid = 0\n", "estimators.rounds"),
+        ("[estimators]\nsink = 7\n[[node]]\nid = 0\n", "estimators.sink"),
+        (
+            "[estimators]\nsink = 1\n[[node]]\nid = 0\n[[node]]\nid = 1\nrole = \"estimator\"\n[[edge]]\nnodes = [0, 1]\n",
+            "estimators.sink",
+        ),
         (
             "[model]\nkind = \"attitude\"\n[estimators]\nrun = [\"icf\"]\n[[node]]\nid = 0\n",
             "estimators.run",

@@ -31,9 +31,13 @@ pub struct EstimatorSummary {
     /// Nodes that diverged.
     pub diverged: usize,
     /// Messages (one per out-link and round) and bytes the nodes sent for this estimator; the measurements of
-    /// `sequeira` (its only traffic) count under it, and `centralized`'s reference travels no link.
+    /// `sequeira` (its only traffic) count under it, `centralized`'s reference travels no link, and
+    /// `centralized-net`'s are one measurement to the sink per sensing node and step.
     pub messages: u64,
     pub bytes: u64,
+    /// `centralized-net`: the measurements that reached the sink by the deadline.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delivered: Option<u64>,
     pub nodes: Vec<EstimatorNode>,
 }
 
@@ -45,10 +49,11 @@ impl EstimatorSummary {
         observer: Option<&SchemeObserver>,
     ) -> BTreeMap<String, EstimatorSummary> {
         let mut out = BTreeMap::new();
+        let star = observer.and_then(SchemeObserver::star_traffic);
         for &kind in &topo.estimators().run {
             let nodes: Vec<EstimatorNode> = match kind {
-                Kind::Centralized => observer
-                    .and_then(SchemeObserver::reference)
+                Kind::Centralized | Kind::CentralizedNet => observer
+                    .and_then(|o| o.center(kind))
                     .map(|(center, m)| EstimatorNode {
                         id: topo.nodes()[center].id,
                         figures: m.summary(false),
@@ -76,6 +81,7 @@ impl EstimatorSummary {
                     .iter()
                     .flat_map(|r| &r.links_out)
                     .fold((0, 0), |(m, b), (_, c)| (m + c.sent, b + c.bytes)),
+                Kind::CentralizedNet => star.map_or((0, 0), |t| (t.messages, t.bytes)),
                 _ => reports
                     .iter()
                     .flat_map(|r| &r.traffic)
@@ -91,10 +97,11 @@ impl EstimatorSummary {
                         .then(|| errors.iter().sum::<f64>() / errors.len() as f64),
                     median_error: agreement.median_error,
                     ratio_to_centralized: None,
-                    disagreement: (kind != Kind::Centralized).then_some(agreement.disagreement).flatten(),
+                    disagreement: (!kind.is_center()).then_some(agreement.disagreement).flatten(),
                     diverged: nodes.iter().filter(|n| n.figures.diverged).count(),
                     messages,
                     bytes,
+                    delivered: (kind == Kind::CentralizedNet).then(|| star.map_or(0, |t| t.delivered)),
                     nodes,
                 },
             );

@@ -181,7 +181,13 @@ impl Checks {
 
         let consensus = self.consensus(raw.consensus.unwrap_or_default(), &nodes, &linked);
         let max_degree = ins.iter().map(Vec::len).max().unwrap_or(0);
-        let estimators = self.estimators(raw.estimators.unwrap_or_default(), &model, max_degree);
+        let estimators = self.estimators(
+            raw.estimators.unwrap_or_default(),
+            &model,
+            max_degree,
+            (&nodes, &ids),
+            default_link,
+        );
         let faults = self.faults(&raw.fault, &ids, n);
 
         if sim.split_channels && model.get().observation().channels() < 2 {
@@ -210,12 +216,15 @@ impl Checks {
         })
     }
 
-    /// `max_degree`: the most in-neighbours of a node (KCF's default gain is the consensus step bound 1/(1 + Δ)).
+    /// `max_degree`: the most in-neighbours of a node (KCF's default gain is the consensus step bound 1/(1 + Δ));
+    /// `star_link`: the `[link]` defaults, for centralized-net's links to the sink where the scenario has none.
     fn estimators(
         &mut self,
         e: RawEstimators,
         model: &crate::model::ModelConfig,
         max_degree: usize,
+        (nodes, ids): (&[NodeConfig], &HashMap<i64, usize>),
+        star_link: LinkConfig,
     ) -> EstimatorsConfig {
         use crate::estimators::{Kind, Params};
         let run = match Kind::parse_list(e.run.as_deref().unwrap_or_default()) {
@@ -238,7 +247,7 @@ impl Checks {
             .hcmci_omega
             .map(|w| self.positive("estimators.hcmci_omega", Some(w), 1.0));
         let m = model.get();
-        if run.iter().any(|k| k.in_node() || *k == Kind::Centralized) && !m.fixed_observation() {
+        if run.iter().any(|k| k.in_node() || k.is_center()) && !m.fixed_observation() {
             self.bad(
                 "estimators.run",
                 format!(
@@ -261,6 +270,30 @@ impl Checks {
             run,
             rounds,
             params: Params { kcf_gamma, hcmci_omega },
+            sink: self.sink(e.sink, nodes, ids),
+            star_link,
+        }
+    }
+
+    /// The fusion center of both centralized schemes: `estimators.sink`, else the first sensing node (its IMU
+    /// drives the prediction).
+    fn sink(&mut self, id: Option<i64>, nodes: &[NodeConfig], ids: &HashMap<i64, usize>) -> Option<usize> {
+        let Some(id) = id else {
+            return nodes.iter().position(|n| n.role.senses());
+        };
+        match ids.get(&id) {
+            Some(&i) if nodes[i].role.senses() => Some(i),
+            Some(_) => {
+                self.bad(
+                    "estimators.sink",
+                    format!("node {id} does not sense: the center predicts with its IMU"),
+                );
+                None
+            }
+            None => {
+                self.bad("estimators.sink", format!("no [[node]] has id {id}"));
+                None
+            }
         }
     }
 
