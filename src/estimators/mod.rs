@@ -134,9 +134,12 @@ impl Context {
     }
 }
 
+/// One node's consensus weights to its neighbours (sorted by node index), and to itself.
+pub type Weights = (Vec<(usize, f64)>, f64);
+
 /// Metropolis–Hastings weights (Xiao, Boyd & Lall 2005): πᵢⱼ = 1 / (1 + max(dᵢ, dⱼ)) to each neighbour j,
 /// πᵢᵢ = 1 − Σⱼ πᵢⱼ; doubly stochastic on an undirected graph, so that consensus converges to the average.
-pub fn metropolis(neighbours: &[Vec<usize>]) -> Vec<(Vec<(usize, f64)>, f64)> {
+pub fn metropolis(neighbours: &[Vec<usize>]) -> Vec<Weights> {
     neighbours
         .iter()
         .map(|ns| {

@@ -61,7 +61,7 @@ use inbox::{Inbox, Received};
 use schemes::Schemes;
 use session::Session;
 
-pub use schemes::Traffic;
+pub use schemes::{Feed, Traffic};
 
 pub use crate::observe::{LmiStep, MeasurementRow, StepEstimate, TraceRow};
 pub use events::{Arrival, NodeCounters, NodeReport};
@@ -104,24 +104,6 @@ pub struct Node {
     feed: Option<Feed>,
     /// The fusion center of a run that holds centralized-net: hands on what it heard.
     star_sink: bool,
-}
-
-/// What a node hands the observer's centralized reference each step: its own measurement, and the prediction
-/// input of the step (the reference predicts with the center's IMU).
-#[derive(Debug, Clone)]
-pub struct Feed {
-    pub node: usize,
-    pub step: u64,
-    pub own: Option<Measurement>,
-    pub imu: Option<ImuInterval>,
-    /// The truth's re-basing shift this step (linear model).
-    pub shift: Option<DVector<f64>>,
-    /// The fresh prior the node started from this step (its first step, a restart, a late join).
-    pub prior: Option<Gaussian>,
-    pub truth: DVector<f64>,
-    /// At the sink, when the run holds centralized-net: the neighbours' measurements that arrived over the
-    /// scenario's links by the deadline (the same datagrams `sequeira` fused).
-    pub heard: Option<std::collections::BTreeMap<usize, Measurement>>,
 }
 
 impl Node {
@@ -217,7 +199,7 @@ impl Node {
             independent: node.initial.clone(),
         });
         if in_node {
-            let ctx = scheme_context(&node.topo, index, node.model.angle_states());
+            let ctx = schemes::context(&node.topo, index, node.model.angle_states());
             let e = node.topo.estimators();
             let slots = e
                 .run
@@ -663,43 +645,6 @@ impl Node {
         })
     }
 
-    /// The distributed estimators' last round and posteriors of step k, scored at an estimating node; each one's
-    /// estimate, by kind.
-    fn finish_schemes(&mut self, k: u64) -> Vec<(crate::estimators::Kind, DVector<f64>)> {
-        if self.schemes.is_empty() {
-            return Vec::new();
-        }
-        let input = schemes::input(&self.obs, self.inbox.own());
-        let Some(posts) = self.schemes.finish(k, &input, self.id) else {
-            return Vec::new();
-        };
-        if !self.role.estimates() {
-            return Vec::new();
-        }
-        let truth = self.truth.state(&*self.model);
-        let t = k as f64 * self.topo.sim().dt();
-        let kinds: Vec<_> = self.schemes.kinds().collect();
-        kinds
-            .into_iter()
-            .zip(posts)
-            .map(|(kind, (prior, post, failed))| {
-                self.scorer.score(&Update {
-                    node: self.id,
-                    step: k,
-                    t,
-                    filter: Filter::Scheme(kind),
-                    truth: &truth,
-                    prior: &prior,
-                    post: &post,
-                    failed,
-                    feasible: true,
-                    received: &[],
-                });
-                (kind, post.x)
-            })
-            .collect()
-    }
-
     /// What the centralized reference needs of the last step (none unless the run holds it).
     pub fn take_feed(&mut self) -> Option<Feed> {
         self.feed.take()
@@ -811,18 +756,3 @@ impl Node {
 
 #[cfg(test)]
 mod tests;
-
-/// Node `index`'s view of the graph for the distributed estimators: Metropolis weights over the nodes it hears from
-/// (the in-neighbours), on the graph of every node's in-neighbours.
-fn scheme_context(topo: &Scenario, index: usize, angle_states: Vec<bool>) -> crate::estimators::Context {
-    let n = topo.nodes().len();
-    let neighbours: Vec<Vec<usize>> = (0..n).map(|i| topo.in_links(i).map(|l| l.from).collect()).collect();
-    let (weights, self_weight) = crate::estimators::metropolis(&neighbours).swap_remove(index);
-    crate::estimators::Context {
-        index,
-        nodes: n,
-        weights,
-        self_weight,
-        angle_states,
-    }
-}

@@ -5,10 +5,14 @@
 //! left out (each scheme's file says how it treats the gap). Messages for a later step or round wait, bounded.
 
 use bytes::Bytes;
+use nalgebra::DVector;
 
 use crate::estimate::{EstimateError, Gaussian, Observation};
 use crate::estimators::{from_body, to_body, Estimator, Kind, Message, StepInput};
 use crate::model::Measurement;
+use crate::observe::{Filter, Update};
+use crate::scenario::Scenario;
+use crate::sensor::ImuInterval;
 use crate::wire::{Body, Datagram, Header, Payload};
 
 /// Most messages of later rounds or steps a node holds.
@@ -29,14 +33,6 @@ struct Slot {
     prior: Option<Gaussian>,
     failed: bool,
     traffic: Traffic,
-}
-
-/// Where a round's message went.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum Filed {
-    Open,
-    Held,
-    Late,
 }
 
 pub(super) struct Schemes {
@@ -163,7 +159,9 @@ impl Schemes {
         out
     }
 
-    /// A round's message from `src`; `states`/`rows` are the model's, for the checks.
+    /// A round's message from `src`, used in its round, held for a later one, or counted late; `states`/`rows` are
+    /// the model's, for the checks. `Err`: a scheme this node does not run, a round past L, or a body of the wrong
+    /// size (the node counts it malformed).
     #[allow(clippy::too_many_arguments)]
     pub fn receive(
         &mut self,
@@ -174,31 +172,20 @@ impl Schemes {
         body: &Body,
         states: usize,
         rows: usize,
-    ) -> Result<Filed, ()> {
+    ) -> Result<(), ()> {
         let round = round as usize;
         let slot = Kind::from_index(scheme).and_then(|k| self.slot_of(k)).ok_or(())?;
         if round >= self.rounds {
             return Err(());
         }
         let m = from_body(body, states, rows).map_err(|_| ())?;
-        Ok(match self.open {
-            Some((k, next)) if step == k && round >= next => {
-                keep(&mut self.arrived[slot][round], src, m);
-                Filed::Open
-            }
-            Some((k, _)) if step > k && self.held.len() < HELD_CAP => {
-                self.held.push((step, round, slot, src, m));
-                Filed::Held
-            }
-            None if self.held.len() < HELD_CAP => {
-                self.held.push((step, round, slot, src, m));
-                Filed::Held
-            }
-            _ => {
-                self.late += 1;
-                Filed::Late
-            }
-        })
+        match self.open {
+            Some((k, next)) if step == k && round >= next => keep(&mut self.arrived[slot][round], src, m),
+            Some((k, _)) if step > k && self.held.len() < HELD_CAP => self.held.push((step, round, slot, src, m)),
+            None if self.held.len() < HELD_CAP => self.held.push((step, round, slot, src, m)),
+            _ => self.late += 1,
+        }
+        Ok(())
     }
 
     /// Close round `r` of step `k` (its sub-deadline): every scheme combines what arrived; the datagrams of round
@@ -245,7 +232,8 @@ impl Schemes {
                     fail(s, &e);
                 }
             }
-            let prior = s.prior.clone();
+            // Set again at the next step's begin.
+            let prior = s.prior.take();
             let post = s.est.state().cloned();
             // A posterior that is not finite and symmetric positive definite is a failed update.
             let usable = post
@@ -285,4 +273,79 @@ fn keep(list: &mut Vec<(usize, Message)>, from: usize, m: Message) {
 /// What a node hands its schemes: its observation and own measurement.
 pub(super) fn input<'a>(obs: &'a Observation, own: Option<&'a Measurement>) -> StepInput<'a> {
     StepInput { obs, own }
+}
+
+/// What a node hands the observer's fusion centers each step: its own measurement, and the prediction input of the
+/// step (the centers predict with the sink's IMU).
+#[derive(Debug, Clone)]
+pub struct Feed {
+    pub node: usize,
+    pub step: u64,
+    pub own: Option<Measurement>,
+    pub imu: Option<ImuInterval>,
+    /// The truth's re-basing shift this step (linear model).
+    pub shift: Option<DVector<f64>>,
+    /// The fresh prior the node started from this step (its first step, a restart, a late join).
+    pub prior: Option<Gaussian>,
+    pub truth: DVector<f64>,
+    /// At the sink, when the run holds centralized-net: the neighbours' measurements that arrived over the
+    /// scenario's links by the deadline (the same datagrams `sequeira` fused).
+    pub heard: Option<std::collections::BTreeMap<usize, Measurement>>,
+}
+
+impl super::Node {
+    /// The distributed estimators' last round and posteriors of step k, scored at an estimating node; each one's
+    /// estimate, by kind.
+    pub(super) fn finish_schemes(&mut self, k: u64) -> Vec<(Kind, DVector<f64>)> {
+        if self.schemes.is_empty() {
+            return Vec::new();
+        }
+        let input = input(&self.obs, self.inbox.own());
+        let Some(posts) = self.schemes.finish(k, &input, self.id) else {
+            return Vec::new();
+        };
+        if !self.role.estimates() {
+            return Vec::new();
+        }
+        let truth = self.truth.state(&*self.model);
+        let t = k as f64 * self.topo.sim().dt();
+        let kinds: Vec<_> = self.schemes.kinds().collect();
+        kinds
+            .into_iter()
+            .zip(posts)
+            .map(|(kind, (prior, post, failed))| {
+                self.scorer.score(&Update {
+                    node: self.id,
+                    step: k,
+                    t,
+                    filter: Filter::Scheme(kind),
+                    truth: &truth,
+                    prior: &prior,
+                    post: &post,
+                    failed,
+                    feasible: true,
+                    received: &[],
+                });
+                (kind, post.x)
+            })
+            .collect()
+    }
+}
+
+/// Node `index`'s view of the graph for the distributed estimators: Metropolis weights over the nodes it hears from
+/// (computed once per scenario, [`crate::scenario::EstimatorsConfig::weights`]).
+pub(super) fn context(topo: &Scenario, index: usize, angle_states: Vec<bool>) -> crate::estimators::Context {
+    let (weights, self_weight) = topo
+        .estimators()
+        .weights
+        .get(index)
+        .cloned()
+        .unwrap_or((Vec::new(), 1.0));
+    crate::estimators::Context {
+        index,
+        nodes: topo.nodes().len(),
+        weights,
+        self_weight,
+        angle_states,
+    }
 }

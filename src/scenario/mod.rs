@@ -200,6 +200,9 @@ pub struct EstimatorsConfig {
     pub sink: Option<usize>,
     /// The faults of centralized-net's link to the sink from a node the scenario does not link to it.
     pub star_link: LinkConfig,
+    /// Each node's Metropolis weights to the nodes it hears from, and to itself ([`crate::estimators::metropolis`]);
+    /// empty unless a node runs a scheme.
+    pub weights: Arc<Vec<crate::estimators::Weights>>,
 }
 
 impl EstimatorsConfig {

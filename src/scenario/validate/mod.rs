@@ -5,6 +5,7 @@ mod link;
 
 use std::collections::HashMap;
 use std::path::Path;
+use std::sync::Arc;
 
 use super::toml::*;
 use super::{
@@ -181,13 +182,21 @@ impl Checks {
 
         let consensus = self.consensus(raw.consensus.unwrap_or_default(), &nodes, &linked);
         let max_degree = ins.iter().map(Vec::len).max().unwrap_or(0);
-        let estimators = self.estimators(
+        let mut estimators = self.estimators(
             raw.estimators.unwrap_or_default(),
             &model,
             max_degree,
             (&nodes, &ids),
             default_link,
         );
+        if estimators.any_in_node() {
+            // Once per scenario, on the graph of every node's in-neighbours.
+            let heard: Vec<Vec<usize>> = ins
+                .iter()
+                .map(|ls| ls.iter().map(|&l| links[l].from).collect())
+                .collect();
+            estimators.weights = Arc::new(crate::estimators::metropolis(&heard));
+        }
         let faults = self.faults(&raw.fault, &ids, n);
 
         if sim.split_channels && model.get().observation().channels() < 2 {
@@ -272,6 +281,7 @@ impl Checks {
             params: Params { kcf_gamma, hcmci_omega },
             sink: self.sink(e.sink, nodes, ids),
             star_link,
+            weights: Arc::default(),
         }
     }
 
