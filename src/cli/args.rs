@@ -65,7 +65,17 @@ pub struct RunArgs {
 #[derive(Debug, Clone, PartialEq)]
 pub struct EstimatorChoice(Vec<crate::estimators::Kind>);
 
-fn estimator(s: &str) -> Result<EstimatorChoice, String> {
+impl EstimatorChoice {
+    /// Every scheme of the entries, sorted, once each.
+    pub fn kinds(choices: &[EstimatorChoice]) -> Vec<crate::estimators::Kind> {
+        let mut all: Vec<_> = choices.iter().flat_map(|c| c.0.iter().copied()).collect();
+        all.sort();
+        all.dedup();
+        all
+    }
+}
+
+pub(super) fn estimator(s: &str) -> Result<EstimatorChoice, String> {
     crate::estimators::Kind::parse_list(&[s.to_string()]).map(EstimatorChoice)
 }
 
@@ -146,12 +156,7 @@ impl RunArgs {
             duration_s: self.duration,
             rate_hz: self.rate,
             seed: self.seed,
-            estimators: self.estimators.as_ref().map(|v| {
-                let mut all: Vec<_> = v.iter().flat_map(|c| c.0.iter().copied()).collect();
-                all.sort();
-                all.dedup();
-                all
-            }),
+            estimators: self.estimators.as_deref().map(EstimatorChoice::kinds),
             rounds: self.rounds,
         })
     }

@@ -22,6 +22,9 @@ pub struct CompareArgs {
     /// Simulated duration of each run, s (unset: the topology's own).
     #[arg(long, value_parser = positive)]
     pub duration: Option<f64>,
+    /// Estimators to compare, comma-separated, or `all` (the default); `centralized`, the reference, is always run.
+    #[arg(long, value_delimiter = ',', value_parser = super::args::estimator)]
+    pub estimators: Option<Vec<super::args::EstimatorChoice>>,
 }
 
 struct Cell {
@@ -32,7 +35,14 @@ struct Cell {
 
 pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let base = Scenario::resolve(&args.topology)?;
-    let all = Kind::ALL.to_vec();
+    let mut all = args
+        .estimators
+        .as_deref()
+        .map_or(Kind::ALL.to_vec(), super::args::EstimatorChoice::kinds);
+    if !all.contains(&Kind::Centralized) {
+        all.push(Kind::Centralized);
+        all.sort();
+    }
     let cells: Vec<Cell> = args
         .loss
         .iter()

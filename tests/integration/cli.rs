@@ -182,6 +182,7 @@ fn bad_estimator_options_exit_2() {
         (vec!["-t", "ring3", "--rounds", "0"], "--rounds"),
         (vec!["-t", "ring3", "--rounds", "101"], "--rounds"),
         (vec!["-t", "attitude3", "--estimators", "hcmci"], "estimators.run"),
+        (vec!["compare", "-t", "ring3", "--estimators", "kalman"], "kalman"),
         (
             vec!["node", "-t", "ring3", "--id", "0", "--estimators", "icf"],
             "--estimators",
@@ -284,6 +285,35 @@ fn compare_prints_the_findings_table() {
     let col = header.split('|').position(|c| c.trim() == "icf").unwrap();
     let cell = rows[0].split('|').nth(col).unwrap().trim();
     assert!(cell.starts_with(&format!("{mean:.3} ±")), "icf: {cell} vs {mean:.3}");
+
+    // A subset compares only those, with the reference, and the same figures: the estimators do not see each other.
+    let out = simnet()
+        .args([
+            "compare",
+            "-t",
+            "ring3",
+            "--seeds",
+            "2",
+            "--duration",
+            "1",
+            "--rounds",
+            "1",
+            "--loss",
+            "0.2",
+            "--estimators",
+            "icf,sequeira",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let sub = String::from_utf8_lossy(&out.stdout);
+    let sub_header = sub.lines().find(|l| l.starts_with("| loss")).unwrap();
+    assert_eq!(
+        sub_header,
+        "| loss | L | centralized error | sequeira | icf | sequeira's rank |"
+    );
+    let sub_row = sub.lines().find(|l| l.starts_with("| 20 %")).unwrap();
+    assert_eq!(sub_row.split('|').nth(5).unwrap().trim(), cell, "{sub}");
 }
 
 /// `simnet estimators` lists every scheme with its reference.
