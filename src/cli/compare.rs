@@ -22,7 +22,8 @@ pub struct CompareArgs {
     /// Simulated duration of each run, s (unset: the topology's own).
     #[arg(long, value_parser = positive)]
     pub duration: Option<f64>,
-    /// Estimators to compare, comma-separated, or `all` (the default); `centralized`, the reference, is always run.
+    /// Estimators to compare, comma-separated, or `all`; `centralized`, the reference, is always run. Default: every
+    /// one the model can run.
     #[arg(long, value_delimiter = ',', value_parser = super::args::estimator)]
     pub estimators: Option<Vec<super::args::EstimatorChoice>>,
 }
@@ -35,10 +36,12 @@ struct Cell {
 
 pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let base = Scenario::resolve(&args.topology)?;
-    let mut all = args
-        .estimators
-        .as_deref()
-        .map_or(Kind::ALL.to_vec(), super::args::EstimatorChoice::kinds);
+    // By default every scheme the model can run (on a non-linear observation, the two filters and the centers).
+    let fixed = base.model().get().fixed_observation();
+    let mut all = args.estimators.as_deref().map_or_else(
+        || Kind::ALL.into_iter().filter(|k| fixed || !k.in_node()).collect(),
+        super::args::EstimatorChoice::kinds,
+    );
     if !all.contains(&Kind::Centralized) {
         all.push(Kind::Centralized);
         all.sort();

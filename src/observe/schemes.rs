@@ -375,12 +375,8 @@ impl Reference {
             }
         };
         let prior = est.state().cloned()?;
-        let input = StepInput {
-            obs: &self.obs,
-            own: center.own.as_ref(),
-        };
         let dt = self.dt;
-        let messages: Vec<(usize, Message)> = feeds
+        let mut messages: Vec<(usize, Measurement)> = feeds
             .iter()
             .filter(|f| f.node != self.center)
             .filter_map(|f| {
@@ -389,8 +385,39 @@ impl Reference {
                     Some(star) => star.reaches(f, m, center.heard.as_ref(), dt)?,
                     None => m.clone(),
                 };
-                Some((f.node, Message::Measurement(m)))
+                Some((f.node, m))
             })
+            .collect();
+        let mut own = center.own.clone();
+        // A non-linear observation (the attitude EKF) is linearised about the center's prior, every measurement
+        // moved into its coordinates: the stacked EKF update.
+        let obs = if self.model.fixed_observation() {
+            std::borrow::Cow::Borrowed(&self.obs)
+        } else {
+            let (obs, shifted): (Observation, Vec<DVector<f64>>) = {
+                let zs: Vec<&DVector<f64>> = own
+                    .iter()
+                    .chain(messages.iter().map(|(_, m)| m))
+                    .map(|m| &m.z)
+                    .collect();
+                let (obs, zs) = self.model.linearize_at(&self.obs, &prior, &zs);
+                (
+                    obs.into_owned(),
+                    zs.into_iter().map(std::borrow::Cow::into_owned).collect(),
+                )
+            };
+            for (m, z) in own.iter_mut().chain(messages.iter_mut().map(|(_, m)| m)).zip(shifted) {
+                m.z = z;
+            }
+            std::borrow::Cow::Owned(obs)
+        };
+        let input = StepInput {
+            obs: &obs,
+            own: own.as_ref(),
+        };
+        let messages: Vec<(usize, Message)> = messages
+            .into_iter()
+            .map(|(j, m)| (j, Message::Measurement(m)))
             .collect();
         let arrived: Vec<(usize, &Message)> = messages.iter().map(|(j, m)| (*j, m)).collect();
         let ok = est
@@ -399,6 +426,8 @@ impl Reference {
             .and_then(|_| est.finish(&input));
         if ok.is_err() {
             est.reset(prior.clone());
+        } else if let Some(g) = est.state_mut() {
+            self.model.normalize(g);
         }
         let post = est.state().cloned()?;
         let score = self.scorer.score(&crate::observe::Update {

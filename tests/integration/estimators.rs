@@ -303,6 +303,30 @@ fn centralized_net_measurements_meet_the_links_fates() {
     );
 }
 
+/// On the attitude model the fusion centers linearise about their own prior: with one sensing node the stacked EKF
+/// is that node's own EKF, computed independently by the node (Joseph form against information form: 1e-9).
+#[test]
+fn the_attitude_center_of_one_node_is_its_own_ekf() {
+    let toml = "[model]\nkind = \"attitude\"\n[sim]\nduration_s = 5.0\ntrajectory = \"tumble\"\n\
+                [estimators]\nrun = [\"independent\", \"centralized\", \"centralized-net\"]\n[[node]]\nid = 0\n";
+    let s = common::simulate(common::topology(toml, common::seed(2)));
+    let own = &s.estimators["independent"].nodes[0].figures;
+    for name in ["centralized", "centralized-net"] {
+        let c = &s.estimators[name].nodes[0].figures;
+        let close = |a: Option<f64>, b: Option<f64>| {
+            let (a, b) = (a.unwrap(), b.unwrap());
+            (a - b).abs() <= 1e-9 * b.abs()
+        };
+        assert!(close(c.mean_error, own.mean_error), "{name}: {c:?} vs {own:?}");
+        assert!(close(c.rms_error, own.rms_error), "{name}: {c:?} vs {own:?}");
+        assert!(
+            close(c.mean_trace_p_post, own.mean_trace_p_post),
+            "{name}: {c:?} vs {own:?}"
+        );
+        assert!(close(c.nees_mean, own.nees_mean), "{name}: {c:?} vs {own:?}");
+    }
+}
+
 /// On the wall clock each round closes at its sub-deadline: every node sends each round's message on every out-link
 /// (ICF sends in every round), and the run's estimators all finish.
 #[test]

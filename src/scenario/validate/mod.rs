@@ -256,11 +256,12 @@ impl Checks {
             .hcmci_omega
             .map(|w| self.positive("estimators.hcmci_omega", Some(w), 1.0));
         let m = model.get();
-        if run.iter().any(|k| k.in_node() || k.is_center()) && !m.fixed_observation() {
+        if run.iter().any(|k| k.in_node()) && !m.fixed_observation() {
             self.bad(
                 "estimators.run",
                 format!(
-                    "the {} model linearises its observation about each prior; only independent and sequeira run on it",
+                    "the {} model linearises its observation about each prior; only independent, sequeira and the \
+                     two fusion centers (centralized, centralized-net) run on it",
                     m.kind()
                 ),
             );
