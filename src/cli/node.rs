@@ -59,12 +59,12 @@ pub(super) fn peer(s: &str) -> Result<(u32, String), String> {
 pub(super) fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     use crate::net::host::{run_node, HostConfig};
     let topo = Arc::new(args.run.topology()?);
-    if !topo.estimators().run.is_empty() || topo.estimators().rounds > 1 {
-        return Err(UsageError::Option(
-            "simnet node runs the two filters only: --estimators, --rounds and [estimators] need one machine \
-             (simnet run) for now"
-                .into(),
-        )
+    if let Some(k) = topo.estimators().run.iter().find(|k| k.is_center()) {
+        return Err(UsageError::Option(format!(
+            "--estimators {}: a fusion center needs every node's measurement in one process (simnet run); \
+             one node per process runs the schemes the nodes run themselves",
+            k.name()
+        ))
         .into());
     }
     let index = topo.index_of(args.id).ok_or_else(|| {

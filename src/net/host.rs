@@ -8,6 +8,8 @@
 //!   too; after `handshake_timeout` it starts alone.
 //! - **Catch-up.** Whenever a neighbour is ahead, the node runs the missing steps at once (its own measurements only;
 //!   their datagrams still go out and arrive late) and continues from the neighbour's step.
+//! - **Rounds.** With distributed estimators, round r of L closes at its sub-deadline t_k + D(r+1)/L on this host's
+//!   clock; a catch-up closes them all at once.
 //! - **Phase lock.** Each arrival of a step-j measurement is compared with the local start of step j; the local
 //!   schedule moves by a fifth of the mean offset, so that neighbours' step boundaries converge.
 
@@ -111,6 +113,8 @@ impl HostOutput {
         });
         s.links.clear();
         s.schedule = Some(self.schedule);
+        // This node's figures of each estimator; `simnet collect` joins the nodes.
+        s.estimators = crate::report::summary::EstimatorSummary::of_run(topo, std::slice::from_ref(&self.report), None);
         s
     }
 }
@@ -203,6 +207,11 @@ pub async fn run_node(
     let steps = topo.sim().steps();
     let dt = Duration::from_secs_f64(topo.sim().dt());
     let deadline = Duration::from_secs_f64(topo.sim().deadline_s);
+    let rounds = if topo.estimators().any_in_node() {
+        topo.estimators().rounds
+    } else {
+        1
+    };
 
     // Handshake.
     let t_start = Instant::now();
@@ -261,6 +270,9 @@ pub async fn run_node(
             tracing::info!(from = k, to = target, "catching up with a neighbour");
             while k < target {
                 crate::sim::begin_step(&mut node, k);
+                for r in 0..rounds - 1 {
+                    node.handle_round(k, r);
+                }
                 // Sent all the same: the link layer counted them, and the neighbours count them late.
                 while let Some(tx) = node.poll_transmit(f64::INFINITY) {
                     peers.send(&socket, tx.to, &tx.bytes).await;
@@ -284,9 +296,16 @@ pub async fn run_node(
         );
         crate::sim::begin_step(&mut node, k);
         let close = start + deadline;
+        // The sub-deadlines of rounds 0 … L − 2 (the last round closes with the step).
+        let mut round = 0;
+        let round_end = |r: usize| start + deadline.mul_f64((r + 1) as f64 / rounds as f64);
         let mut offsets: Vec<f64> = Vec::new();
         loop {
             let now = Instant::now();
+            while round + 1 < rounds && now >= round_end(round) {
+                node.handle_round(k, round);
+                round += 1;
+            }
             let sim_now = (now - base).as_secs_f64();
             while let Some(tx) = node.poll_transmit(sim_now) {
                 peers.send(&socket, tx.to, &tx.bytes).await;
@@ -301,11 +320,12 @@ pub async fn run_node(
             if now >= close {
                 break;
             }
+            let next_round = if round + 1 < rounds { round_end(round) } else { close };
             let wake = node
                 .poll_timeout()
                 .map(|t| base + Duration::from_secs_f64(t.max(0.0)))
                 .unwrap_or(close)
-                .min(close);
+                .min(next_round);
             tokio::select! {
                 r = socket.recv_from(&mut buf) => if let Ok((len, from)) = r {
                     let arrived = Instant::now();

@@ -8,7 +8,7 @@ use std::io::{self, BufRead, Write};
 use nalgebra::{DMatrix, DVector};
 
 pub use super::summary::PartInfo;
-use super::summary::{LinkSummary, Summary};
+use super::summary::{EstimatorSummary, LinkSummary, Summary};
 use crate::estimate::Gaussian;
 use crate::node::{StepEstimate, TraceRow};
 use crate::observe::fusion::Observer;
@@ -220,8 +220,7 @@ pub fn merge(
         nodes,
         links,
         fused: observer.summary(),
-        // The distributed estimators do not run across processes yet (`simnet node` refuses them).
-        estimators: Default::default(),
+        estimators: merge_estimators(parts),
         settings: first.settings.clone(),
         part: None,
         schedule: parts.iter().filter_map(|p| p.schedule).reduce(|mut a, b| {
@@ -230,6 +229,36 @@ pub fn merge(
         }),
     };
     Ok((merged, observer))
+}
+
+/// Every part's estimators, node by node, with the traffic summed. The median over the nodes and the disagreement
+/// need every node's estimate of each step, which a part does not carry: they stay unset.
+fn merge_estimators(parts: &[Summary]) -> BTreeMap<String, EstimatorSummary> {
+    let mut out: BTreeMap<String, EstimatorSummary> = BTreeMap::new();
+    for (name, e) in parts.iter().flat_map(|p| &p.estimators) {
+        let m = out.entry(name.clone()).or_insert_with(|| EstimatorSummary {
+            mean_error: None,
+            median_error: None,
+            ratio_to_centralized: None,
+            disagreement: None,
+            diverged: 0,
+            messages: 0,
+            bytes: 0,
+            delivered: None,
+            nodes: Vec::new(),
+        });
+        m.nodes.extend(e.nodes.iter().cloned());
+        m.messages += e.messages;
+        m.bytes += e.bytes;
+        m.diverged += e.diverged;
+    }
+    for e in out.values_mut() {
+        e.nodes.sort_by_key(|n| n.id);
+        let errors: Vec<f64> = e.nodes.iter().filter_map(|n| n.figures.mean_error).collect();
+        e.mean_error = (!errors.is_empty() && errors.len() == e.nodes.len())
+            .then(|| errors.iter().sum::<f64>() / errors.len() as f64);
+    }
+    out
 }
 
 /// The parts found in some folders: each node's summary, its estimates and its trace rows.

@@ -184,8 +184,8 @@ fn bad_estimator_options_exit_2() {
         (vec!["-t", "attitude3", "--estimators", "hcmci"], "estimators.run"),
         (vec!["compare", "-t", "ring3", "--estimators", "kalman"], "kalman"),
         (
-            vec!["node", "-t", "ring3", "--id", "0", "--estimators", "icf"],
-            "--estimators",
+            vec!["node", "-t", "ring3", "--id", "0", "--estimators", "icf,centralized"],
+            "--estimators centralized",
         ),
     ] {
         let out = simnet().args(&args).output().unwrap();
@@ -489,6 +489,64 @@ fn node_processes_run_a_network_and_collect_merges_it() {
     assert!(v["fused"]["mean_error"].as_f64().unwrap() < 0.1);
     for f in ["summary.json", "trace.csv", "links.csv", "error.svg"] {
         assert!(d.join(f).exists(), "{f}");
+    }
+}
+
+/// Three `simnet node` processes on loopback running ICF and KCF over two consensus rounds: every node sends each
+/// round's ICF message (and KCF's round 0) on both out-links in every step it ran, and `collect` joins the nodes'
+/// figures of each estimator.
+#[test]
+fn node_processes_run_the_distributed_estimators() {
+    let d = tmp("hosts-estimators");
+    let ports: Vec<u16> = (0..3)
+        .map(|_| {
+            std::net::UdpSocket::bind("127.0.0.1:0")
+                .unwrap()
+                .local_addr()
+                .unwrap()
+                .port()
+        })
+        .collect();
+    let children: Vec<std::process::Child> = (0..3usize)
+        .map(|i| {
+            let mut c = simnet();
+            c.args(["node", "-q", "--topology", "ring3", "--id", &i.to_string()])
+                .args(["--duration", "2", "--estimators", "icf,kcf", "--rounds", "2", "--out"])
+                .arg(&d)
+                .args(["--bind", &format!("127.0.0.1:{}", ports[i])]);
+            for (j, p) in ports.iter().enumerate() {
+                if j != i {
+                    c.args(["--peer", &format!("{j}=127.0.0.1:{p}")]);
+                }
+            }
+            c.stdout(std::process::Stdio::null()).spawn().unwrap()
+        })
+        .collect();
+    for mut c in children {
+        assert!(c.wait().unwrap().success());
+    }
+    let out = simnet().arg("collect").arg(&d).arg("--json").output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let mut steps_run = 0;
+    for i in 0..3 {
+        let part: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join(format!("node-{i}.json"))).unwrap()).unwrap();
+        steps_run += part["part"]["steps_done"].as_u64().unwrap() - part["part"]["first_step"].as_u64().unwrap();
+    }
+    assert!(steps_run >= 3 * 150, "{steps_run}");
+    for (name, rounds) in [("icf", 2), ("kcf", 1)] {
+        let e = &v["estimators"][name];
+        assert_eq!(e["messages"].as_u64(), Some(steps_run * rounds * 2), "{name}: {e}");
+        let nodes = e["nodes"].as_array().unwrap();
+        assert_eq!(nodes.len(), 3, "{name}");
+        for n in nodes {
+            assert_eq!(n["diverged"], false, "{name}: {n}");
+            assert!(
+                n["mean_error"].as_f64().is_some_and(|x| x.is_finite() && x < 1.0),
+                "{name}: {n}"
+            );
+        }
     }
 }
 
