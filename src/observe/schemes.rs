@@ -91,6 +91,20 @@ impl SchemeObserver {
         }
     }
 
+    /// For `simnet collect`: the agreement of the nodes' estimates read back from their parts, with no fusion center.
+    pub fn of_parts(layout: FusionLayout, burn_in: u64) -> SchemeObserver {
+        SchemeObserver {
+            layout,
+            burn_in,
+            sums: BTreeMap::new(),
+            references: Vec::new(),
+            rows: Vec::new(),
+            node_rows: Vec::new(),
+            ids: Vec::new(),
+            record: false,
+        }
+    }
+
     /// One step's estimates of every estimating node.
     pub fn push(&mut self, estimates: &[StepEstimate]) {
         let Some(first) = estimates.first() else { return };

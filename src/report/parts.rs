@@ -12,6 +12,7 @@ use super::summary::{EstimatorSummary, LinkSummary, Summary};
 use crate::estimate::Gaussian;
 use crate::node::{StepEstimate, TraceRow};
 use crate::observe::fusion::Observer;
+use crate::observe::schemes::SchemeObserver;
 
 #[derive(Debug, thiserror::Error)]
 pub enum PartError {
@@ -25,14 +26,21 @@ pub enum PartError {
     Io { file: String, source: io::Error },
 }
 
-/// `estimates-<id>.csv`: step, frame, truth, x and P (row-major) of the networked filter.
+/// `estimates-<id>.csv`: step, frame, truth, x and P (row-major) of the networked filter, then the name and x of
+/// each distributed estimator the node ran.
 pub fn write_estimates(w: &mut impl Write, estimates: &[StepEstimate]) -> io::Result<()> {
-    writeln!(w, "# step,frame,n,truth[n],x[n],P[n*n]")?;
+    writeln!(w, "# step,frame,n,truth[n],x[n],P[n*n][,estimator,x[n]]...")?;
     for e in estimates {
         let n = e.networked.x.len();
         write!(w, "{},{},{}", e.step, e.frame, n)?;
         for v in e.truth.iter().chain(e.networked.x.iter()).chain(e.networked.P.iter()) {
             write!(w, ",{v:e}")?;
+        }
+        for (kind, x) in &e.schemes {
+            write!(w, ",{}", kind.name())?;
+            for v in x.iter() {
+                write!(w, ",{v:e}")?;
+            }
         }
         writeln!(w)?;
     }
@@ -63,18 +71,37 @@ pub fn read_estimates(r: impl BufRead, node: usize, file: &str) -> Result<Vec<St
             return Err(bad(i + 1, "too few fields"));
         }
         let given = int(f[2])?;
-        // Bounded by the line before it is squared: a damaged file gets an error, not an overflow.
+        // Bounded by the line before it is squared: a damaged file gets an error, not an overflow. The estimators
+        // follow in groups of a name and n values.
+        let fits = |n: usize| {
+            let filter = 3 + 2 * n + n * n;
+            f.len() >= filter && (f.len() - filter).is_multiple_of(n + 1)
+        };
         let n = match usize::try_from(given) {
-            Ok(n) if n <= f.len() && f.len() == 3 + 2 * n + n * n => n,
+            Ok(n) if n <= f.len() && fits(n) => n,
             Ok(n) if n <= f.len() => {
                 return Err(bad(
                     i + 1,
-                    &format!("expected {} fields for n = {n}", 3 + 2 * n + n * n),
+                    &format!(
+                        "expected {} fields for n = {n}, and {} more per estimator",
+                        3 + 2 * n + n * n,
+                        n + 1
+                    ),
                 ));
             }
             _ => return Err(bad(i + 1, &format!("n = {given} is more than the line has fields"))),
         };
-        let v: Vec<f64> = f[3..].iter().map(|s| num(s)).collect::<Result<_, _>>()?;
+        let filter_end = 3 + 2 * n + n * n;
+        let v: Vec<f64> = f[3..filter_end].iter().map(|s| num(s)).collect::<Result<_, _>>()?;
+        let mut schemes = Vec::new();
+        for g in f[filter_end..].chunks(n + 1) {
+            let kind = crate::estimators::Kind::ALL
+                .into_iter()
+                .find(|k| k.name() == g[0])
+                .ok_or_else(|| bad(i + 1, &format!("`{}` is not an estimator", g[0])))?;
+            let x: Vec<f64> = g[1..].iter().map(|s| num(s)).collect::<Result<_, _>>()?;
+            schemes.push((kind, DVector::from_vec(x)));
+        }
         out.push(StepEstimate {
             node,
             step: int(f[0])?,
@@ -85,7 +112,7 @@ pub fn read_estimates(r: impl BufRead, node: usize, file: &str) -> Result<Vec<St
                 P: DMatrix::from_column_slice(n, n, &v[2 * n..]),
             },
             diverged: false,
-            schemes: Vec::new(),
+            schemes,
         });
     }
     Ok(out)
@@ -194,6 +221,9 @@ pub fn merge(
     links.sort_by_key(|l| (l.from, l.to));
     let fi = &infos[0];
     let mut observer = Observer::new(first.burn_in_steps, fi.fusion.clone(), true);
+    if parts.iter().any(|p| !p.estimators.is_empty()) {
+        observer = observer.with_schemes(SchemeObserver::of_parts(fi.fusion.clone(), first.burn_in_steps));
+    }
     let mut by_step: BTreeMap<u64, Vec<StepEstimate>> = BTreeMap::new();
     for es in estimates.values() {
         for e in es {
@@ -220,7 +250,7 @@ pub fn merge(
         nodes,
         links,
         fused: observer.summary(),
-        estimators: merge_estimators(parts),
+        estimators: merge_estimators(parts, observer.schemes()),
         settings: first.settings.clone(),
         part: None,
         schedule: parts.iter().filter_map(|p| p.schedule).reduce(|mut a, b| {
@@ -231,9 +261,9 @@ pub fn merge(
     Ok((merged, observer))
 }
 
-/// Every part's estimators, node by node, with the traffic summed. The median over the nodes and the disagreement
-/// need every node's estimate of each step, which a part does not carry: they stay unset.
-fn merge_estimators(parts: &[Summary]) -> BTreeMap<String, EstimatorSummary> {
+/// Every part's estimators, node by node, with the traffic summed; the median over the nodes and the disagreement
+/// from every node's estimates of each step (`schemes`, fed the parts' estimates files).
+fn merge_estimators(parts: &[Summary], schemes: Option<&SchemeObserver>) -> BTreeMap<String, EstimatorSummary> {
     let mut out: BTreeMap<String, EstimatorSummary> = BTreeMap::new();
     for (name, e) in parts.iter().flat_map(|p| &p.estimators) {
         let m = out.entry(name.clone()).or_insert_with(|| EstimatorSummary {
@@ -252,7 +282,14 @@ fn merge_estimators(parts: &[Summary]) -> BTreeMap<String, EstimatorSummary> {
         m.bytes += e.bytes;
         m.diverged += e.diverged;
     }
-    for e in out.values_mut() {
+    for (name, e) in out.iter_mut() {
+        if let (Some(o), Some(kind)) = (
+            schemes,
+            crate::estimators::Kind::ALL.into_iter().find(|k| k.name() == name),
+        ) {
+            let a = o.agreement(kind);
+            (e.median_error, e.disagreement) = (a.median_error, a.disagreement);
+        }
         e.nodes.sort_by_key(|n| n.id);
         let errors: Vec<f64> = e.nodes.iter().filter_map(|n| n.figures.mean_error).collect();
         e.mean_error = (!errors.is_empty() && errors.len() == e.nodes.len())
@@ -333,6 +370,9 @@ mod tests {
             ("0,0,1,1,2\n", "expected 6 fields for n = 1"),
             ("0,0,1,1,2,x\n", "`x` is not a number"),
             ("0,0\n", "too few fields"),
+            ("0,0,1,1.5,2,0.25,icf\n", "and 2 more per estimator"),
+            ("0,0,1,1.5,2,0.25,kalman,3\n", "`kalman` is not an estimator"),
+            ("0,0,1,1.5,2,0.25,icf,y\n", "`y` is not a number"),
         ] {
             let e = read_estimates(text.as_bytes(), 0, "estimates-0.csv")
                 .unwrap_err()
@@ -344,5 +384,36 @@ mod tests {
             (ok[0].truth[0], ok[0].networked.x[0], ok[0].networked.P[(0, 0)]),
             (1.5, 2.0, 0.25)
         );
+    }
+
+    /// The estimators' estimates travel through the file unchanged.
+    #[test]
+    fn estimates_round_trip_with_the_estimators() {
+        use crate::estimators::Kind;
+        let e = StepEstimate {
+            node: 0,
+            step: 7,
+            frame: 1,
+            truth: DVector::from_vec(vec![1.0, -2.5]),
+            networked: Gaussian {
+                x: DVector::from_vec(vec![0.9, -2.4]),
+                P: DMatrix::from_row_slice(2, 2, &[0.5, 0.1, 0.1, 0.25]),
+            },
+            diverged: false,
+            schemes: vec![
+                (Kind::Icf, DVector::from_vec(vec![1.0 / 3.0, 1e-300])),
+                (Kind::Ci, DVector::from_vec(vec![-7.0, 2.0])),
+            ],
+        };
+        let mut buf = Vec::new();
+        write_estimates(&mut buf, std::slice::from_ref(&e)).unwrap();
+        let back = read_estimates(buf.as_slice(), 0, "e.csv").unwrap();
+        let b = &back[0];
+        assert_eq!(back.len(), 1);
+        assert_eq!(
+            (b.step, b.frame, &b.truth, &b.networked.x, &b.networked.P),
+            (e.step, e.frame, &e.truth, &e.networked.x, &e.networked.P)
+        );
+        assert_eq!(b.schemes, e.schemes);
     }
 }
