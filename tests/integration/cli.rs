@@ -236,24 +236,27 @@ fn the_table_has_a_column_per_estimator() {
 /// ratios are those of single runs with the same settings.
 #[test]
 fn compare_prints_the_findings_table() {
-    let out = simnet()
-        .args([
-            "compare",
-            "-t",
-            "ring3",
-            "--seeds",
-            "2",
-            "--duration",
-            "1",
-            "--rounds",
-            "1,2",
-            "--loss",
-            "0.2",
-        ])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let table = String::from_utf8_lossy(&out.stdout);
+    // ring3 at 20 % loss, seeds 1 and 2, 1 s each.
+    let compare = |extra: &[&str]| {
+        let out = simnet()
+            .args([
+                "compare",
+                "-t",
+                "ring3",
+                "--seeds",
+                "2",
+                "--duration",
+                "1",
+                "--loss",
+                "0.2",
+            ])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let table = compare(&["--rounds", "1,2"]);
     let rows: Vec<&str> = table.lines().filter(|l| l.starts_with("| 20 %")).collect();
     assert_eq!(rows.len(), 2, "{table}");
     let header = table.lines().find(|l| l.starts_with("| loss")).unwrap();
@@ -287,26 +290,7 @@ fn compare_prints_the_findings_table() {
     assert!(cell.starts_with(&format!("{mean:.3} ±")), "icf: {cell} vs {mean:.3}");
 
     // A subset compares only those, with the reference, and the same figures: the estimators do not see each other.
-    let out = simnet()
-        .args([
-            "compare",
-            "-t",
-            "ring3",
-            "--seeds",
-            "2",
-            "--duration",
-            "1",
-            "--rounds",
-            "1",
-            "--loss",
-            "0.2",
-            "--estimators",
-            "icf,sequeira",
-        ])
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let sub = String::from_utf8_lossy(&out.stdout);
+    let sub = compare(&["--rounds", "1", "--estimators", "icf,sequeira"]);
     let sub_header = sub.lines().find(|l| l.starts_with("| loss")).unwrap();
     assert_eq!(
         sub_header,
@@ -400,12 +384,9 @@ fn committed_compose_file_is_generated() {
     );
 }
 
-/// Three `simnet node` processes on loopback (no Docker): handshake, one node starting late, parts, `collect`.
-#[test]
-fn node_processes_run_a_network_and_collect_merges_it() {
-    let d = tmp("hosts");
-    // Free ports: bind ephemeral sockets, note the ports, release them.
-    let ports: Vec<u16> = (0..3)
+/// Free loopback ports: bind ephemeral sockets, note the ports, release them.
+fn free_ports(n: usize) -> Vec<u16> {
+    (0..n)
         .map(|_| {
             std::net::UdpSocket::bind("127.0.0.1:0")
                 .unwrap()
@@ -413,7 +394,24 @@ fn node_processes_run_a_network_and_collect_merges_it() {
                 .unwrap()
                 .port()
         })
-        .collect();
+        .collect()
+}
+
+/// `--peer` arguments naming every other node's loopback port.
+fn peers(ports: &[u16], me: usize) -> Vec<String> {
+    ports
+        .iter()
+        .enumerate()
+        .filter(|(j, _)| *j != me)
+        .flat_map(|(j, p)| ["--peer".to_string(), format!("{j}=127.0.0.1:{p}")])
+        .collect()
+}
+
+/// Three `simnet node` processes on loopback (no Docker): handshake, one node starting late, parts, `collect`.
+#[test]
+fn node_processes_run_a_network_and_collect_merges_it() {
+    let d = tmp("hosts");
+    let ports = free_ports(3);
     let mut children: Vec<std::process::Child> = Vec::new();
     for i in 0..3usize {
         let mut c = simnet();
@@ -439,11 +437,7 @@ fn node_processes_run_a_network_and_collect_merges_it() {
             // Nodes 0 and 1 stop waiting for node 2 and start without it.
             c.args(["--handshake-timeout", "0.3"]);
         }
-        for (j, p) in ports.iter().enumerate() {
-            if j != i {
-                c.args(["--peer", &format!("{j}=127.0.0.1:{p}")]);
-            }
-        }
+        c.args(peers(&ports, i));
         if i == 2 {
             // The third node starts late: only once node 0 is stepping (its handshake timed out, or it joined node 1), an
             // event rather than a time, so a loaded machine cannot reorder it.
@@ -498,15 +492,7 @@ fn node_processes_run_a_network_and_collect_merges_it() {
 #[test]
 fn node_processes_run_the_distributed_estimators() {
     let d = tmp("hosts-estimators");
-    let ports: Vec<u16> = (0..3)
-        .map(|_| {
-            std::net::UdpSocket::bind("127.0.0.1:0")
-                .unwrap()
-                .local_addr()
-                .unwrap()
-                .port()
-        })
-        .collect();
+    let ports = free_ports(3);
     let children: Vec<std::process::Child> = (0..3usize)
         .map(|i| {
             let mut c = simnet();
@@ -514,11 +500,7 @@ fn node_processes_run_the_distributed_estimators() {
                 .args(["--duration", "2", "--estimators", "icf,kcf", "--rounds", "2", "--out"])
                 .arg(&d)
                 .args(["--bind", &format!("127.0.0.1:{}", ports[i])]);
-            for (j, p) in ports.iter().enumerate() {
-                if j != i {
-                    c.args(["--peer", &format!("{j}=127.0.0.1:{p}")]);
-                }
-            }
+            c.args(peers(&ports, i));
             c.stdout(std::process::Stdio::null()).spawn().unwrap()
         })
         .collect();
@@ -623,11 +605,7 @@ fn bounds_of_the_scalar_example() {
 #[test]
 fn node_stops_cleanly_on_sigterm() {
     let d = tmp("sigterm");
-    let port = std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
+    let port = free_ports(1)[0];
     let mut child = simnet()
         .args([
             "node",
