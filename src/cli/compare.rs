@@ -36,12 +36,10 @@ struct Cell {
 
 pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let base = Scenario::resolve(&args.topology)?;
-    // By default every scheme the model can run (on a non-linear observation, the two filters and the centers).
-    let fixed = base.model().get().fixed_observation();
-    let mut all = args.estimators.as_deref().map_or_else(
-        || Kind::ALL.into_iter().filter(|k| fixed || !k.in_node()).collect(),
-        super::args::EstimatorChoice::kinds,
-    );
+    let mut all = args
+        .estimators
+        .as_deref()
+        .map_or_else(|| Kind::ALL.to_vec(), super::args::EstimatorChoice::kinds);
     if !all.contains(&Kind::Centralized) {
         all.push(Kind::Centralized);
         all.sort();

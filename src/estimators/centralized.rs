@@ -69,7 +69,7 @@ impl Estimator for Centralized {
         let mut Y = Info::of(prior)?.Y;
         let mut innovation = nalgebra::DVector::zeros(n);
         for m in self.own.iter().chain(&self.received) {
-            let info = Info::of_measurement(input.obs, m, &prior.x)?;
+            let info = input.information(prior, m)?;
             innovation += &info.y - &info.Y * &prior.x;
             Y += info.Y;
         }

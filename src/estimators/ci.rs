@@ -47,12 +47,10 @@ impl Estimator for Ci {
         for (j, m) in arrived {
             if let Message::Estimate(o) = m {
                 if o.x.len() == n && o.P.shape() == (n, n) {
-                    let mut o = o.clone();
-                    for (i, a) in self.ctx.angle_states.iter().enumerate() {
-                        if *a {
-                            o.x[i] = self.g.x[i] + crate::geom::wrap_angle(o.x[i] - self.g.x[i]);
-                        }
-                    }
+                    let o = Gaussian {
+                        x: self.ctx.aligned(&o.x, &self.g.x).into_owned(),
+                        P: o.P.clone(),
+                    };
                     theirs.push((*j, Info::of(&o)?));
                 }
             }

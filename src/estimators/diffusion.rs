@@ -13,7 +13,7 @@
 
 use super::local::own_update;
 use super::{renormalised, Context, Estimator, Message, StepInput};
-use crate::estimate::{kalman_update, wrap_rows, EstimateError, Gaussian, MissingChannels};
+use crate::estimate::{wrap_rows, EstimateError, Gaussian, MissingChannels};
 use crate::model::Measurement;
 
 pub struct Diffusion {
@@ -52,7 +52,7 @@ impl Diffusion {
         all.sort_by_key(|(s, _)| *s);
         let mut psi = self.g.clone();
         for (_, m) in all {
-            psi = kalman_update(&psi, input.obs, &m.z, &m.present, self.policy)?;
+            psi = input.update(&psi, m, self.policy)?;
         }
         self.g = psi;
         self.adapted = true;
@@ -106,9 +106,7 @@ impl Estimator for Diffusion {
         for (j, m) in arrived {
             if let Message::Estimate(o) = m {
                 if o.x.len() == n {
-                    let mut d = &o.x - &self.g.x;
-                    wrap_rows(&mut d, &self.ctx.angle_states);
-                    theirs.push((*j, d));
+                    theirs.push((*j, self.ctx.difference(&o.x, &self.g.x)));
                 }
             }
         }

@@ -48,7 +48,7 @@ impl Estimator for Hcmci {
     fn begin(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
         self.prior = Info::of(&self.g)?;
         self.measurement = match input.own {
-            Some(m) => Info::of_measurement(input.obs, m, &self.g.x)?,
+            Some(m) => input.information(&self.g, m)?,
             None => Info::zero(self.g.x.len()),
         };
         Ok(())
@@ -66,11 +66,11 @@ impl Estimator for Hcmci {
             .iter()
             .filter_map(|(j, m)| match m {
                 Message::Hybrid { prior, measurement } if prior.y.len() == n && measurement.y.len() == n => {
-                    // Both pairs were formed about the sender's prior: one shift moves them to this side of ±π.
+                    // Both pairs were formed about the sender's prior: one move brings them to this node's side.
                     Some((
                         *j,
-                        match prior.turns(&self.g.x, &self.ctx.angle_states) {
-                            Some(d) => (prior.shifted(&d), measurement.shifted(&d)),
+                        match prior.toward(&self.g.x, &self.ctx) {
+                            Some(mv) => (prior.moved(&mv), measurement.moved(&mv)),
                             None => (prior.clone(), measurement.clone()),
                         },
                     ))

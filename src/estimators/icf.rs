@@ -43,7 +43,7 @@ impl Estimator for Icf {
     fn begin(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
         let mut v = Info::of(&self.g)?.scaled(1.0 / self.ctx.nodes as f64);
         if let Some(m) = input.own {
-            v.add(1.0, &Info::of_measurement(input.obs, m, &self.g.x)?);
+            v.add(1.0, &input.information(&self.g, m)?);
         }
         self.v = v;
         Ok(())
@@ -57,8 +57,8 @@ impl Estimator for Icf {
             if let Message::Information(o) = m {
                 if o.y.len() == own.y.len() {
                     let w = self.ctx.weight(*j);
-                    match o.turns(&self.g.x, &self.ctx.angle_states) {
-                        Some(d) => self.v.add(w, &o.shifted(&d)),
+                    match o.toward(&self.g.x, &self.ctx) {
+                        Some(mv) => self.v.add(w, &o.moved(&mv)),
                         None => self.v.add(w, o),
                     }
                     self.v.add(-w, &own);

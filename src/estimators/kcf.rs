@@ -61,9 +61,7 @@ impl Estimator for Kcf {
         for (_, m) in arrived {
             if let Message::Estimate(o) = m {
                 if o.x.len() == self.g.x.len() {
-                    let mut d = &o.x - &self.g.x;
-                    wrap_rows(&mut d, &self.ctx.angle_states);
-                    self.pull += d;
+                    self.pull += self.ctx.difference(&o.x, &self.g.x);
                 }
             }
         }

@@ -40,6 +40,11 @@ impl Kind {
         super::SCHEMES[self as usize].name
     }
 
+    /// The scheme called `name`.
+    pub fn from_name(name: &str) -> Option<Kind> {
+        Kind::ALL.into_iter().find(|k| k.name() == name)
+    }
+
     /// `"all"` is every scheme; anything else one name of [`Kind::ALL`].
     pub fn parse_list(names: &[String]) -> Result<Vec<Kind>, String> {
         let mut out = Vec::new();
@@ -49,8 +54,8 @@ impl Kind {
                 out.extend(Kind::ALL);
                 continue;
             }
-            match Kind::ALL.iter().find(|k| k.name() == n) {
-                Some(k) => out.push(*k),
+            match Kind::from_name(n) {
+                Some(k) => out.push(k),
                 None => {
                     let known: Vec<&str> = Kind::ALL.iter().map(|k| k.name()).collect();
                     return Err(format!("unknown estimator `{n}` (known: {}, or all)", known.join(", ")));

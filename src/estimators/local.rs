@@ -1,7 +1,7 @@
 //! `independent`: the node's own Kalman filter (Joseph form), the baseline every scheme is measured against.
 
 use super::{Estimator, Message, StepInput};
-use crate::estimate::{kalman_update, EstimateError, Gaussian, MissingChannels};
+use crate::estimate::{EstimateError, Gaussian, MissingChannels};
 
 pub struct Local {
     g: Gaussian,
@@ -14,14 +14,15 @@ impl Local {
     }
 }
 
-/// The Kalman update with the node's own measurement, or the prior when it has none (intermittent observation).
+/// The Kalman update with the node's own measurement (linearised about `g`), or the prior when it has none
+/// (intermittent observation).
 pub(super) fn own_update(
     g: &Gaussian,
     input: &StepInput<'_>,
     policy: MissingChannels,
 ) -> Result<Gaussian, EstimateError> {
     match input.own {
-        Some(m) => kalman_update(g, input.obs, &m.z, &m.present, policy),
+        Some(m) => input.update(g, m, policy),
         None => Ok(g.clone()),
     }
 }

@@ -16,7 +16,15 @@
 //!
 //! Angle states (the pose model's attitude) are wrapped where an innovation or a difference of estimates is formed,
 //! and a neighbour's information pair is moved by whole turns to the node's side of ±π before it is averaged
-//! (`Info::turns`): the average of y = Y x over estimates at +π − ε and −π + ε would otherwise point at 0.
+//! (`Info::toward`): the average of y = Y x over estimates at +π − ε and −π + ε would otherwise point at 0. On a
+//! double cover (the attitude model's unit quaternion, q and −q one attitude) a neighbour's estimate takes the sign
+//! nearer the node's own in the same place.
+//!
+//! A non-linear observation (the attitude EKF) is linearised about the estimate each update starts from
+//! ([`StepInput::about`]): every scheme then runs in its extended (EKF) form, each node linearising about its own
+//! estimate (the extension Battistelli et al. (2015) give for HCMCI, applied to every scheme alike). A node's
+//! information pairs are formed about its own prior; a neighbour's raw measurement (centralized, diffusion) is
+//! linearised by the receiver.
 #![allow(non_snake_case)]
 
 mod centralized;
@@ -30,10 +38,14 @@ mod local;
 #[cfg(test)]
 mod tests;
 
+use std::borrow::Cow;
+
 use nalgebra::{DMatrix, DVector};
 
-use crate::estimate::{cholesky, symmetrize, wrap_rows, EstimateError, Gaussian, Observation};
-use crate::model::Measurement;
+use crate::estimate::{
+    cholesky, kalman_update, symmetrize, wrap_rows, EstimateError, Gaussian, MissingChannels, Observation,
+};
+use crate::model::{Measurement, Model};
 
 pub use centralized::Centralized;
 pub use ci::Ci;
@@ -124,14 +136,72 @@ pub struct Context {
     pub self_weight: f64,
     /// State rows that are angles.
     pub angle_states: Vec<bool>,
+    /// x and −x are one state (a unit quaternion).
+    pub double_cover: bool,
 }
 
 impl Context {
+    /// Node `index` of `nodes`, with its consensus weights, on `model`'s state.
+    pub fn new(index: usize, nodes: usize, (weights, self_weight): Weights, model: &dyn Model) -> Context {
+        Context {
+            index,
+            nodes,
+            weights,
+            self_weight,
+            angle_states: model.angle_states(),
+            double_cover: model.fusion().quaternion,
+        }
+    }
+
     fn weight(&self, j: usize) -> f64 {
         self.weights
             .binary_search_by_key(&j, |(s, _)| *s)
             .map_or(0.0, |i| self.weights[i].1)
     }
+
+    /// How a neighbour's estimate `x` is brought to the node's side of its estimate `about`: on a double cover the
+    /// sign nearer `about`, else whole turns on the angle rows that bring them within π; none when `x` stays.
+    fn toward(&self, x: &DVector<f64>, about: &DVector<f64>) -> Option<Move> {
+        if self.double_cover {
+            return (x.dot(about) < 0.0).then_some(Move::Flip);
+        }
+        if !self.angle_states.iter().any(|a| *a) {
+            return None;
+        }
+        let d = DVector::from_fn(x.len(), |i, _| {
+            if self.angle_states.get(i) == Some(&true) {
+                about[i] + crate::geom::wrap_angle(x[i] - about[i]) - x[i]
+            } else {
+                0.0
+            }
+        });
+        d.iter().any(|v| *v != 0.0).then_some(Move::Turn(d))
+    }
+
+    /// A neighbour's estimate on the node's side of `about` ([`Context::toward`]).
+    fn aligned<'a>(&self, x: &'a DVector<f64>, about: &DVector<f64>) -> Cow<'a, DVector<f64>> {
+        match self.toward(x, about) {
+            Some(Move::Flip) => Cow::Owned(-x),
+            Some(Move::Turn(d)) => Cow::Owned(x + d),
+            None => Cow::Borrowed(x),
+        }
+    }
+
+    /// x − about with `x` on the node's side, angle rows wrapped: what a consensus term sums.
+    fn difference(&self, x: &DVector<f64>, about: &DVector<f64>) -> DVector<f64> {
+        let mut d = self.aligned(x, about).into_owned() - about;
+        wrap_rows(&mut d, &self.angle_states);
+        d
+    }
+}
+
+/// How a neighbour's estimate moves to the node's side ([`Context::toward`]).
+#[derive(Debug, Clone, PartialEq)]
+enum Move {
+    /// −x: the other sign of a double cover.
+    Flip,
+    /// x + d: whole turns on the angle rows.
+    Turn(DVector<f64>),
 }
 
 /// One node's consensus weights to its neighbours (sorted by node index), and to itself.
@@ -211,29 +281,29 @@ impl Info {
         })
     }
 
-    /// Whole turns δ on the angle rows that bring the estimate this pair carries, x = Y⁻¹ y, within π of `about`;
-    /// none when there is no angle row, nothing to move, or Y is singular.
-    fn turns(&self, about: &DVector<f64>, angles: &[bool]) -> Option<DVector<f64>> {
-        if !angles.iter().any(|a| *a) {
+    /// How the estimate this pair carries, x = Y⁻¹ y, moves to the node's side of `about` ([`Context::toward`]);
+    /// none when it stays, or Y is singular.
+    fn toward(&self, about: &DVector<f64>, ctx: &Context) -> Option<Move> {
+        if !ctx.double_cover && !ctx.angle_states.iter().any(|a| *a) {
             return None;
         }
         let x = cholesky(&self.Y, "information matrix").ok()?.solve(&self.y);
-        let d = DVector::from_fn(x.len(), |i, _| {
-            if angles.get(i) == Some(&true) {
-                let wrapped = about[i] + crate::geom::wrap_angle(x[i] - about[i]);
-                wrapped - x[i]
-            } else {
-                0.0
-            }
-        });
-        d.iter().any(|v| *v != 0.0).then_some(d)
+        ctx.toward(&x, about)
     }
 
-    /// The pair of the same estimate moved by `d`: (Y, y + Y d).
-    fn shifted(&self, d: &DVector<f64>) -> Info {
-        Info {
-            y: &self.y + &self.Y * d,
-            Y: self.Y.clone(),
+    /// The pair of the moved estimate: (Y, −y) for the other sign, (Y, y + Y d) for whole turns. A measurement's
+    /// pair linearised about the sender's prior moves with it: h is even in q (C(−q) = −C(q), the same offset), so
+    /// the pair about −q̂ is (U, −u).
+    fn moved(&self, m: &Move) -> Info {
+        match m {
+            Move::Flip => Info {
+                Y: self.Y.clone(),
+                y: -&self.y,
+            },
+            Move::Turn(d) => Info {
+                y: &self.y + &self.Y * d,
+                Y: self.Y.clone(),
+            },
         }
     }
 
@@ -263,12 +333,48 @@ pub enum Message {
     Estimate(Gaussian),
 }
 
-/// What a node hands its estimators each step: the observation and the node's own measurement (none for a naive
-/// node, or when sensing failed).
-#[derive(Debug, Clone, Copy)]
+/// What a node hands its estimators each step: its model, the observation (a template whose H the model linearises,
+/// for a non-linear one) and the node's own measurement (none for a naive node, or when sensing failed).
+#[derive(Clone, Copy)]
 pub struct StepInput<'a> {
+    pub model: &'a dyn Model,
     pub obs: &'a Observation,
     pub own: Option<&'a Measurement>,
+}
+
+impl<'a> StepInput<'a> {
+    /// The observation of `m` about the estimate `about`, and `m` in its coordinates: as they are for a linear
+    /// observation; for a non-linear one h(x) ≈ h(x̂) + H (x − x̂) about x̂ = `about` ([`Model::linearize_at`]),
+    /// so that a linear update sees the innovation z − h(x̂).
+    pub fn about<'b>(&'b self, about: &Gaussian, m: &'b Measurement) -> (Cow<'b, Observation>, Cow<'b, Measurement>)
+    where
+        'a: 'b,
+    {
+        if self.model.fixed_observation() {
+            return (Cow::Borrowed(self.obs), Cow::Borrowed(m));
+        }
+        let (obs, mut z) = self.model.linearize_at(self.obs, about, &[&m.z]);
+        let z = z.pop().map_or_else(|| m.z.clone(), Cow::into_owned);
+        (
+            obs,
+            Cow::Owned(Measurement {
+                z,
+                present: m.present.clone(),
+            }),
+        )
+    }
+
+    /// The Kalman update of `g` with `m` (Joseph form), linearised about `g`.
+    pub fn update(&self, g: &Gaussian, m: &Measurement, policy: MissingChannels) -> Result<Gaussian, EstimateError> {
+        let (obs, m) = self.about(g, m);
+        kalman_update(g, &obs, &m.z, &m.present, policy)
+    }
+
+    /// The information of `m` ([`Info::of_measurement`]), linearised about `about`.
+    pub fn information(&self, about: &Gaussian, m: &Measurement) -> Result<Info, EstimateError> {
+        let (obs, m) = self.about(about, m);
+        Info::of_measurement(&obs, &m, &about.x)
+    }
 }
 
 /// One distributed estimator at one node. Per step: [`Estimator::predict`], [`Estimator::begin`], then for each

@@ -15,22 +15,42 @@ struct Net {
     A: DMatrix<f64>,
     Q: DMatrix<f64>,
     obs: Observation,
+    /// The same system as a model (the schemes ask it whether to linearise).
+    model: crate::model::Linear,
     neighbours: Vec<Vec<usize>>,
     observes: Vec<bool>,
+}
+
+/// x⁺ = A x + w, z = H x + v as a model.
+fn linear_model(A: &DMatrix<f64>, obs: &Observation, Q: &DMatrix<f64>) -> crate::model::Linear {
+    let n = A.nrows();
+    crate::model::Linear::new(
+        A.clone(),
+        obs.H.clone(),
+        Q.clone(),
+        obs.R.clone(),
+        DVector::zeros(n),
+        DMatrix::identity(n, n),
+    )
 }
 
 impl Net {
     fn rotating(neighbours: Vec<Vec<usize>>, observes: Vec<bool>) -> Net {
         let th = std::f64::consts::PI / 400.0;
+        let A = DMatrix::from_row_slice(2, 2, &[th.cos(), -th.sin(), th.sin(), th.cos()]);
+        let Q = DMatrix::identity(2, 2) * 0.01;
+        let obs = Observation {
+            H: DMatrix::identity(2, 2),
+            R: DMatrix::from_diagonal(&DVector::from_vec(vec![1.0, 2.0])),
+            angle_rows: vec![false; 2],
+            channel_of_row: vec![0, 0],
+        };
+        let model = linear_model(&A, &obs, &Q);
         Net {
-            A: DMatrix::from_row_slice(2, 2, &[th.cos(), -th.sin(), th.sin(), th.cos()]),
-            Q: DMatrix::identity(2, 2) * 0.01,
-            obs: Observation {
-                H: DMatrix::identity(2, 2),
-                R: DMatrix::from_diagonal(&DVector::from_vec(vec![1.0, 2.0])),
-                angle_rows: vec![false; 2],
-                channel_of_row: vec![0, 0],
-            },
+            A,
+            Q,
+            obs,
+            model,
             neighbours,
             observes,
         }
@@ -44,13 +64,7 @@ impl Net {
         metropolis(&self.neighbours)
             .into_iter()
             .enumerate()
-            .map(|(index, (weights, self_weight))| Context {
-                index,
-                nodes: self.n(),
-                weights,
-                self_weight,
-                angle_states: vec![false; 2],
-            })
+            .map(|(index, w)| Context::new(index, self.n(), w, &self.model))
             .collect()
     }
 
@@ -103,6 +117,7 @@ impl Net {
             let inputs: Vec<StepInput<'_>> = step
                 .iter()
                 .map(|m| StepInput {
+                    model: &self.model,
                     obs: &self.obs,
                     own: m.as_ref(),
                 })
@@ -517,6 +532,7 @@ fn information_across_plus_minus_pi_is_averaged_on_one_side() {
         weights: vec![(1, 0.5)],
         self_weight: 0.5,
         angle_states: vec![true],
+        double_cover: false,
     };
     let g = |x: f64| Gaussian {
         x: DVector::from_vec(vec![x]),
@@ -528,7 +544,12 @@ fn information_across_plus_minus_pi_is_averaged_on_one_side() {
         angle_rows: vec![true],
         channel_of_row: vec![0],
     };
-    let input = StepInput { obs: &obs, own: None };
+    let model = linear_model(&DMatrix::identity(1, 1), &obs, &DMatrix::identity(1, 1));
+    let input = StepInput {
+        model: &model,
+        obs: &obs,
+        own: None,
+    };
     let mut schemes: Vec<Box<dyn Estimator>> = vec![
         Box::new(Icf::new(ctx.clone(), g(PI - 0.01))),
         Box::new(Hcmci::new(ctx.clone(), g(PI - 0.01), 2.0)),
@@ -545,5 +566,75 @@ fn information_across_plus_minus_pi_is_averaged_on_one_side() {
         mine.finish(&input).unwrap();
         let x = mine.state().unwrap().x[0];
         assert!(PI - x.abs() < 0.02, "{}: {x}", mine.name());
+    }
+}
+
+/// On the attitude model's double cover a neighbour's estimate counts by its attitude, not its sign: node 0 combining
+/// (over two rounds) the messages of a neighbour whose prior is q̂₁ ends where it ends with the neighbour at −q̂₁ —
+/// for every scheme that exchanges estimates or information (each formed about the sender's own prior).
+#[test]
+fn a_neighbours_quaternion_counts_by_its_attitude_not_its_sign() {
+    use crate::estimate::attitude::{from_euler, measurement};
+    use crate::model::{Attitude, Model};
+    let model = Attitude::default();
+    let obs = model.observation();
+    let quaternion = |roll: f64, pitch: f64, yaw: f64| {
+        DVector::from_column_slice(from_euler(&nalgebra::Vector3::new(roll, pitch, yaw)).as_slice())
+    };
+    let truth = quaternion(0.3, -0.2, 2.0);
+    let z = |dx: f64| {
+        let (h, _) = measurement(
+            &nalgebra::Vector4::from_column_slice(truth.as_slice()),
+            &model.gravity(),
+            &model.field(),
+        );
+        Measurement::full(h.map(|v| v + dx))
+    };
+    let (z0, z1) = (z(0.01), z(-0.02));
+    let prior = |x: DVector<f64>, p: f64| Gaussian {
+        P: DMatrix::identity(4, 4) * p,
+        x,
+    };
+    let mine = prior(quaternion(0.32, -0.18, 1.97), 1e-3);
+    let theirs = prior(quaternion(0.29, -0.21, 2.02), 2e-3);
+    let flipped = prior(-&theirs.x, 2e-3);
+    let ctx = |index: usize| Context::new(index, 2, (vec![(1 - index, 0.5)], 0.5), &model);
+    let build = |name: &str, index: usize, g: Gaussian| -> Box<dyn Estimator> {
+        match name {
+            "kcf" => Box::new(Kcf::new(ctx(index), g, POLICY, 0.4)),
+            "icf" => Box::new(Icf::new(ctx(index), g)),
+            "hcmci" => Box::new(Hcmci::new(ctx(index), g, 2.0)),
+            "diffusion" => Box::new(Diffusion::new(ctx(index), g, POLICY, true, true)),
+            _ => Box::new(Ci::new(ctx(index), g, POLICY)),
+        }
+    };
+    let inputs = [&z0, &z1].map(|m| StepInput {
+        model: &model,
+        obs: &obs,
+        own: Some(m),
+    });
+    // Node 0's posterior after two rounds with a neighbour that starts from `other`.
+    let run = |name: &str, other: &Gaussian| {
+        let mut e = [build(name, 0, mine.clone()), build(name, 1, other.clone())];
+        for (e, input) in e.iter_mut().zip(&inputs) {
+            e.begin(input).unwrap();
+        }
+        for r in 0..2 {
+            let m = [e[0].message(r), e[1].message(r)];
+            for (i, e) in e.iter_mut().enumerate() {
+                let arrived: Vec<(usize, &Message)> = m[1 - i].iter().map(|m| (1 - i, m)).collect();
+                e.combine(r, &arrived, &inputs[i]).unwrap();
+            }
+        }
+        e[0].finish(&inputs[0]).unwrap();
+        let mut g = e[0].state().unwrap().clone();
+        model.normalize(&mut g);
+        g
+    };
+    for name in ["kcf", "icf", "hcmci", "diffusion", "ci"] {
+        let (a, b) = (run(name, &theirs), run(name, &flipped));
+        assert!(close(&a, &b, 1e-9), "{name}: {a:?} vs {b:?}");
+        let own = run(name, &mine);
+        assert!(!close(&a, &own, 1e-6), "{name}: the neighbour changed nothing");
     }
 }

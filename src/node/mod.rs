@@ -199,7 +199,7 @@ impl Node {
             independent: node.initial.clone(),
         });
         if in_node {
-            let ctx = schemes::context(&node.topo, index, node.model.angle_states());
+            let ctx = schemes::context(&node.topo, index, &*node.model);
             let e = node.topo.estimators();
             let slots = e
                 .run
@@ -349,7 +349,8 @@ impl Node {
         let round0 = if self.schemes.is_empty() {
             Vec::new()
         } else {
-            self.schemes.begin(k, &schemes::input(&self.obs, own.as_ref()), self.id)
+            self.schemes
+                .begin(k, &schemes::input(&*self.model, &self.obs, own.as_ref()), self.id)
         };
         self.send(k, t, own.as_ref(), &round0);
         self.inbox.open(k, own);
@@ -361,7 +362,7 @@ impl Node {
         if self.schemes.is_empty() || !self.up {
             return;
         }
-        let input = schemes::input(&self.obs, self.inbox.own());
+        let input = schemes::input(&*self.model, &self.obs, self.inbox.own());
         let out = self.schemes.close_round(k, r, &input, self.id);
         if out.is_empty() {
             return;

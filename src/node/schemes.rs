@@ -9,7 +9,7 @@ use nalgebra::DVector;
 
 use crate::estimate::{EstimateError, Gaussian, Observation};
 use crate::estimators::{from_body, to_body, Estimator, Kind, Message, StepInput};
-use crate::model::Measurement;
+use crate::model::{Measurement, Model};
 use crate::observe::{Filter, Update};
 use crate::scenario::Scenario;
 use crate::sensor::ImuInterval;
@@ -228,8 +228,10 @@ impl Schemes {
         let mut out = Vec::with_capacity(self.slots.len());
         for s in &mut self.slots {
             if !s.failed {
-                if let Err(e) = s.est.finish(input) {
-                    fail(s, &e);
+                match s.est.finish(input) {
+                    Err(e) => fail(s, &e),
+                    // Back onto the model's manifold (the quaternion's unit norm), as the node's own filters.
+                    Ok(()) => s.est.state_mut().into_iter().for_each(|g| input.model.normalize(g)),
                 }
             }
             // Set again at the next step's begin.
@@ -270,9 +272,9 @@ fn keep(list: &mut Vec<(usize, Message)>, from: usize, m: Message) {
     }
 }
 
-/// What a node hands its schemes: its observation and own measurement.
-pub(super) fn input<'a>(obs: &'a Observation, own: Option<&'a Measurement>) -> StepInput<'a> {
-    StepInput { obs, own }
+/// What a node hands its schemes: its model, observation and own measurement.
+pub(super) fn input<'a>(model: &'a dyn Model, obs: &'a Observation, own: Option<&'a Measurement>) -> StepInput<'a> {
+    StepInput { model, obs, own }
 }
 
 /// What a node hands the observer's fusion centers each step: its own measurement, and the prediction input of the
@@ -300,7 +302,7 @@ impl super::Node {
         if self.schemes.is_empty() {
             return Vec::new();
         }
-        let input = input(&self.obs, self.inbox.own());
+        let input = input(&*self.model, &self.obs, self.inbox.own());
         let Some(posts) = self.schemes.finish(k, &input, self.id) else {
             return Vec::new();
         };
@@ -334,18 +336,12 @@ impl super::Node {
 
 /// Node `index`'s view of the graph for the distributed estimators: Metropolis weights over the nodes it hears from
 /// (computed once per scenario, [`crate::scenario::EstimatorsConfig::weights`]).
-pub(super) fn context(topo: &Scenario, index: usize, angle_states: Vec<bool>) -> crate::estimators::Context {
-    let (weights, self_weight) = topo
+pub(super) fn context(topo: &Scenario, index: usize, model: &dyn Model) -> crate::estimators::Context {
+    let weights = topo
         .estimators()
         .weights
         .get(index)
         .cloned()
         .unwrap_or((Vec::new(), 1.0));
-    crate::estimators::Context {
-        index,
-        nodes: topo.nodes().len(),
-        weights,
-        self_weight,
-        angle_states,
-    }
+    crate::estimators::Context::new(index, topo.nodes().len(), weights, model)
 }

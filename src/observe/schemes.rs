@@ -349,13 +349,7 @@ impl Reference {
             kind,
             center,
             Q: model.process_noise(Some(&s.nodes()[center].sensor), dt),
-            ctx: Context {
-                index: center,
-                nodes: s.nodes().len(),
-                weights: Vec::new(),
-                self_weight: 1.0,
-                angle_states: model.angle_states(),
-            },
+            ctx: Context::new(center, s.nodes().len(), (Vec::new(), 1.0), &*model),
             scorer: crate::observe::Scorer::new(model.clone(), s.sim().burn_in_steps(), s.sim().divergence_trace),
             obs,
             dt,
@@ -390,7 +384,7 @@ impl Reference {
         };
         let prior = est.state().cloned()?;
         let dt = self.dt;
-        let mut messages: Vec<(usize, Measurement)> = feeds
+        let messages: Vec<(usize, Measurement)> = feeds
             .iter()
             .filter(|f| f.node != self.center)
             .filter_map(|f| {
@@ -402,32 +396,12 @@ impl Reference {
                 Some((f.node, m))
             })
             .collect();
-        let mut own = center.own.clone();
-        // A non-linear observation (the attitude EKF) is linearised about the center's prior, every measurement
-        // moved into its coordinates: the stacked EKF update.
-        let obs = if self.model.fixed_observation() {
-            std::borrow::Cow::Borrowed(&self.obs)
-        } else {
-            let (obs, shifted): (Observation, Vec<DVector<f64>>) = {
-                let zs: Vec<&DVector<f64>> = own
-                    .iter()
-                    .chain(messages.iter().map(|(_, m)| m))
-                    .map(|m| &m.z)
-                    .collect();
-                let (obs, zs) = self.model.linearize_at(&self.obs, &prior, &zs);
-                (
-                    obs.into_owned(),
-                    zs.into_iter().map(std::borrow::Cow::into_owned).collect(),
-                )
-            };
-            for (m, z) in own.iter_mut().chain(messages.iter_mut().map(|(_, m)| m)).zip(shifted) {
-                m.z = z;
-            }
-            std::borrow::Cow::Owned(obs)
-        };
+        // A non-linear observation (the attitude EKF) is linearised about the center's prior (the center
+        // linearises each measurement): the stacked EKF update.
         let input = StepInput {
-            obs: &obs,
-            own: own.as_ref(),
+            model: &*self.model,
+            obs: &self.obs,
+            own: center.own.as_ref(),
         };
         let messages: Vec<(usize, Message)> = messages
             .into_iter()

@@ -95,9 +95,7 @@ pub fn read_estimates(r: impl BufRead, node: usize, file: &str) -> Result<Vec<St
         let v: Vec<f64> = f[3..filter_end].iter().map(|s| num(s)).collect::<Result<_, _>>()?;
         let mut schemes = Vec::new();
         for g in f[filter_end..].chunks(n + 1) {
-            let kind = crate::estimators::Kind::ALL
-                .into_iter()
-                .find(|k| k.name() == g[0])
+            let kind = crate::estimators::Kind::from_name(g[0])
                 .ok_or_else(|| bad(i + 1, &format!("`{}` is not an estimator", g[0])))?;
             let x: Vec<f64> = g[1..].iter().map(|s| num(s)).collect::<Result<_, _>>()?;
             schemes.push((kind, DVector::from_vec(x)));
@@ -283,10 +281,7 @@ fn merge_estimators(parts: &[Summary], schemes: Option<&SchemeObserver>) -> BTre
         m.diverged += e.diverged;
     }
     for (name, e) in out.iter_mut() {
-        if let (Some(o), Some(kind)) = (
-            schemes,
-            crate::estimators::Kind::ALL.into_iter().find(|k| k.name() == name),
-        ) {
+        if let (Some(o), Some(kind)) = (schemes, crate::estimators::Kind::from_name(name)) {
             let a = o.agreement(kind);
             (e.median_error, e.disagreement) = (a.median_error, a.disagreement);
         }

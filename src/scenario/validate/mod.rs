@@ -256,16 +256,6 @@ impl Checks {
             .hcmci_omega
             .map(|w| self.positive("estimators.hcmci_omega", Some(w), 1.0));
         let m = model.get();
-        if run.iter().any(|k| k.in_node()) && !m.fixed_observation() {
-            self.bad(
-                "estimators.run",
-                format!(
-                    "the {} model linearises its observation about each prior; only independent, sequeira and the \
-                     two fusion centers (centralized, centralized-net) run on it",
-                    m.kind()
-                ),
-            );
-        }
         let states = m.angle_states().len();
         if states > crate::wire::MAX_STATES && run.iter().any(|k| k.in_node()) {
             self.bad(
