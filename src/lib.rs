@@ -38,6 +38,7 @@
 //! run it with [`Sim`] (in memory) or [`net::run`] (over UDP), read [`RunResults::summary`].
 
 pub mod analysis;
+pub mod campaign;
 pub mod checks;
 mod cli;
 mod compose;

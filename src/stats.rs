@@ -1,58 +1,21 @@
-//! Quantiles for confidence bands: the standard normal (Acklam's rational approximation, relative error < 1.2e-9)
-//! and chi-square (Wilson–Hilferty, accurate to a few parts in a thousand for ≥ 10 degrees of freedom).
-#![allow(clippy::excessive_precision)] // published coefficients, kept as printed
+//! Statistics for tests and reports: quantiles of the normal, chi-square and Student's t distributions (statrs),
+//! the median, and the mean of a sample with its Student-t confidence interval.
+
+use statrs::distribution::{ChiSquared, ContinuousCDF, Normal, StudentsT};
 
 /// Φ⁻¹(p) for 0 < p < 1.
 pub fn normal_quantile(p: f64) -> f64 {
-    const A: [f64; 6] = [
-        -3.969683028665376e1,
-        2.209460984245205e2,
-        -2.759285104469687e2,
-        1.383577518672690e2,
-        -3.066479806614716e1,
-        2.506628277459239,
-    ];
-    const B: [f64; 5] = [
-        -5.447609879822406e1,
-        1.615858368580409e2,
-        -1.556989798598866e2,
-        6.680131188771972e1,
-        -1.328068155288572e1,
-    ];
-    const C: [f64; 6] = [
-        -7.784894002430293e-3,
-        -3.223964580411365e-1,
-        -2.400758277161838,
-        -2.549732539343734,
-        4.374664141464968,
-        2.938163982698783,
-    ];
-    const D: [f64; 4] = [
-        7.784695709041462e-3,
-        3.224671290700398e-1,
-        2.445134137142996,
-        3.754408661907416,
-    ];
-    let lo = 0.02425;
-    if p < lo {
-        let q = (-2.0 * p.ln()).sqrt();
-        (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5])
-            / ((((D[0] * q + D[1]) * q + D[2]) * q + D[3]) * q + 1.0)
-    } else if p <= 1.0 - lo {
-        let q = p - 0.5;
-        let r = q * q;
-        (((((A[0] * r + A[1]) * r + A[2]) * r + A[3]) * r + A[4]) * r + A[5]) * q
-            / (((((B[0] * r + B[1]) * r + B[2]) * r + B[3]) * r + B[4]) * r + 1.0)
-    } else {
-        -normal_quantile(1.0 - p)
-    }
+    Normal::standard().inverse_cdf(p)
 }
 
-/// The p-quantile of χ²(k).
+/// The p-quantile of χ²(k); NaN for k ≤ 0.
 pub fn chi2_quantile(p: f64, k: f64) -> f64 {
-    let z = normal_quantile(p);
-    let a = 2.0 / (9.0 * k);
-    k * (1.0 - a + z * a.sqrt()).powi(3)
+    ChiSquared::new(k).map_or(f64::NAN, |d| d.inverse_cdf(p))
+}
+
+/// The p-quantile of Student's t with `dof` degrees of freedom; NaN for dof ≤ 0.
+pub fn t_quantile(p: f64, dof: f64) -> f64 {
+    StudentsT::new(0.0, 1.0, dof).map_or(f64::NAN, |d| d.inverse_cdf(p))
 }
 
 /// The median of `v` (the mean of the middle two for an even count); NaN for an empty slice.
@@ -70,6 +33,49 @@ pub fn median(v: &[f64]) -> f64 {
     }
 }
 
+/// A sample's mean, standard deviation (n − 1) and the confidence interval of its mean from Student's t.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct MeanCi {
+    pub n: usize,
+    pub mean: f64,
+    /// NaN for fewer than two values.
+    pub sd: f64,
+    /// mean ∓ t_{(1+level)/2, n−1} · sd/√n; NaN for fewer than two values.
+    pub low: f64,
+    pub high: f64,
+}
+
+impl MeanCi {
+    /// Over the finite values of `v`, at confidence `level` (0.95 for 95 %).
+    pub fn of(v: &[f64], level: f64) -> MeanCi {
+        let v: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+        let n = v.len();
+        let mean = if n == 0 {
+            f64::NAN
+        } else {
+            v.iter().sum::<f64>() / n as f64
+        };
+        if n < 2 {
+            return MeanCi {
+                n,
+                mean,
+                sd: f64::NAN,
+                low: f64::NAN,
+                high: f64::NAN,
+            };
+        }
+        let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt();
+        let half = t_quantile(0.5 + level / 2.0, (n - 1) as f64) * sd / (n as f64).sqrt();
+        MeanCi {
+            n,
+            mean,
+            sd,
+            low: mean - half,
+            high: mean + half,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -79,7 +85,22 @@ mod tests {
         assert!((normal_quantile(0.975) - 1.959964).abs() < 1e-6);
         assert!((normal_quantile(0.001) + 3.090232).abs() < 1e-6);
         // χ²(100): 2.5 % = 74.2219, 97.5 % = 129.5612 (tables).
-        assert!((chi2_quantile(0.025, 100.0) - 74.2219).abs() < 0.05);
-        assert!((chi2_quantile(0.975, 100.0) - 129.5612).abs() < 0.05);
+        assert!((chi2_quantile(0.025, 100.0) - 74.2219).abs() < 1e-3);
+        assert!((chi2_quantile(0.975, 100.0) - 129.5612).abs() < 1e-3);
+        // t(9) 97.5 % = 2.262157, t(1) 97.5 % = 12.7062 (tables).
+        assert!((t_quantile(0.975, 9.0) - 2.262157).abs() < 1e-5);
+        assert!((t_quantile(0.975, 1.0) - 12.7062).abs() < 1e-3);
+    }
+
+    #[test]
+    fn the_interval_of_a_known_sample() {
+        // 1 … 10: mean 5.5, sd √(55/6) = 3.02765, half-width 2.262157 · 3.02765 / √10 = 2.165851.
+        let ci = MeanCi::of(&(1..=10).map(f64::from).collect::<Vec<_>>(), 0.95);
+        assert_eq!((ci.n, ci.mean), (10, 5.5));
+        assert!((ci.sd - 3.027650).abs() < 1e-6);
+        assert!((ci.high - 5.5 - 2.165851).abs() < 1e-5 && (5.5 - ci.low - 2.165851).abs() < 1e-5);
+        let one = MeanCi::of(&[2.0, f64::NAN], 0.95);
+        assert_eq!(one.n, 1);
+        assert!(one.sd.is_nan() && one.low.is_nan());
     }
 }

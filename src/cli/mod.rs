@@ -22,6 +22,7 @@ mod protocol;
 mod reconstruct;
 mod reproduce;
 mod run;
+mod sweep;
 
 pub use args::RunArgs;
 use args::*;
@@ -63,6 +64,9 @@ pub enum Command {
     Estimators,
     /// Every estimator side by side over loss × rounds × seeds, in memory: mean errors against the centralized reference.
     Compare(compare::CompareArgs),
+    /// A campaign: any scenario keys × seeds on every core, resumable, with confidence intervals; sharded with
+    /// --shard I/N, joined with `sweep merge`, run on Docker Swarm with --emit stack.
+    Sweep(sweep::SweepArgs),
     /// Check topology files and explain every problem.
     Validate {
         /// Scenario files (TOML) to check.
@@ -142,6 +146,7 @@ pub fn main() -> ExitCode {
         Some(Command::Validate { files }) => Ok(validate(&files)),
         Some(Command::Run(args)) => run(&args, cli.quiet),
         Some(Command::Compare(args)) => compare::compare(&args, cli.quiet),
+        Some(Command::Sweep(args)) => sweep::sweep(&args, cli.quiet),
         Some(Command::Node(args)) => run_node(&args, cli.quiet),
         Some(Command::Collect(args)) => collect(&args),
         Some(Command::Compose(args)) => compose(&args),

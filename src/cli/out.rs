@@ -118,15 +118,7 @@ pub(super) fn progress_bar_of(len: u64, template: &str) -> indicatif::ProgressBa
     pb
 }
 
-/// Write to a temporary name, then rename: a reader never sees a half-written file.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let tmp = path.with_extension(format!(
-        "{}.tmp",
-        path.extension().and_then(|e| e.to_str()).unwrap_or("")
-    ));
-    std::fs::write(&tmp, bytes)?;
-    std::fs::rename(&tmp, path)
-}
+pub use crate::report::write_atomic;
 
 /// summary.json, links.csv and the three plots, each written atomically; the names written.
 pub(super) fn write_files(

@@ -3,12 +3,12 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::{Attitude, Linear, ModelConfig, Pose};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::checks::Checks;
 
 /// The `[model]` table as written (`deny_unknown_fields`: a misspelt key is an error naming it).
-#[derive(Debug, Deserialize, Default, Clone)]
+#[derive(Debug, Serialize, Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawModel {
     pub kind: Option<String>,

@@ -4,3 +4,20 @@ pub mod parts;
 pub mod plot;
 pub mod summary;
 pub mod trace;
+
+/// `bytes` to `path` through a temporary file in the same directory, renamed over it: a reader sees the old file or
+/// the new one, never a part. The temporary name is unique per process and call, so that processes sharing a
+/// directory (a campaign's shards) never write the same one.
+pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()> {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.{}.{n}.tmp", std::process::id()));
+    std::fs::write(&tmp, bytes)?;
+    std::fs::rename(&tmp, path).inspect_err(|_| {
+        let _ = std::fs::remove_file(&tmp);
+    })
+}

@@ -6,7 +6,6 @@ use super::{Checks, Role, Scenario, ScenarioError};
 use crate::link::{Jitter, LossModel};
 use crate::model::ModelConfig;
 use crate::motion::Trajectory;
-use rand::Rng;
 
 /// Link settings; unset ones keep the default (`[link]`) or, on the default itself, simnet's (no loss, no delay).
 #[derive(Debug, Clone, Default)]
@@ -145,41 +144,20 @@ impl ScenarioBuilder {
         self
     }
     /// Undirected edges joining the nodes given so far in a ring, in the order given.
-    pub fn ring(mut self) -> ScenarioBuilder {
-        let ids: Vec<i64> = self.raw.node.iter().filter_map(|n| n.id).collect();
-        let n = ids.len();
-        if n >= 2 {
-            for i in 0..(if n == 2 { 1 } else { n }) {
-                self = self.edge(ids[i] as u32, ids[(i + 1) % n] as u32, LinkSpec::default());
-            }
-        }
-        self
+    pub fn ring(self) -> ScenarioBuilder {
+        self.joined(super::graph::ring)
     }
 
-    /// Undirected edges of a random geometric graph over the nodes given so far: positions uniform in the unit
-    /// square from `seed`, an edge between two nodes closer than r = c √(ln n / n) — the connectivity threshold
-    /// (Penrose 2003) — with c = 1 grown by 10 % until the graph is connected.
-    pub fn random_geometric(mut self, seed: u64) -> ScenarioBuilder {
+    /// Undirected edges of a random geometric graph over the nodes given so far
+    /// ([`super::graph::random_geometric`]: the connectivity threshold from `seed`, grown until connected).
+    pub fn random_geometric(self, seed: u64) -> ScenarioBuilder {
+        self.joined(|n| super::graph::random_geometric(n, seed))
+    }
+
+    /// The edges `graph` gives over the nodes given so far, by position.
+    fn joined(mut self, graph: impl Fn(usize) -> Vec<(usize, usize)>) -> ScenarioBuilder {
         let ids: Vec<u32> = self.raw.node.iter().filter_map(|n| n.id).map(|i| i as u32).collect();
-        let n = ids.len();
-        if n < 2 {
-            return self;
-        }
-        let mut rng = crate::rng::stream(seed, "random-geometric", n as u64, 0);
-        let at: Vec<(f64, f64)> = (0..n).map(|_| (rng.gen::<f64>(), rng.gen::<f64>())).collect();
-        let d = |a: usize, b: usize| ((at[a].0 - at[b].0).powi(2) + (at[a].1 - at[b].1).powi(2)).sqrt();
-        let mut r = ((n as f64).ln() / n as f64).sqrt();
-        let edges = loop {
-            let edges: Vec<(usize, usize)> = (0..n)
-                .flat_map(|a| ((a + 1)..n).map(move |b| (a, b)))
-                .filter(|&(a, b)| d(a, b) < r)
-                .collect();
-            if connected(n, &edges) {
-                break edges;
-            }
-            r *= 1.1;
-        };
-        for (a, b) in edges {
+        for (a, b) in graph(ids.len()) {
             self = self.edge(ids[a], ids[b], LinkSpec::default());
         }
         self
@@ -261,25 +239,6 @@ impl ScenarioBuilder {
 }
 
 /// Every node reachable from the first along `edges`.
-fn connected(n: usize, edges: &[(usize, usize)]) -> bool {
-    let mut around = vec![Vec::new(); n];
-    for &(a, b) in edges {
-        around[a].push(b);
-        around[b].push(a);
-    }
-    let mut seen = vec![false; n];
-    let mut stack = vec![0];
-    seen[0] = true;
-    while let Some(a) = stack.pop() {
-        for &b in &around[a] {
-            if !std::mem::replace(&mut seen[b], true) {
-                stack.push(b);
-            }
-        }
-    }
-    seen.into_iter().all(|s| s)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -372,7 +331,7 @@ mod tests {
                 assert_eq!(*b > 0.0, carried, "β[{i}][{j}] = {b}");
             }
         }
-        assert!(super::connected(
+        assert!(super::super::graph::connected(
             n,
             &file.links().iter().map(|l| (l.from, l.to)).collect::<Vec<_>>()
         ));

@@ -13,6 +13,8 @@
 
 pub mod builder;
 pub mod builtin;
+pub mod graph;
+mod keys;
 mod load;
 mod overrides;
 mod resolve;
@@ -30,6 +32,7 @@ use crate::sensor::SensorProfile;
 
 pub use crate::checks::{Checks, Problem};
 pub use builder::{LinkSpec, ScenarioBuilder};
+pub use keys::parse_value;
 pub use overrides::Overrides;
 
 /// "1 node", "3 nodes".

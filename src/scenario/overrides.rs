@@ -203,7 +203,7 @@ impl Scenario {
     }
 
     /// Checks that know this scenario's recordings.
-    fn checks(&self) -> Checks {
+    pub(super) fn checks(&self) -> Checks {
         let mut c = Checks::default();
         for r in self.nodes.iter().filter_map(|n| n.recording.as_ref()) {
             c.loaded.insert(r.path.clone(), r.data.clone());
@@ -211,7 +211,7 @@ impl Scenario {
         c
     }
 
-    fn revalidate(&self, raw: RawTopology, c: Checks) -> Result<Scenario, ScenarioError> {
+    pub(super) fn revalidate(&self, raw: RawTopology, c: Checks) -> Result<Scenario, ScenarioError> {
         let mut t = c.validate(raw, &self.source)?;
         t.source = self.source.clone();
         t.name = self.name.clone();

@@ -1,11 +1,11 @@
 //! The topology file as written: serde mirrors of the TOML with `deny_unknown_fields`, so a misspelt key is an
 //! error that names it. `super::validate` turns these into the typed [`super::Scenario`].
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 pub use crate::model::RawModel;
 
-#[derive(Debug, Deserialize, Clone, Default)]
+#[derive(Debug, Serialize, Deserialize, Clone, Default)]
 #[serde(deny_unknown_fields)]
 pub struct RawTopology {
     pub name: Option<String>,
@@ -16,15 +16,17 @@ pub struct RawTopology {
     pub link: Option<RawLink>,
     pub sensor: Option<RawSensor>,
     pub estimators: Option<RawEstimators>,
-    #[serde(default)]
+    /// Nodes and edges from a graph generator instead of `[[node]]`/`[[edge]]`.
+    pub generate: Option<RawGenerate>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub node: Vec<RawNode>,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub edge: Vec<RawEdge>,
-    #[serde(default)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub fault: Vec<RawFault>,
 }
 
-#[derive(Debug, Deserialize, Default, Clone)]
+#[derive(Debug, Serialize, Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawSim {
     pub rate_hz: Option<f64>,
@@ -37,7 +39,7 @@ pub struct RawSim {
     pub divergence_trace: Option<f64>,
 }
 
-#[derive(Debug, Deserialize, Default, Clone)]
+#[derive(Debug, Serialize, Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawConsensus {
     pub beta0: Option<f64>,
@@ -52,7 +54,7 @@ pub struct RawConsensus {
 }
 
 /// `[estimators]`: the distributed schemes run beside the node's two filters.
-#[derive(Debug, Deserialize, Default, Clone)]
+#[derive(Debug, Serialize, Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawEstimators {
     /// Names from `simnet estimators`, or "all".
@@ -64,7 +66,7 @@ pub struct RawEstimators {
     pub sink: Option<i64>,
 }
 
-#[derive(Debug, Deserialize, Default, Clone)]
+#[derive(Debug, Serialize, Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawLmi {
     pub alpha: Option<f64>,
@@ -72,7 +74,7 @@ pub struct RawLmi {
     pub enabled: Option<bool>,
 }
 
-#[derive(Debug, Deserialize, Default, Clone)]
+#[derive(Debug, Serialize, Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawLink {
     pub loss: Option<RawLoss>,
@@ -83,10 +85,11 @@ pub struct RawLink {
     pub corrupt: Option<f64>,
 }
 
-#[derive(Debug, Deserialize, Clone)]
+#[derive(Debug, Serialize, Deserialize, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawLoss {
-    pub model: String,
+    /// "bernoulli" or "gilbert-elliott"; left out, Gilbert–Elliott when a key only it has is given, else Bernoulli.
+    pub model: Option<String>,
     pub p: Option<f64>,
     pub r: Option<f64>,
     pub one_minus_h: Option<f64>,
@@ -96,7 +99,22 @@ pub struct RawLoss {
     pub burst: Option<f64>,
 }
 
-#[derive(Debug, Deserialize, Default, Clone)]
+/// `[generate]`: a graph of `nodes` nodes (ids 0 … n−1) and its undirected edges.
+#[derive(Debug, Serialize, Deserialize, Default, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct RawGenerate {
+    /// "ring" | "grid" | "complete" | "random-geometric".
+    pub graph: String,
+    pub nodes: Option<i64>,
+    /// Grid width (default: the nearest square).
+    pub columns: Option<i64>,
+    /// The random geometric graph's own seed (default 1: the graph stays as the run seed changes).
+    pub seed: Option<u64>,
+    /// Every k-th node (ids k−1, 2k−1, …) is naive: an estimator without a sensor.
+    pub naive_every: Option<i64>,
+}
+
+#[derive(Debug, Serialize, Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawSensor {
     pub accel_noise: Option<f64>,
@@ -110,7 +128,7 @@ pub struct RawSensor {
     pub mag_noise: Option<f64>,
 }
 
-#[derive(Debug, Deserialize, Clone)]
+#[derive(Debug, Serialize, Deserialize, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawNode {
     pub id: Option<i64>,
@@ -120,7 +138,7 @@ pub struct RawNode {
     pub imu_csv: Option<String>,
 }
 
-#[derive(Debug, Deserialize, Clone)]
+#[derive(Debug, Serialize, Deserialize, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawEdge {
     pub nodes: Vec<i64>,
@@ -133,7 +151,7 @@ pub struct RawEdge {
     pub corrupt: Option<f64>,
 }
 
-#[derive(Debug, Deserialize, Clone, Default)]
+#[derive(Debug, Serialize, Deserialize, Clone, Default)]
 #[serde(deny_unknown_fields)]
 pub struct RawFault {
     pub kind: String,
@@ -151,7 +169,7 @@ impl From<crate::link::LossModel> for RawLoss {
     fn from(l: crate::link::LossModel) -> RawLoss {
         use crate::link::LossModel;
         let none = RawLoss {
-            model: String::new(),
+            model: None,
             p: None,
             r: None,
             one_minus_h: None,
@@ -161,7 +179,7 @@ impl From<crate::link::LossModel> for RawLoss {
         };
         match l {
             LossModel::Bernoulli { p } => RawLoss {
-                model: "bernoulli".into(),
+                model: Some("bernoulli".into()),
                 p: Some(p),
                 ..none
             },
@@ -171,7 +189,7 @@ impl From<crate::link::LossModel> for RawLoss {
                 one_minus_h,
                 one_minus_k,
             } => RawLoss {
-                model: "gilbert-elliott".into(),
+                model: Some("gilbert-elliott".into()),
                 p: Some(p),
                 r: Some(r),
                 one_minus_h: Some(one_minus_h),

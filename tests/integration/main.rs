@@ -1,6 +1,7 @@
 //! simnet's integration tests, one binary (keeps builds lean). Fixed seeds throughout.
 
 mod attitude;
+mod campaign;
 mod cli;
 mod common;
 mod estimation;

@@ -56,6 +56,8 @@ impl Settings {
                     config: l.config,
                 })
                 .collect(),
+            scenario: topo.to_toml(),
+            scenario_sha256: topo.digest(),
         }
     }
 }

@@ -65,6 +65,12 @@ pub struct Settings {
     pub overrides: crate::scenario::Overrides,
     /// Every directed link's resolved settings (loss model, delay, jitter, duplication, corruption).
     pub links: Vec<LinkSetting>,
+    /// The resolved scenario: the TOML that reproduces this run (`simnet -t FILE`), overrides included.
+    #[serde(default)]
+    pub scenario: String,
+    /// Its SHA-256 ([`crate::Scenario::digest`]).
+    #[serde(default)]
+    pub scenario_sha256: String,
 }
 
 fn one() -> usize {

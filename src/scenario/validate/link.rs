@@ -9,7 +9,12 @@ use crate::scenario::Checks;
 
 impl Checks {
     pub(crate) fn loss(&mut self, key: &str, l: &RawLoss) -> LossModel {
-        match l.model.as_str() {
+        let inferred = if [l.r, l.one_minus_h, l.one_minus_k, l.burst].iter().any(Option::is_some) {
+            "gilbert-elliott"
+        } else {
+            "bernoulli"
+        };
+        match l.model.as_deref().unwrap_or(inferred) {
             "bernoulli" => {
                 for (k, v) in [
                     ("r", l.r),

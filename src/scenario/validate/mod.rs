@@ -44,7 +44,9 @@ impl Checks {
 
 impl Checks {
     fn topology(&mut self, raw: RawTopology, file: &str) -> Option<Scenario> {
+        // The file as written (a `[generate]` table stays one) is what a change validates again.
         let kept = raw.clone();
+        let raw = self.generated(raw);
         let name = raw.name.clone().unwrap_or_else(|| {
             Path::new(file)
                 .file_stem()

@@ -1,0 +1,472 @@
+//! `simnet sweep`: a campaign over any scenario keys × seeds on every core, resumable, with confidence intervals;
+//! `--shard I/N` runs a 1/N of it, `sweep merge` joins shards, `--emit stack` prints a Docker Swarm stack for it.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use super::*;
+use crate::campaign::{self, Axis, CampaignError, Plan, PlanFile, ShardInfo, Store};
+use crate::estimators::Kind;
+
+#[derive(Args, Debug)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct SweepArgs {
+    #[command(subcommand)]
+    pub command: Option<SweepCommand>,
+    /// Built-in name, `./topologies/NAME.toml`, or a path.
+    #[arg(long, short = 't', required = true)]
+    pub topology: Option<String>,
+    /// A scenario key (its path in the file) and its values: KEY=V1,V2,... or KEY=START:END:STEP (END included).
+    /// Repeat for the cartesian product (the first varies slowest).
+    #[arg(long = "set", value_name = "KEY=VALUES", required = true)]
+    pub set: Vec<String>,
+    /// Seeds 1 … N at every point.
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=100_000))]
+    pub seeds: u64,
+    /// Estimators every run holds, comma-separated, or `all` (default: the topology's, else sequeira and
+    /// independent, the node's two filters).
+    #[arg(long, value_delimiter = ',', value_parser = super::args::estimator)]
+    pub estimators: Option<Vec<super::args::EstimatorChoice>>,
+    /// Consensus rounds per step (1 to 100).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=crate::scenario::MAX_ROUNDS as u64))]
+    pub rounds: Option<u64>,
+    /// Simulated duration of every run, s.
+    #[arg(long, allow_hyphen_values = true, value_parser = super::args::positive)]
+    pub duration: Option<f64>,
+    /// The campaign's directory: its plan, one record per run, and the tables, plot and manifest.
+    #[arg(long, required_unless_present = "emit")]
+    pub out: Option<PathBuf>,
+    /// How every run moves its datagrams: in memory (`Sim`), or over UDP sockets on loopback.
+    #[arg(long, value_enum, default_value = "memory")]
+    pub transport: Transport,
+    /// Run shard I of N (1-based): the runs whose index is I−1 modulo N.
+    #[arg(long, env = "SIMNET_SHARD", value_parser = campaign::parse_shard)]
+    pub shard: Option<(usize, usize)>,
+    /// Print a Docker Swarm stack file that runs the campaign as --replicas shards, instead of running it.
+    #[arg(long, value_enum)]
+    pub emit: Option<Emit>,
+    /// The simnet image of the stack.
+    #[arg(long, default_value = "simnet:latest")]
+    pub image: String,
+    /// Shards (tasks) of the stack.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=10_000))]
+    pub replicas: u64,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum SweepCommand {
+    /// Join the runs of shards (the --out directories of `sweep --shard`) into the files one sweep writes.
+    Merge {
+        /// The shards' directories.
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+        /// Where the joined campaign goes (default: the first directory).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Transport {
+    Memory,
+    Udp,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Emit {
+    Stack,
+}
+
+impl Transport {
+    fn name(self) -> &'static str {
+        match self {
+            Transport::Memory => "memory",
+            Transport::Udp => "udp",
+        }
+    }
+}
+
+fn now() -> String {
+    humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string()
+}
+
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+fn usage_or_run(e: CampaignError) -> anyhow::Error {
+    if e.is_usage() {
+        UsageError::Option(e.to_string()).into()
+    } else {
+        e.into()
+    }
+}
+
+pub(super) fn sweep(args: &SweepArgs, quiet: bool) -> anyhow::Result<ExitCode> {
+    if let Some(SweepCommand::Merge { dirs, out }) = &args.command {
+        return merge(dirs, out.as_deref(), quiet);
+    }
+    let started = now();
+    let topology = args.topology.as_deref().unwrap_or_default();
+    let axes: Vec<Axis> = args
+        .set
+        .iter()
+        .map(|s| Axis::parse(s).map_err(|e| UsageError::Option(format!("--set {e}"))))
+        .collect::<Result<_, _>>()?;
+    let base = Scenario::resolve(topology).map_err(UsageError::from)?;
+    let estimators = match &args.estimators {
+        Some(e) => Some(super::args::EstimatorChoice::kinds(e)),
+        None if base.estimators().run.is_empty() => Some(vec![Kind::Independent, Kind::Sequeira]),
+        None => None,
+    };
+    let base = base
+        .with(&Overrides {
+            estimators,
+            rounds: args.rounds,
+            duration_s: args.duration,
+            ..Default::default()
+        })
+        .map_err(UsageError::from)?;
+    // Every point is validated before the first run starts.
+    let plan = Plan::new(base, axes, args.seeds).map_err(UsageError::from)?;
+    if args.emit == Some(Emit::Stack) {
+        print!("{}", stack(args, topology));
+        return Ok(ExitCode::SUCCESS);
+    }
+    let dir = args.out.as_deref().unwrap_or(Path::new("."));
+    let file = PlanFile::of(&plan);
+    let store = Store::open(dir, &file).map_err(usage_or_run)?;
+    let all = plan.runs();
+    let (mine, shard) = match args.shard {
+        Some((i, n)) => (campaign::shard(&all, i, n), format!("{i}/{n}")),
+        None => (all.clone(), "all".to_string()),
+    };
+    if !quiet {
+        eprintln!(
+            "{}: {} × {} = {} runs{} into {}",
+            plan.base.name(),
+            crate::scenario::count(plan.points.len(), "point"),
+            crate::scenario::count(plan.seeds as usize, "seed"),
+            all.len(),
+            if shard == "all" {
+                String::new()
+            } else {
+                format!(", shard {shard}: {}", mine.len())
+            },
+            dir.display()
+        );
+    }
+    let stop = Arc::new(AtomicBool::new(false));
+    watch_signals(stop.clone());
+    let pb = (!quiet).then(|| {
+        progress_bar_of(
+            mine.len() as u64,
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs ({per_sec}, eta {eta})",
+        )
+    });
+    let tick = || {
+        if let Some(p) = &pb {
+            p.inc(1);
+        }
+    };
+    let transport = args.transport;
+    let run_one = |s: &Scenario| match transport {
+        Transport::Memory => campaign::in_memory(s),
+        Transport::Udp => over_udp(s, &stop),
+    };
+    let ran = campaign::run_missing(&plan, &mine, &store, &run_one, &tick, &stop);
+    if let Some(p) = pb {
+        p.finish_and_clear();
+    }
+    for (r, why) in ran.failed.iter().take(5) {
+        eprintln!(
+            "error: run {} ({}, seed {}): {why}",
+            r.key,
+            plan.describe(r.point),
+            r.seed
+        );
+    }
+    if ran.failed.len() > 5 {
+        eprintln!("error: … and {} more failed runs", ran.failed.len() - 5);
+    }
+    let me = ShardInfo {
+        shard: shard.clone(),
+        simnet: campaign::simnet_build(),
+        command: std::env::args().collect(),
+        transport: transport.name().into(),
+        started,
+        finished: now(),
+        cores: cores(),
+        ran: ran.ran,
+    };
+    if args.shard.is_some() {
+        campaign::record_shard(dir, &me).map_err(usage_or_run)?;
+    }
+    if !quiet {
+        eprintln!(
+            "{} run now, {} already in {}{}{}",
+            ran.ran,
+            ran.kept,
+            dir.display(),
+            if ran.stopped > 0 {
+                format!(", {} not started (stopped)", ran.stopped)
+            } else {
+                String::new()
+            },
+            if ran.failed.is_empty() {
+                String::new()
+            } else {
+                format!(", {} failed", ran.failed.len())
+            }
+        );
+    }
+    let done = match campaign::finish(&store, &file, &me) {
+        Ok(f) => f,
+        // A shard that is not the last: the others write the files when they finish.
+        Err(CampaignError::Missing { missing, total, .. })
+            if args.shard.is_some() && ran.failed.is_empty() && ran.stopped == 0 =>
+        {
+            if !quiet {
+                eprintln!(
+                    "shard {shard} is done; the campaign has {} of {total} runs: the last shard to finish writes \
+                     the files (or run `simnet sweep merge {}`)",
+                    total - missing,
+                    dir.display()
+                );
+            }
+            return Ok(ExitCode::SUCCESS);
+        }
+        Err(e @ CampaignError::Missing { .. }) => {
+            eprintln!("error: {e}: rerun the same command to run only what is missing");
+            return Ok(if ran.stopped > 0 {
+                exit_code(true)
+            } else {
+                ExitCode::from(1)
+            });
+        }
+        Err(e) => return Err(usage_or_run(e)),
+    };
+    print_points(&file, &done.stats)?;
+    println!(
+        "\nwrote {}/{{{}}} ({} runs)",
+        dir.display(),
+        done.files.join(", "),
+        done.runs
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `sweep merge`: every shard directory's records into `out`, checked to be one campaign; the files once all runs are
+/// there.
+fn merge(dirs: &[PathBuf], out: Option<&Path>, quiet: bool) -> anyhow::Result<ExitCode> {
+    let started = now();
+    let mut plans = Vec::new();
+    for d in dirs {
+        let path = d.join("plan.json");
+        let text =
+            campaign::read_capped(&path).map_err(|e| UsageError::Option(format!("{e} (not a sweep's --out?)")))?;
+        let plan: PlanFile = serde_json::from_str(&text)
+            .map_err(|e| UsageError::Option(format!("{}: not a sweep's plan ({e})", path.display())))?;
+        plans.push((d, plan));
+    }
+    let (first_dir, file) = plans[0].clone();
+    for (d, p) in &plans[1..] {
+        if let Some(why) = p.differs(&file) {
+            return Err(UsageError::Option(format!(
+                "{} and {} are not shards of one campaign: {} {why}",
+                first_dir.display(),
+                d.display(),
+                d.display()
+            ))
+            .into());
+        }
+    }
+    let out = out.unwrap_or(first_dir);
+    let store = Store::open(out, &file).map_err(usage_or_run)?;
+    let mut copied = 0;
+    for (d, _) in &plans {
+        let theirs = Store { dir: d.to_path_buf() };
+        for r in file.runs() {
+            if store.has(&r.key) {
+                continue;
+            }
+            if let Some(rec) = theirs.get(&r.key).map_err(usage_or_run)? {
+                store.put(&rec).map_err(usage_or_run)?;
+                copied += 1;
+            }
+        }
+        // Each shard's provenance comes along.
+        if let Ok(entries) = std::fs::read_dir(d.join("shards")) {
+            for e in entries.flatten() {
+                let target = out.join("shards").join(e.file_name());
+                if e.path() != target {
+                    std::fs::create_dir_all(out.join("shards"))?;
+                    std::fs::copy(e.path(), &target)?;
+                }
+            }
+        }
+    }
+    if !quiet {
+        eprintln!("{copied} runs copied into {}", out.display());
+    }
+    let me = ShardInfo {
+        shard: "merge".into(),
+        simnet: campaign::simnet_build(),
+        command: std::env::args().collect(),
+        transport: "-".into(),
+        started,
+        finished: now(),
+        cores: cores(),
+        ran: 0,
+    };
+    match campaign::finish(&store, &file, &me) {
+        Ok(done) => {
+            print_points(&file, &done.stats)?;
+            println!(
+                "\nwrote {}/{{{}}} ({} runs)",
+                out.display(),
+                done.files.join(", "),
+                done.runs
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(e @ CampaignError::Missing { .. }) => {
+            eprintln!(
+                "error: {e}: a shard has not finished, or its directory is not among {}",
+                dirs.len()
+            );
+            Ok(ExitCode::from(1))
+        }
+        Err(e) => Err(usage_or_run(e)),
+    }
+}
+
+/// One run over UDP on loopback (the virtual clock); a stop ends it early (then it is not stored).
+fn over_udp(s: &Scenario, stop: &Arc<AtomicBool>) -> Result<crate::Summary, String> {
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| e.to_string())?;
+    let stop = stop.clone();
+    let stopped = async move {
+        while !stop.load(Ordering::Relaxed) {
+            tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+        }
+    };
+    rt.block_on(net::run(Arc::new(s.clone()), RunOptions::default(), stopped))
+        .map(|r| r.summary())
+        .map_err(|e| e.to_string())
+}
+
+/// Ctrl-C or SIGTERM sets `stop`: no further run starts, the finished ones stay stored.
+fn watch_signals(stop: Arc<AtomicBool>) {
+    std::thread::spawn(move || {
+        let Ok(rt) = tokio::runtime::Builder::new_current_thread().enable_all().build() else {
+            return;
+        };
+        rt.block_on(shutdown_signal());
+        stop.store(true, Ordering::SeqCst);
+        eprintln!("\nstopping: the runs under way finish and are kept; rerun the same command to go on");
+    });
+}
+
+/// The stack file: the same sweep in every task, its shard from the task's slot.
+fn stack(args: &SweepArgs, topology: &str) -> String {
+    let builtin = builtin::get(topology).is_some() && !Path::new(topology).is_file();
+    let mut a: Vec<String> = vec![
+        "-t".into(),
+        if builtin {
+            topology.to_string()
+        } else {
+            "/topology.toml".into()
+        },
+    ];
+    for s in &args.set {
+        a.extend(["--set".into(), s.clone()]);
+    }
+    a.extend(["--seeds".into(), args.seeds.to_string()]);
+    if let Some(e) = &args.estimators {
+        let names: Vec<&str> = super::args::EstimatorChoice::kinds(e)
+            .iter()
+            .map(|k| k.name())
+            .collect();
+        a.extend(["--estimators".into(), names.join(",")]);
+    }
+    if let Some(r) = args.rounds {
+        a.extend(["--rounds".into(), r.to_string()]);
+    }
+    if let Some(d) = args.duration {
+        a.extend(["--duration".into(), d.to_string()]);
+    }
+    a.extend(["--transport".into(), args.transport.name().into()]);
+    campaign::stack_file(&campaign::StackOptions {
+        image: args.image.clone(),
+        replicas: args.replicas as usize,
+        args: a,
+        topology_file: (!builtin).then(|| topology.to_string()),
+    })
+}
+
+/// `mean ± half` to the second significant digit of `half` (four significant digits without one).
+fn with_ci(mean: f64, half: f64) -> String {
+    if half.is_finite() && half > 0.0 {
+        let decimals = (1 - half.log10().floor().clamp(-20.0, 20.0) as i32).clamp(0, 12) as usize;
+        format!("{mean:.decimals$} ± {half:.decimals$}")
+    } else if mean != 0.0 {
+        let decimals = (3 - mean.abs().log10().floor().clamp(-20.0, 20.0) as i32).clamp(0, 12) as usize;
+        format!("{mean:.decimals$}")
+    } else {
+        "0".into()
+    }
+}
+
+/// Each point's mean error per estimator with its 95 % interval, as a markdown table.
+fn print_points(plan: &PlanFile, stats: &[campaign::PointStat]) -> std::io::Result<()> {
+    let mut out = std::io::stdout().lock();
+    let mut names: Vec<&str> = stats
+        .iter()
+        .filter(|s| s.estimator != campaign::NETWORK)
+        .map(|s| s.estimator.as_str())
+        .collect();
+    names.sort_by_key(|n| Kind::from_name(n).map_or(usize::MAX, |k| k as usize));
+    names.dedup();
+    let keys: Vec<&str> = plan.axes.iter().map(|a| a.key.as_str()).collect();
+    writeln!(
+        out,
+        "{}: {}, mean over {} seeds ± half the 95 % confidence interval",
+        plan.topology,
+        plan.model.error_text().label,
+        plan.seeds
+    )?;
+    writeln!(out)?;
+    writeln!(out, "| {} | loss | {} |", keys.join(" | "), names.join(" | "))?;
+    writeln!(out, "|{}", "---|".repeat(keys.len() + 1 + names.len()))?;
+    for (i, p) in plan.points.iter().enumerate() {
+        let get = |est: &str, metric: &str| {
+            stats
+                .iter()
+                .find(|s| s.point == i && s.estimator == est && s.metric == metric)
+                .map(|s| s.stat)
+        };
+        let fmt = |s: Option<crate::stats::MeanCi>, pct: bool| match s {
+            Some(s) if s.mean.is_finite() => {
+                let k = if pct { 100.0 } else { 1.0 };
+                format!(
+                    "{}{}",
+                    with_ci(k * s.mean, k * (s.high - s.mean)),
+                    if pct { " %" } else { "" }
+                )
+            }
+            _ => "—".into(),
+        };
+        let values: Vec<String> = p.values.iter().map(campaign::cell).collect();
+        let cells: Vec<String> = names.iter().map(|n| fmt(get(n, "mean_error"), false)).collect();
+        writeln!(
+            out,
+            "| {} | {} | {} |",
+            values.join(" | "),
+            fmt(get(campaign::NETWORK, "loss_rate"), true),
+            cells.join(" | ")
+        )?;
+    }
+    Ok(())
+}

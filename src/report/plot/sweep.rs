@@ -1,0 +1,149 @@
+//! A campaign's figures against the swept key: one panel per figure (columns) and per combination of the other
+//! swept keys (rows), one line per estimator with its 95 % confidence band.
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::{axis, err, font, legend, palette, tick, PlotError};
+
+/// One estimator's line: (x, mean, CI low, CI high) per point.
+#[derive(Debug, Clone)]
+pub struct SweepLine {
+    pub label: String,
+    pub points: Vec<(f64, f64, f64, f64)>,
+    /// Drawn black and thick: the reference.
+    pub reference: bool,
+}
+
+/// One panel: a figure at one combination of the other keys.
+#[derive(Debug, Clone)]
+pub struct SweepPanel {
+    pub title: String,
+    pub y_desc: String,
+    /// A log axis when every value is positive and spans more than a decade.
+    pub lines: Vec<SweepLine>,
+}
+
+/// Most panel rows drawn.
+pub const MAX_ROWS: usize = 6;
+
+/// `panels` row by row, `columns` to a row; `x_labels` names the x positions when the key is not numeric.
+pub fn sweep(
+    panels: &[SweepPanel],
+    columns: usize,
+    x_desc: &str,
+    x_labels: Option<&[String]>,
+    title: &str,
+) -> Result<String, PlotError> {
+    const NAME: &str = "sweep";
+    font();
+    let columns = columns.clamp(1, 4);
+    let rows = panels.len().div_ceil(columns).clamp(1, MAX_ROWS);
+    let size = (540 * columns as u32, 60 + 400 * rows as u32);
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, size).into_drawing_area();
+        root.fill(&WHITE).map_err(err(NAME))?;
+        let root = root.titled(title, ("sans-serif", 24)).map_err(err(NAME))?;
+        let areas = root.split_evenly((rows, columns));
+        for (panel, area) in panels.iter().zip(areas) {
+            draw_panel(&area, panel, x_desc, x_labels)?;
+        }
+        root.present().map_err(err(NAME))?;
+    }
+    Ok(out)
+}
+
+fn draw_panel(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    p: &SweepPanel,
+    x_desc: &str,
+    x_labels: Option<&[String]>,
+) -> Result<(), PlotError> {
+    const NAME: &str = "sweep";
+    let all = || p.lines.iter().flat_map(|l| l.points.iter());
+    let (x0, x1) = axis(all().map(|q| q.0), false);
+    let ys = || all().flat_map(|q| [q.1, q.2, q.3]);
+    let positive = ys().filter(|v| v.is_finite()).all(|v| v > 0.0);
+    let (lo, hi) = ys()
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |a, v| (a.0.min(v), a.1.max(v)));
+    let log = positive && lo.is_finite() && hi > 10.0 * lo;
+    let (y0, y1) = axis(ys(), log);
+    let mut builder = ChartBuilder::on(area);
+    builder
+        .caption(&p.title, ("sans-serif", 18))
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(70);
+    let x_fmt = |v: &f64| match x_labels {
+        Some(names) => {
+            let i = v.round();
+            if (v - i).abs() < 1e-9 && i >= 0.0 {
+                names.get(i as usize).cloned().unwrap_or_default()
+            } else {
+                String::new()
+            }
+        }
+        None => tick(*v),
+    };
+    macro_rules! body {
+        ($chart:expr) => {{
+            let mut chart = $chart;
+            let mut mesh = chart.configure_mesh();
+            mesh.x_desc(x_desc)
+                .y_desc(p.y_desc.as_str())
+                .x_label_formatter(&x_fmt)
+                .y_label_formatter(&|v| tick(*v));
+            if let Some(names) = x_labels {
+                mesh.x_labels(names.len() + 1);
+            }
+            mesh.draw().map_err(err(NAME))?;
+            for (i, line) in p.lines.iter().enumerate() {
+                let c = if line.reference { BLACK } else { palette(i) };
+                let pts: Vec<(f64, f64, f64, f64)> = line
+                    .points
+                    .iter()
+                    .copied()
+                    .filter(|q| q.0.is_finite() && q.1.is_finite() && (!log || q.1 > 0.0))
+                    .map(|(x, m, l, h)| (x, m.clamp(y0, y1), l, h))
+                    .collect();
+                // The band: upper edge out, lower edge back, where the interval is known.
+                let band: Vec<(f64, f64)> = pts
+                    .iter()
+                    .filter(|q| q.2.is_finite() && q.3.is_finite())
+                    .map(|q| (q.0, q.3.clamp(y0, y1)))
+                    .chain(
+                        pts.iter()
+                            .rev()
+                            .filter(|q| q.2.is_finite() && q.3.is_finite())
+                            .map(|q| (q.0, q.2.clamp(y0, y1))),
+                    )
+                    .collect();
+                if band.len() >= 4 {
+                    chart
+                        .draw_series(std::iter::once(Polygon::new(band, c.mix(0.15).filled())))
+                        .map_err(err(NAME))?;
+                }
+                let style = c.stroke_width(if line.reference { 3 } else { 2 });
+                chart
+                    .draw_series(LineSeries::new(pts.iter().map(|q| (q.0, q.1)), style))
+                    .map_err(err(NAME))?
+                    .label(line.label.as_str())
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+                chart
+                    .draw_series(pts.iter().map(|q| Circle::new((q.0, q.1), 3, c.filled())))
+                    .map_err(err(NAME))?;
+            }
+            legend(&mut chart, NAME)?;
+        }};
+    }
+    if log {
+        body!(builder
+            .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
+            .map_err(err(NAME))?);
+    } else {
+        body!(builder.build_cartesian_2d(x0..x1, y0..y1).map_err(err(NAME))?);
+    }
+    Ok(())
+}

@@ -1,0 +1,216 @@
+//! Any key of a scenario by its path in the file — `sim.rate_hz`, `link.loss.p`, `node[2].sensor.gyro_noise`,
+//! `generate.nodes` — set on the file as written and validated again as a whole; the file a scenario would be read
+//! from ([`Scenario::to_toml`]) and its digest, which names a run in a campaign.
+
+use sha2::{Digest, Sha256};
+
+use super::toml::RawTopology;
+use super::{Problem, Scenario, ScenarioError};
+
+/// A value as written after `KEY=` on a command line: TOML (`0.2`, `3`, `true`, `[1, 2]`, `"x"`), else the text
+/// itself as a string (`gilbert-elliott`).
+pub fn parse_value(text: &str) -> toml::Value {
+    let text = text.trim();
+    match toml::from_str::<toml::Table>(&format!("v = {text}")) {
+        Ok(mut t) => t.remove("v").unwrap_or_else(|| toml::Value::String(text.into())),
+        Err(_) => toml::Value::String(text.into()),
+    }
+}
+
+/// One step of a key path: a table key, and an index when it names an entry of a list (`node[2]`).
+fn segments(key: &str) -> Result<Vec<(&str, Option<usize>)>, String> {
+    if key.trim().is_empty() {
+        return Err("the key is empty".into());
+    }
+    key.split('.')
+        .map(|part| {
+            let (name, index) = match part.split_once('[') {
+                None => (part, None),
+                Some((name, rest)) => {
+                    let i = rest
+                        .strip_suffix(']')
+                        .and_then(|i| i.parse::<usize>().ok())
+                        .ok_or_else(|| format!("`{part}`: an index is written name[0]"))?;
+                    (name, Some(i))
+                }
+            };
+            if name.is_empty() {
+                return Err(format!("`{key}` has an empty part"));
+            }
+            Ok((name, index))
+        })
+        .collect()
+}
+
+/// `value` at `key` in `doc`: tables on the way are made as needed; a list entry must exist.
+fn put(doc: &mut toml::Value, key: &str, value: toml::Value) -> Result<(), String> {
+    let path = segments(key)?;
+    let mut cur = doc;
+    for (i, (name, index)) in path.iter().enumerate() {
+        let last = i + 1 == path.len();
+        let seen = path[..i].iter().map(|(n, _)| *n).collect::<Vec<_>>().join(".");
+        let table = cur
+            .as_table_mut()
+            .ok_or_else(|| format!("`{seen}` is a value, not a table"))?;
+        if last && index.is_none() {
+            table.insert(name.to_string(), value);
+            return Ok(());
+        }
+        let entry = table.entry(name.to_string()).or_insert_with(|| match index {
+            Some(_) => toml::Value::Array(Vec::new()),
+            None => toml::Value::Table(Default::default()),
+        });
+        cur = match index {
+            None => entry,
+            Some(j) => {
+                let list = entry.as_array_mut().ok_or_else(|| format!("`{name}` is not a list"))?;
+                let len = list.len();
+                let item = list
+                    .get_mut(*j)
+                    .ok_or_else(|| format!("`{name}` has {len} entries, so there is no {name}[{j}]"))?;
+                if last {
+                    *item = value;
+                    return Ok(());
+                }
+                item
+            }
+        };
+    }
+    Ok(())
+}
+
+impl Scenario {
+    /// The TOML this scenario would be read from: the file as written with every change since (overrides, keys
+    /// set), a `[generate]` table kept as one.
+    pub fn to_toml(&self) -> String {
+        // Every field of the raw file is a TOML type: writing it cannot fail.
+        toml::to_string(&self.raw).unwrap_or_else(|e| format!("# simnet could not write this scenario: {e}\n"))
+    }
+
+    /// This scenario with `key` (its path in the file, e.g. `link.loss.p` or `node[2].sensor.gyro_noise`) set to
+    /// `value`, validated again as a whole: a key the file format does not have, or a value out of its range, is
+    /// an error naming it.
+    pub fn set(&self, key: &str, value: toml::Value) -> Result<Scenario, ScenarioError> {
+        let invalid = |key: &str, message: String| ScenarioError::Invalid {
+            file: self.source.clone(),
+            problems: vec![Problem {
+                key: key.to_string(),
+                message,
+            }],
+        };
+        if key == "sim.seed" {
+            return Err(invalid(
+                key,
+                "the seed is chosen per run (--seeds), not as a key".into(),
+            ));
+        }
+        let mut doc = toml::Value::try_from(&self.raw).map_err(|e| invalid(key, e.to_string()))?;
+        put(&mut doc, key, value).map_err(|m| invalid(key, m))?;
+        let raw: RawTopology = doc
+            .try_into()
+            .map_err(|e: toml::de::Error| invalid(key, e.message().trim_end().to_string()))?;
+        self.revalidate(raw, self.checks())
+    }
+
+    /// SHA-256 (hex) of [`Scenario::to_toml`] and of every recorded IMU file a node reads: one run of a campaign
+    /// is this and its seed.
+    pub fn digest(&self) -> String {
+        let mut h = Sha256::new();
+        h.update(self.to_toml().as_bytes());
+        for r in self.nodes.iter().filter_map(|n| n.recording.as_ref()) {
+            h.update(r.path.as_bytes());
+            match std::fs::read(&r.path) {
+                Ok(bytes) => h.update(&bytes),
+                Err(e) => h.update(e.to_string().as_bytes()),
+            }
+        }
+        h.finalize().iter().map(|b| format!("{b:02x}")).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn values_read_as_toml_or_text() {
+        assert_eq!(parse_value("0.2"), toml::Value::Float(0.2));
+        assert_eq!(parse_value("3"), toml::Value::Integer(3));
+        assert_eq!(parse_value("true"), toml::Value::Boolean(true));
+        assert_eq!(
+            parse_value("gilbert-elliott"),
+            toml::Value::String("gilbert-elliott".into())
+        );
+        assert_eq!(
+            parse_value("[1, 2]"),
+            toml::Value::Array(vec![toml::Value::Integer(1), toml::Value::Integer(2)])
+        );
+    }
+
+    /// Every built-in is the scenario its own TOML reads back as, with the same digest.
+    #[test]
+    fn every_builtin_round_trips_through_its_toml() {
+        for (name, _) in super::super::builtin::ALL {
+            let s = Scenario::resolve(name).unwrap();
+            let again = Scenario::from_toml(&s.to_toml(), name).unwrap();
+            assert_eq!(again.to_toml(), s.to_toml(), "{name}");
+            assert_eq!(again.digest(), s.digest(), "{name}");
+            assert_eq!(again.links().len(), s.links().len(), "{name}");
+        }
+    }
+
+    #[test]
+    fn keys_set_what_they_name() {
+        let s = Scenario::resolve("ring3").unwrap();
+        let t = s.set("link.loss.p", parse_value("0.25")).unwrap();
+        assert!(t
+            .links()
+            .iter()
+            .all(|l| l.config.loss == crate::link::LossModel::Bernoulli { p: 0.25 }));
+        assert_ne!(t.digest(), s.digest());
+        let t = s.set("sim.rate_hz", parse_value("50")).unwrap();
+        assert_eq!(t.sim().rate_hz, 50.0);
+        let t = s.set("node[1].sensor.gyro_noise", parse_value("0.01")).unwrap();
+        assert_eq!(t.nodes()[1].sensor.gyro_noise, 0.01);
+        let t = s.set("estimators.rounds", parse_value("4")).unwrap();
+        assert_eq!(t.estimators().rounds, 4);
+        for (key, value, named) in [
+            ("sim.rat_hz", "5", "rat_hz"),
+            ("link.loss.p", "1.5", "link.loss.p"),
+            ("node[7].sensor.gyro_noise", "0.1", "no node[7]"),
+            ("sim.rate_hz.x", "1", "not a table"),
+            ("sim.seed", "3", "--seeds"),
+            ("estimators.rounds", "2.5", "expected u64"),
+        ] {
+            let e = s.set(key, parse_value(value)).unwrap_err().to_string();
+            assert!(e.contains(named), "{key} = {value}: {e}");
+        }
+    }
+
+    /// A generated graph's node count is a key: `[generate]` gives the nodes and edges.
+    #[test]
+    fn a_generated_graph_follows_its_node_count() {
+        let text = "[generate]\ngraph = \"ring\"\nnodes = 5\nnaive_every = 3\n";
+        let s = Scenario::from_toml(text, "gen.toml").unwrap();
+        assert_eq!((s.nodes().len(), s.links().len()), (5, 10));
+        assert_eq!(s.nodes()[2].role, crate::scenario::Role::Estimator);
+        let t = s.set("generate.nodes", parse_value("12")).unwrap();
+        assert_eq!((t.nodes().len(), t.links().len()), (12, 24));
+        assert!(t.to_toml().contains("[generate]") && !t.to_toml().contains("[[node]]"));
+        for (text, key) in [
+            ("[generate]\ngraph = \"ring\"\nnodes = 0\n", "generate.nodes"),
+            ("[generate]\ngraph = \"torus\"\nnodes = 4\n", "generate.graph"),
+            (
+                "[generate]\ngraph = \"ring\"\nnodes = 4\ncolumns = 2\n",
+                "generate.columns",
+            ),
+            (
+                "[generate]\ngraph = \"ring\"\nnodes = 4\n[[node]]\nid = 0\n",
+                "generate",
+            ),
+        ] {
+            let e = Scenario::from_toml(text, "gen.toml").unwrap_err().to_string();
+            assert!(e.contains(key), "{text}: {e}");
+        }
+    }
+}
