@@ -11,7 +11,7 @@
 //! | `points.rs` | per point, estimator and figure: mean, sd, n, Student-t 95 % interval ([`PointStat`]) |
 //! | `store.rs` | the directory: `plan.json`, `runs/KEY.json`, writes that are whole or absent |
 //! | `tables.rs` | `runs.csv` and `points.csv` |
-//! | `outputs.rs` | the files a finished campaign writes from its records: tables, `sweep.svg`, `manifest.json` |
+//! | `outputs.rs` | the files a finished campaign writes from its records: tables, `sweep.svg`, `manifest.json`, `report.html` |
 //! | `stack.rs` | a Docker Swarm stack that runs the shards of a campaign as the tasks of one service |
 //!
 //! A campaign is run by [`run_missing`] with a function that makes a run's [`Summary`] from its scenario (in memory

@@ -1,5 +1,5 @@
-//! What a finished campaign writes from its stored records — `runs.csv`, `points.csv`, `sweep.svg` and
-//! `manifest.json` — each written whole or not at all. The records are read back from the store every time, so that
+//! What a finished campaign writes from its stored records — `runs.csv`, `points.csv`, `sweep.svg`,
+//! `manifest.json` and `report.html` — each written whole or not at all. The records are read back from the store every time, so that
 //! a campaign run at once and one resumed after a kill write the same bytes.
 
 use std::path::Path;
@@ -111,7 +111,8 @@ pub fn finish(store: &Store, plan: &PlanFile, me: &ShardInfo) -> Result<Finished
     let mut buf = Vec::new();
     super::write_points(&mut buf, plan, &stats)?;
     put("points.csv", buf)?;
-    put("sweep.svg", figure(plan, &stats)?.into_bytes())?;
+    let svg = figure(plan, &stats)?;
+    put("sweep.svg", svg.clone().into_bytes())?;
     let mut made_by = shards(dir)?;
     if !made_by.iter().any(|s| s.shard == me.shard) {
         made_by.push(me.clone());
@@ -135,6 +136,10 @@ pub fn finish(store: &Store, plan: &PlanFile, me: &ShardInfo) -> Result<Finished
     put(
         "manifest.json",
         (serde_json::to_string_pretty(&manifest).expect("serialises") + "\n").into_bytes(),
+    )?;
+    put(
+        "report.html",
+        crate::report::html::sweep_page(plan, &manifest, &stats, &svg).into_bytes(),
     )?;
     Ok(Finished {
         runs: runs.len(),
@@ -170,30 +175,37 @@ const FIGURES: [(&str, &str); 3] = [
     ("disagreement", "disagreement across nodes"),
 ];
 
-/// `sweep.svg`: each figure against the first swept key (one row of panels per combination of the others), one line
-/// per estimator with its 95 % band.
+/// `sweep.svg`: each figure against the first key swept over more than one value (one row of panels per combination
+/// of the other such keys), one line per estimator with its 95 % band.
 pub fn figure(plan: &PlanFile, stats: &[PointStat]) -> Result<String, CampaignError> {
-    let Some(first) = plan.axes.first() else {
+    let Some(xi) = (0..plan.axes.len())
+        .find(|&i| plan.axes[i].values.len() > 1)
+        .or((!plan.axes.is_empty()).then_some(0))
+    else {
         return Ok(crate::report::plot::sweep(&[], 1, "", None, "no swept key")?);
     };
-    let numeric = first
-        .values
-        .iter()
-        .all(|v| v.as_float().or(v.as_integer().map(|i| i as f64)).is_some());
+    let first = &plan.axes[xi];
+    let number = |v: &toml::Value| v.as_float().or(v.as_integer().map(|i| i as f64));
+    let numeric = first.values.iter().all(|v| number(v).is_some());
     let x_of = |point: usize| -> f64 {
-        let v = &plan.points[point].values[0];
+        let v = &plan.points[point].values[xi];
         if numeric {
-            v.as_float().or(v.as_integer().map(|i| i as f64)).unwrap_or(f64::NAN)
+            number(v).unwrap_or(f64::NAN)
         } else {
             first.values.iter().position(|w| w == v).map_or(f64::NAN, |i| i as f64)
         }
     };
-    // Rows: the combinations of the other keys, in point order.
+    // Rows: the combinations of the other keys that vary, in point order.
+    let others: Vec<usize> = (0..plan.axes.len())
+        .filter(|&i| i != xi && plan.axes[i].values.len() > 1)
+        .collect();
+    let rest =
+        |point: usize| -> Vec<toml::Value> { others.iter().map(|&i| plan.points[point].values[i].clone()).collect() };
     let mut combos: Vec<Vec<toml::Value>> = Vec::new();
-    for p in &plan.points {
-        let rest = p.values[1..].to_vec();
-        if !combos.contains(&rest) {
-            combos.push(rest);
+    for p in 0..plan.points.len() {
+        let r = rest(p);
+        if !combos.contains(&r) {
+            combos.push(r);
         }
     }
     let estimators: Vec<String> = {
@@ -217,10 +229,10 @@ pub fn figure(plan: &PlanFile, stats: &[PointStat]) -> Result<String, CampaignEr
         .collect();
     let mut panels = Vec::new();
     for combo in combos.iter().take(crate::report::plot::MAX_SWEEP_ROWS) {
-        let at: String = plan.axes[1..]
+        let at: String = others
             .iter()
             .zip(combo)
-            .map(|(a, v)| format!("{} = {}", a.key, cell(v)))
+            .map(|(&i, v)| format!("{} = {}", plan.axes[i].key, cell(v)))
             .collect::<Vec<_>>()
             .join(", ");
         for (metric, label) in &shown {
@@ -231,14 +243,16 @@ pub fn figure(plan: &PlanFile, stats: &[PointStat]) -> Result<String, CampaignEr
             };
             let lines = estimators
                 .iter()
-                .filter(|e| !(*metric == "ratio_to_centralized" && e.as_str() == "centralized"))
-                .map(|e| SweepLine {
+                .enumerate()
+                .filter(|(_, e)| !(*metric == "ratio_to_centralized" && e.as_str() == "centralized"))
+                .map(|(i, e)| SweepLine {
                     label: e.clone(),
                     reference: e == "centralized",
+                    colour: i,
                     points: stats
                         .iter()
                         .filter(|s| s.estimator == *e && s.metric == *metric)
-                        .filter(|s| plan.points[s.point].values[1..] == combo[..])
+                        .filter(|s| rest(s.point) == *combo)
                         .map(|s| (x_of(s.point), s.stat.mean, s.stat.low, s.stat.high))
                         .collect(),
                 })
@@ -256,6 +270,13 @@ pub fn figure(plan: &PlanFile, stats: &[PointStat]) -> Result<String, CampaignEr
         }
     }
     let names: Vec<String> = first.values.iter().map(cell).collect();
+    // Keys held at one value are said in the title.
+    let fixed: String = plan
+        .axes
+        .iter()
+        .filter(|a| a.values.len() == 1)
+        .map(|a| format!(", {} = {}", a.key, cell(&a.values[0])))
+        .collect();
     let more = if combos.len() > crate::report::plot::MAX_SWEEP_ROWS {
         format!(
             " — first {} of {} combinations",
@@ -271,7 +292,7 @@ pub fn figure(plan: &PlanFile, stats: &[PointStat]) -> Result<String, CampaignEr
         &first.key,
         (!numeric).then_some(&names[..]),
         &format!(
-            "{}: against {} ({} seeds per point, 95 % confidence bands){more}",
+            "{}{fixed}: against {} ({} seeds per point, 95 % confidence bands){more}",
             plan.topology, first.key, plan.seeds
         ),
     )?)

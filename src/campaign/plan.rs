@@ -178,10 +178,12 @@ impl Plan {
         let mut out = Vec::with_capacity(points);
         for index in 0..points {
             let values = combination(&axes, index);
-            let mut s = base.clone();
-            for (a, v) in axes.iter().zip(&values) {
-                s = s.set(&a.key, v.clone()).map_err(|e| at_point(e, &axes, &values))?;
-            }
+            let keys: Vec<(&str, toml::Value)> = axes
+                .iter()
+                .map(|a| a.key.as_str())
+                .zip(values.iter().cloned())
+                .collect();
+            let s = base.set_all(&keys).map_err(|e| at_point(e, &axes, &values))?;
             let digest = s.digest();
             out.push(Point {
                 index,

@@ -86,7 +86,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), CampaignError> {
     })
 }
 
-/// A file's text, refused past [`MAX_FILE`] bytes.
+/// A file's text, refused past 64 MiB.
 pub fn read_capped(path: &Path) -> Result<String, CampaignError> {
     use std::io::Read;
     let io = |source| CampaignError::Io {

@@ -59,6 +59,49 @@ pub struct RunArgs {
     /// Print summary.json on stdout instead of the table.
     #[arg(long)]
     pub json: bool,
+    /// With --out: also write every CSV table as Parquet (zstd; needs a build with the `parquet` feature).
+    #[arg(long, value_enum, default_value = "csv")]
+    pub format: Format,
+}
+
+/// The format of the tables written besides the CSVs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
+pub enum Format {
+    #[default]
+    Csv,
+    Parquet,
+}
+
+impl Format {
+    /// Parquet needs the `parquet` feature: a build without it refuses the option before any work.
+    pub fn check(self) -> Result<Format, UsageError> {
+        if self == Format::Parquet && !cfg!(feature = "parquet") {
+            return Err(UsageError::Option(
+                "--format parquet: this simnet was built without Parquet (cargo build --release --features parquet)"
+                    .into(),
+            ));
+        }
+        Ok(self)
+    }
+}
+
+/// Each of `names` in `dir` that is a `.csv` beside itself as `.parquet`; the names written.
+pub(super) fn parquet_copies(dir: &Path, names: &[String]) -> anyhow::Result<Vec<String>> {
+    #[cfg(feature = "parquet")]
+    {
+        let mut wrote = Vec::new();
+        for n in names.iter().filter(|n| n.ends_with(".csv")) {
+            let pq = format!("{}.parquet", n.trim_end_matches(".csv"));
+            crate::report::parquet::csv_to_parquet(&dir.join(n), &dir.join(&pq))?;
+            wrote.push(pq);
+        }
+        Ok(wrote)
+    }
+    #[cfg(not(feature = "parquet"))]
+    {
+        let _ = (dir, names);
+        Ok(Vec::new())
+    }
 }
 
 /// One `--estimators` entry: a scheme, or every scheme.

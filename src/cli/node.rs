@@ -84,6 +84,12 @@ pub(super) fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode>
     let bind = args
         .bind
         .unwrap_or_else(|| std::net::SocketAddr::from(([0, 0, 0, 0], port)));
+    if args.run.format != Format::Csv {
+        return Err(UsageError::Option(
+            "a node writes its part as CSV; `simnet collect` merges the parts: drop --format".into(),
+        )
+        .into());
+    }
     let out_dir = args.run.out.as_deref().map(OutDir::prepare).transpose()?;
     let steps = topo.sim().steps();
     let progress = (!quiet && !args.run.json).then(|| progress_bar(steps));
@@ -153,7 +159,7 @@ pub(super) fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
     }
     rec.fused(fused.collect());
     let (rows, fused) = d.finish_trace(Some(rec))?;
-    let wrote = write_files(&d.dir, &s, dt, &rows, &fused)?;
+    let wrote = write_files(&d.dir, &s, dt, &rows, &fused, Vec::new())?;
     print_summary(&s, args.json, None)?;
     if !args.json {
         println!("\nwrote {}/{{{}}}", d.dir.display(), wrote.join(", "));

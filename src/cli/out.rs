@@ -120,13 +120,18 @@ pub(super) fn progress_bar_of(len: u64, template: &str) -> indicatif::ProgressBa
 
 pub use crate::report::write_atomic;
 
-/// summary.json, links.csv and the three plots, each written atomically; the names written.
+/// A plot beside the three every run has: (file name, caption, SVG).
+pub(super) type Plot = (&'static str, String, String);
+
+/// summary.json, links.csv, the three plots, `extra` plots and report.html (all of them inline), each written
+/// atomically; the names written.
 pub(super) fn write_files(
     dir: &Path,
     s: &summary::Summary,
     dt: f64,
     rows: &[crate::node::TraceRow],
     fused: &[crate::observe::fusion::FusedRow],
+    extra: Vec<Plot>,
 ) -> anyhow::Result<Vec<String>> {
     let d = OutDir { dir: dir.to_path_buf() };
     d.put("summary.json", s.to_json().as_bytes())?;
@@ -134,26 +139,31 @@ pub(super) fn write_files(
     summary::write_links(&mut buf, &s.links)?;
     d.put("links.csv", &buf)?;
     let title = |what: &str| format!("{} — {what} (seed {})", s.topology, s.seed);
-    d.put(
-        "trajectory.svg",
-        plot::trajectory(rows, fused, s.model.trajectory_view(), &title("trajectories"))?.as_bytes(),
-    )?;
-    d.put(
-        "error.svg",
-        plot::error(rows, fused, dt, s.model, &title("error, networked vs independent"))?.as_bytes(),
-    )?;
-    d.put(
-        "trace_p.svg",
-        plot::trace_p(rows, dt, &title("trace P, networked vs independent"))?.as_bytes(),
-    )?;
-    Ok([
-        "trace.csv",
-        "summary.json",
-        "links.csv",
-        "trajectory.svg",
-        "error.svg",
-        "trace_p.svg",
-    ]
-    .map(String::from)
-    .to_vec())
+    let mut plots: Vec<Plot> = vec![
+        (
+            "trajectory.svg",
+            "trajectories".into(),
+            plot::trajectory(rows, fused, s.model.trajectory_view(), &title("trajectories"))?,
+        ),
+        (
+            "error.svg",
+            "error over time, networked against independent".into(),
+            plot::error(rows, fused, dt, s.model, &title("error, networked vs independent"))?,
+        ),
+        (
+            "trace_p.svg",
+            "trace of the covariance, networked against independent".into(),
+            plot::trace_p(rows, dt, &title("trace P, networked vs independent"))?,
+        ),
+    ];
+    plots.extend(extra);
+    let mut wrote: Vec<String> = ["trace.csv", "summary.json", "links.csv"].map(String::from).to_vec();
+    for (name, _, svg) in &plots {
+        d.put(name, svg.as_bytes())?;
+        wrote.push(name.to_string());
+    }
+    let captioned: Vec<(String, String)> = plots.into_iter().map(|(_, c, svg)| (c, svg)).collect();
+    d.put("report.html", crate::report::html::run_page(s, &captioned).as_bytes())?;
+    wrote.push("report.html".into());
+    Ok(wrote)
 }

@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use clap::{Args, ValueEnum};
 
-use super::{progress_bar_of, write_atomic, RunArgs, UsageError};
+use super::{progress_bar_of, write_atomic, Format, RunArgs, UsageError};
 use crate::net::{self, RunOptions};
 use crate::protocol::{self, Boundary, Evaluation, Objective, SearchConfig, SearchResult};
 use crate::report::plot;
@@ -77,6 +77,9 @@ fn row_sum(s: &str) -> Result<f64, String> {
 pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     if args.run.realtime {
         return Err(UsageError::Option("protocol scores whole runs in virtual time: drop --realtime".into()).into());
+    }
+    if args.run.format != Format::Csv {
+        return Err(UsageError::Option("protocol writes protocol.csv only: drop --format".into()).into());
     }
     if args.solver == SolverArg::Sdp && !cfg!(feature = "sdp") {
         return Err(UsageError::Option(

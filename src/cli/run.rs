@@ -3,6 +3,7 @@
 use super::*;
 
 pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
+    let parquet = args.format.check()? == Format::Parquet;
     let topo = Arc::new(args.topology()?);
     // A bad --out fails now, not after the run.
     let out_dir = args.out.as_deref().map(OutDir::prepare).transpose()?;
@@ -43,7 +44,17 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         // Each sensing node's IMU samples with the true pose (input for `simnet reconstruct`), streamed too.
         let imu = out.trace.as_ref().map(|t| t.imu_nodes()).unwrap_or_default();
         let (rows, fused) = d.finish_trace(out.trace.take())?;
-        wrote = write_files(&d.dir, &s, topo.sim().dt(), &rows, &fused)?;
+        let schemes = out.observer.as_ref().and_then(|o| o.schemes()).map(|s| s.rows());
+        let mut extra = Vec::new();
+        if let Some(rows) = schemes {
+            let title = format!("{} — every estimator's error (seed {})", s.topology, s.seed);
+            extra.push((
+                "estimators.svg",
+                "every estimator's median-over-nodes error, the centralized reference in black".to_string(),
+                plot::estimators(rows, topo.sim().dt(), s.model, &title)?,
+            ));
+        }
+        wrote = write_files(&d.dir, &s, topo.sim().dt(), &rows, &fused, extra)?;
         for id in imu {
             let name = format!("imu-{id}.csv");
             d.rename_tmp(&name)?;
@@ -51,15 +62,13 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         }
         d.rename_tmp(MEASUREMENTS)?;
         wrote.push(MEASUREMENTS.into());
-        if let Some(rows) = out.observer.as_ref().and_then(|o| o.schemes()).map(|s| s.rows()) {
+        if schemes.is_some() {
             d.rename_tmp(ESTIMATORS)?;
             wrote.push(ESTIMATORS.into());
-            let title = format!("{} — every estimator's error (seed {})", s.topology, s.seed);
-            d.put(
-                "estimators.svg",
-                plot::estimators(rows, topo.sim().dt(), s.model, &title)?.as_bytes(),
-            )?;
-            wrote.push("estimators.svg".into());
+        }
+        if parquet {
+            let copies = parquet_copies(&d.dir, &wrote)?;
+            wrote.extend(copies);
         }
     }
     print_summary(&s, args.json, None)?;

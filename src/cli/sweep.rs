@@ -41,6 +41,9 @@ pub struct SweepArgs {
     /// Run shard I of N (1-based): the runs whose index is I−1 modulo N.
     #[arg(long, env = "SIMNET_SHARD", value_parser = campaign::parse_shard)]
     pub shard: Option<(usize, usize)>,
+    /// Also write runs and points as Parquet (zstd; needs a build with the `parquet` feature).
+    #[arg(long, value_enum, default_value = "csv")]
+    pub format: Format,
     /// Print a Docker Swarm stack file that runs the campaign as --replicas shards, instead of running it.
     #[arg(long, value_enum)]
     pub emit: Option<Emit>,
@@ -62,6 +65,9 @@ pub enum SweepCommand {
         /// Where the joined campaign goes (default: the first directory).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Also write runs and points as Parquet.
+        #[arg(long, value_enum, default_value = "csv")]
+        format: Format,
     },
 }
 
@@ -102,9 +108,10 @@ fn usage_or_run(e: CampaignError) -> anyhow::Error {
 }
 
 pub(super) fn sweep(args: &SweepArgs, quiet: bool) -> anyhow::Result<ExitCode> {
-    if let Some(SweepCommand::Merge { dirs, out }) = &args.command {
-        return merge(dirs, out.as_deref(), quiet);
+    if let Some(SweepCommand::Merge { dirs, out, format }) = &args.command {
+        return merge(dirs, out.as_deref(), format.check()?, quiet);
     }
+    let format = args.format.check()?;
     let started = now();
     let topology = args.topology.as_deref().unwrap_or_default();
     let axes: Vec<Axis> = args
@@ -245,11 +252,21 @@ pub(super) fn sweep(args: &SweepArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         }
         Err(e) => return Err(usage_or_run(e)),
     };
-    print_points(&file, &done.stats)?;
+    wrote(dir, &file, done, format)
+}
+
+/// The tables of a finished campaign, their Parquet copies, and what was written.
+fn wrote(dir: &Path, file: &PlanFile, done: campaign::Finished, format: Format) -> anyhow::Result<ExitCode> {
+    let mut files = done.files;
+    if format == Format::Parquet {
+        let copies = parquet_copies(dir, &files)?;
+        files.extend(copies);
+    }
+    print_points(file, &done.stats)?;
     println!(
         "\nwrote {}/{{{}}} ({} runs)",
         dir.display(),
-        done.files.join(", "),
+        files.join(", "),
         done.runs
     );
     Ok(ExitCode::SUCCESS)
@@ -257,7 +274,7 @@ pub(super) fn sweep(args: &SweepArgs, quiet: bool) -> anyhow::Result<ExitCode> {
 
 /// `sweep merge`: every shard directory's records into `out`, checked to be one campaign; the files once all runs are
 /// there.
-fn merge(dirs: &[PathBuf], out: Option<&Path>, quiet: bool) -> anyhow::Result<ExitCode> {
+fn merge(dirs: &[PathBuf], out: Option<&Path>, format: Format, quiet: bool) -> anyhow::Result<ExitCode> {
     let started = now();
     let mut plans = Vec::new();
     for d in dirs {
@@ -319,16 +336,7 @@ fn merge(dirs: &[PathBuf], out: Option<&Path>, quiet: bool) -> anyhow::Result<Ex
         ran: 0,
     };
     match campaign::finish(&store, &file, &me) {
-        Ok(done) => {
-            print_points(&file, &done.stats)?;
-            println!(
-                "\nwrote {}/{{{}}} ({} runs)",
-                out.display(),
-                done.files.join(", "),
-                done.runs
-            );
-            Ok(ExitCode::SUCCESS)
-        }
+        Ok(done) => wrote(out, &file, done, format),
         Err(e @ CampaignError::Missing { .. }) => {
             eprintln!(
                 "error: {e}: a shard has not finished, or its directory is not among {}",

@@ -1,5 +1,9 @@
-//! Results: `summary.json`, the stdout table, `trace.csv`, `links.csv` and plots. Writers take `impl Write`.
+//! Results: `summary.json`, the stdout table, `trace.csv`, `links.csv`, plots and `report.html`. Writers take
+//! `impl Write`.
 
+pub mod html;
+#[cfg(feature = "parquet")]
+pub mod parquet;
 pub mod parts;
 pub mod plot;
 pub mod summary;

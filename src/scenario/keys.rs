@@ -91,6 +91,12 @@ impl Scenario {
     /// `value`, validated again as a whole: a key the file format does not have, or a value out of its range, is
     /// an error naming it.
     pub fn set(&self, key: &str, value: toml::Value) -> Result<Scenario, ScenarioError> {
+        self.set_all(&[(key, value)])
+    }
+
+    /// This scenario with every `(key, value)` set, validated once as a whole: keys that only make sense together
+    /// (`link.loss.model` and `link.loss.burst`) change together.
+    pub fn set_all(&self, keys: &[(&str, toml::Value)]) -> Result<Scenario, ScenarioError> {
         let invalid = |key: &str, message: String| ScenarioError::Invalid {
             file: self.source.clone(),
             problems: vec![Problem {
@@ -98,17 +104,21 @@ impl Scenario {
                 message,
             }],
         };
-        if key == "sim.seed" {
-            return Err(invalid(
-                key,
-                "the seed is chosen per run (--seeds), not as a key".into(),
-            ));
+        let mut doc = toml::Value::try_from(&self.raw).map_err(|e| invalid("", e.to_string()))?;
+        for (key, value) in keys {
+            if *key == "sim.seed" {
+                return Err(invalid(
+                    key,
+                    "the seed is chosen per run (--seeds), not as a key".into(),
+                ));
+            }
+            put(&mut doc, key, value.clone()).map_err(|m| invalid(key, m))?;
         }
-        let mut doc = toml::Value::try_from(&self.raw).map_err(|e| invalid(key, e.to_string()))?;
-        put(&mut doc, key, value).map_err(|m| invalid(key, m))?;
-        let raw: RawTopology = doc
-            .try_into()
-            .map_err(|e: toml::de::Error| invalid(key, e.message().trim_end().to_string()))?;
+        let raw: RawTopology = doc.try_into().map_err(|e: toml::de::Error| {
+            // The message names the field the file format does not take; the keys set say where.
+            let keys: Vec<&str> = keys.iter().map(|(k, _)| *k).collect();
+            invalid(&keys.join(", "), e.message().trim_end().to_string())
+        })?;
         self.revalidate(raw, self.checks())
     }
 

@@ -193,7 +193,7 @@ fn every_builtin_validates_and_is_listed() {
 /// Bad estimator options are usage errors naming the option, before any run.
 #[test]
 fn bad_estimator_options_exit_2() {
-    for (args, names) in [
+    let mut cases = vec![
         (vec!["-t", "ring3", "--estimators", "icf,kalman"], "kalman"),
         (vec!["-t", "ring3", "--rounds", "0"], "--rounds"),
         (vec!["-t", "ring3", "--rounds", "101"], "--rounds"),
@@ -202,7 +202,15 @@ fn bad_estimator_options_exit_2() {
             vec!["node", "-t", "ring3", "--id", "0", "--estimators", "icf,centralized"],
             "--estimators centralized",
         ),
-    ] {
+    ];
+    // A build without Parquet refuses it before running.
+    if !cfg!(feature = "parquet") {
+        cases.push((
+            vec!["-t", "ring3", "--format", "parquet", "--out", "/tmp/never"],
+            "parquet",
+        ));
+    }
+    for (args, names) in cases {
         let out = simnet().args(&args).output().unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");

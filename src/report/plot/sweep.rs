@@ -4,7 +4,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::{axis, err, font, legend, palette, tick, PlotError};
+use super::{axis, err, font, palette, tick, PlotError};
 
 /// One estimator's line: (x, mean, CI low, CI high) per point.
 #[derive(Debug, Clone)]
@@ -13,7 +13,20 @@ pub struct SweepLine {
     pub points: Vec<(f64, f64, f64, f64)>,
     /// Drawn black and thick: the reference.
     pub reference: bool,
+    /// Its colour in every panel (an index into the palette).
+    pub colour: usize,
 }
+
+fn colour(l: &SweepLine) -> RGBColor {
+    if l.reference {
+        BLACK
+    } else {
+        palette(l.colour)
+    }
+}
+
+/// Width of the legend column at the right.
+const LEGEND: u32 = 190;
 
 /// One panel: a figure at one combination of the other keys.
 #[derive(Debug, Clone)]
@@ -39,15 +52,34 @@ pub fn sweep(
     font();
     let columns = columns.clamp(1, 4);
     let rows = panels.len().div_ceil(columns).clamp(1, MAX_ROWS);
-    let size = (540 * columns as u32, 60 + 400 * rows as u32);
+    let size = (540 * columns as u32 + LEGEND, 60 + 400 * rows as u32);
     let mut out = String::new();
     {
         let root = SVGBackend::with_string(&mut out, size).into_drawing_area();
         root.fill(&WHITE).map_err(err(NAME))?;
         let root = root.titled(title, ("sans-serif", 24)).map_err(err(NAME))?;
-        let areas = root.split_evenly((rows, columns));
+        let (plots, key) = root.split_horizontally(size.0 - LEGEND);
+        let areas = plots.split_evenly((rows, columns));
         for (panel, area) in panels.iter().zip(areas) {
             draw_panel(&area, panel, x_desc, x_labels)?;
+        }
+        // One legend for every panel: each estimator keeps its colour throughout.
+        let mut seen: Vec<&SweepLine> = Vec::new();
+        for l in panels.iter().flat_map(|p| &p.lines) {
+            if !seen.iter().any(|s| s.label == l.label) {
+                seen.push(l);
+            }
+        }
+        for (i, l) in seen.iter().enumerate() {
+            let y = 40 + 26 * i as i32;
+            let c = colour(l);
+            key.draw(&PathElement::new(
+                vec![(10, y), (40, y)],
+                c.stroke_width(if l.reference { 3 } else { 2 }),
+            ))
+            .map_err(err(NAME))?;
+            key.draw(&Text::new(l.label.clone(), (48, y - 8), ("sans-serif", 16)))
+                .map_err(err(NAME))?;
         }
         root.present().map_err(err(NAME))?;
     }
@@ -99,8 +131,8 @@ fn draw_panel(
                 mesh.x_labels(names.len() + 1);
             }
             mesh.draw().map_err(err(NAME))?;
-            for (i, line) in p.lines.iter().enumerate() {
-                let c = if line.reference { BLACK } else { palette(i) };
+            for line in &p.lines {
+                let c = colour(line);
                 let pts: Vec<(f64, f64, f64, f64)> = line
                     .points
                     .iter()
@@ -128,14 +160,11 @@ fn draw_panel(
                 let style = c.stroke_width(if line.reference { 3 } else { 2 });
                 chart
                     .draw_series(LineSeries::new(pts.iter().map(|q| (q.0, q.1)), style))
-                    .map_err(err(NAME))?
-                    .label(line.label.as_str())
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+                    .map_err(err(NAME))?;
                 chart
                     .draw_series(pts.iter().map(|q| Circle::new((q.0, q.1), 3, c.filled())))
                     .map_err(err(NAME))?;
             }
-            legend(&mut chart, NAME)?;
         }};
     }
     if log {

@@ -8,6 +8,7 @@ mod table;
 
 pub use csv::write_links;
 pub use estimators::{EstimatorNode, EstimatorSummary};
+pub(crate) use table::figure;
 
 use serde::{Deserialize, Serialize};
 

@@ -4,7 +4,7 @@ use super::*;
 use std::io::{self, Write};
 
 /// A figure of the table: four decimals, or three significant digits in exponent form from 1e4 on; `—` unknown.
-fn figure(v: Option<f64>) -> String {
+pub(crate) fn figure(v: Option<f64>) -> String {
     v.map_or("—".to_string(), |x| {
         if x.abs() < 1e4 {
             format!("{x:.4}")
