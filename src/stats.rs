@@ -46,6 +46,37 @@ pub struct MeanCi {
 }
 
 impl MeanCi {
+    /// `mean ± half-width`, to the second significant digit of the half-width (four significant digits without
+    /// one); `—` without a mean.
+    pub fn text(&self) -> String {
+        if !self.mean.is_finite() {
+            return "—".into();
+        }
+        let half = self.high - self.mean;
+        let digits =
+            |v: f64, keep: i32| (keep - v.abs().log10().floor().clamp(-20.0, 20.0) as i32).clamp(0, 12) as usize;
+        if half.is_finite() && half > 0.0 {
+            let d = digits(half, 1);
+            format!("{:.d$} ± {:.d$}", self.mean, half)
+        } else if self.mean != 0.0 {
+            let d = digits(self.mean, 3);
+            format!("{:.d$}", self.mean)
+        } else {
+            "0".into()
+        }
+    }
+
+    /// The same sample measured in another unit (× `k`, k > 0): a fraction as a percentage.
+    pub fn scaled(&self, k: f64) -> MeanCi {
+        MeanCi {
+            mean: k * self.mean,
+            sd: k * self.sd,
+            low: k * self.low,
+            high: k * self.high,
+            ..*self
+        }
+    }
+
     /// Over the finite values of `v`, at confidence `level` (0.95 for 95 %).
     pub fn of(v: &[f64], level: f64) -> MeanCi {
         let v: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
@@ -102,5 +133,12 @@ mod tests {
         let one = MeanCi::of(&[2.0, f64::NAN], 0.95);
         assert_eq!(one.n, 1);
         assert!(one.sd.is_nan() && one.low.is_nan());
+        // Written to the second significant digit of the half-width.
+        assert_eq!(ci.text(), "5.5 ± 2.2");
+        assert_eq!(MeanCi::of(&[0.01, 0.012, 0.011], 0.95).text(), "0.0110 ± 0.0025");
+        assert_eq!(one.text(), "2.000");
+        assert_eq!(MeanCi::of(&[0.0, 0.0], 0.95).text(), "0");
+        assert_eq!(MeanCi::of(&[], 0.95).text(), "—");
+        assert_eq!(MeanCi::of(&[0.1, 0.3], 0.95).scaled(100.0).text(), "20 ± 127");
     }
 }

@@ -35,7 +35,7 @@ use crate::Summary;
 
 pub use outputs::{figure, finish, record_shard, Finished, Manifest, ShardInfo};
 pub use plan::{cell, parse_shard, shard, Axis, Plan, Point, RunSpec, MAX_RUNS, MAX_VALUES};
-pub use points::{points, PointStat, LEVEL, NETWORK};
+pub use points::{estimators_of, mean_error_table, points, PointStat, LEVEL, NETWORK};
 pub use record::{RunRecord, ESTIMATOR_METRICS, NETWORK_METRICS};
 pub use stack::{stack_file, StackOptions};
 pub use store::{read_capped, write_atomic, Store};
@@ -157,6 +157,11 @@ impl PlanFile {
 
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).expect("a plan always serialises")
+    }
+
+    /// The key the plots run along: the first swept over more than one value (else the first).
+    pub fn x_axis(&self) -> Option<&Axis> {
+        self.axes.iter().find(|a| a.values.len() > 1).or(self.axes.first())
     }
 
     /// `key = value, …` of point `i`.

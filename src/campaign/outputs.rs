@@ -178,9 +178,9 @@ const FIGURES: [(&str, &str); 3] = [
 /// `sweep.svg`: each figure against the first key swept over more than one value (one row of panels per combination
 /// of the other such keys), one line per estimator with its 95 % band.
 pub fn figure(plan: &PlanFile, stats: &[PointStat]) -> Result<String, CampaignError> {
-    let Some(xi) = (0..plan.axes.len())
-        .find(|&i| plan.axes[i].values.len() > 1)
-        .or((!plan.axes.is_empty()).then_some(0))
+    let Some(xi) = plan
+        .x_axis()
+        .and_then(|x| plan.axes.iter().position(|a| a.key == x.key))
     else {
         return Ok(crate::report::plot::sweep(&[], 1, "", None, "no swept key")?);
     };
@@ -208,16 +208,7 @@ pub fn figure(plan: &PlanFile, stats: &[PointStat]) -> Result<String, CampaignEr
             combos.push(r);
         }
     }
-    let estimators: Vec<String> = {
-        let mut names: Vec<&str> = stats
-            .iter()
-            .filter(|s| s.estimator != NETWORK)
-            .map(|s| s.estimator.as_str())
-            .collect();
-        names.sort_by_key(|n| crate::estimators::Kind::from_name(n).map_or(usize::MAX, |k| k as usize));
-        names.dedup();
-        names.into_iter().map(String::from).collect()
-    };
+    let estimators = super::estimators_of(stats);
     let shown: Vec<(&str, &str)> = FIGURES
         .iter()
         .copied()

@@ -65,3 +65,47 @@ pub fn points(records: &[RunRecord], points: usize) -> Vec<PointStat> {
     }
     out
 }
+
+/// The estimators of `stats` (not the network), in the order `simnet estimators` lists them.
+pub fn estimators_of(stats: &[PointStat]) -> Vec<String> {
+    let mut names: Vec<&str> = stats
+        .iter()
+        .filter(|s| s.estimator != NETWORK)
+        .map(|s| s.estimator.as_str())
+        .collect();
+    names.sort_by_key(|n| (crate::estimators::Kind::rank(n), *n));
+    names.dedup();
+    names.into_iter().map(String::from).collect()
+}
+
+/// The table a campaign prints and its report shows: per point, the swept values, the measured loss (%) and each
+/// estimator's mean error, every figure `mean ± half its 95 % interval`. (header, rows).
+pub fn mean_error_table(plan: &super::PlanFile, stats: &[PointStat]) -> (Vec<String>, Vec<Vec<String>>) {
+    let names = estimators_of(stats);
+    let mut header: Vec<String> = plan.axes.iter().map(|a| a.key.clone()).collect();
+    header.push("loss".into());
+    header.extend(names.iter().cloned());
+    let get = |point: usize, est: &str, metric: &str| {
+        stats
+            .iter()
+            .find(|s| s.point == point && s.estimator == est && s.metric == metric)
+            .map_or("—".to_string(), |s| s.stat.text())
+    };
+    let rows = plan
+        .points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let mut r: Vec<String> = p.values.iter().map(super::cell).collect();
+            r.push(
+                stats
+                    .iter()
+                    .find(|s| s.point == i && s.estimator == NETWORK && s.metric == "loss_rate")
+                    .map_or("—".to_string(), |s| format!("{} %", s.stat.scaled(100.0).text())),
+            );
+            r.extend(names.iter().map(|n| get(i, n, "mean_error")));
+            r
+        })
+        .collect();
+    (header, rows)
+}

@@ -13,12 +13,7 @@ use super::PlanFile;
 /// The estimators of `records`, in the order `simnet estimators` lists them (unknown names after, by name).
 pub fn estimator_names(records: &[RunRecord]) -> Vec<String> {
     let mut names: Vec<&String> = records.iter().flat_map(|r| r.estimators.keys()).collect();
-    names.sort_by_key(|n| {
-        (
-            crate::estimators::Kind::from_name(n).map_or(usize::MAX, |k| k as usize),
-            *n,
-        )
-    });
+    names.sort_by_key(|n| (crate::estimators::Kind::rank(n), *n));
     names.dedup();
     names.into_iter().cloned().collect()
 }

@@ -414,67 +414,21 @@ fn stack(args: &SweepArgs, topology: &str) -> String {
     })
 }
 
-/// `mean ± half` to the second significant digit of `half` (four significant digits without one).
-fn with_ci(mean: f64, half: f64) -> String {
-    if half.is_finite() && half > 0.0 {
-        let decimals = (1 - half.log10().floor().clamp(-20.0, 20.0) as i32).clamp(0, 12) as usize;
-        format!("{mean:.decimals$} ± {half:.decimals$}")
-    } else if mean != 0.0 {
-        let decimals = (3 - mean.abs().log10().floor().clamp(-20.0, 20.0) as i32).clamp(0, 12) as usize;
-        format!("{mean:.decimals$}")
-    } else {
-        "0".into()
-    }
-}
-
 /// Each point's mean error per estimator with its 95 % interval, as a markdown table.
 fn print_points(plan: &PlanFile, stats: &[campaign::PointStat]) -> std::io::Result<()> {
     let mut out = std::io::stdout().lock();
-    let mut names: Vec<&str> = stats
-        .iter()
-        .filter(|s| s.estimator != campaign::NETWORK)
-        .map(|s| s.estimator.as_str())
-        .collect();
-    names.sort_by_key(|n| Kind::from_name(n).map_or(usize::MAX, |k| k as usize));
-    names.dedup();
-    let keys: Vec<&str> = plan.axes.iter().map(|a| a.key.as_str()).collect();
     writeln!(
         out,
-        "{}: {}, mean over {} seeds ± half the 95 % confidence interval",
+        "{}: {}, mean over {} seeds ± half the 95 % confidence interval\n",
         plan.topology,
         plan.model.error_text().label,
         plan.seeds
     )?;
-    writeln!(out)?;
-    writeln!(out, "| {} | loss | {} |", keys.join(" | "), names.join(" | "))?;
-    writeln!(out, "|{}", "---|".repeat(keys.len() + 1 + names.len()))?;
-    for (i, p) in plan.points.iter().enumerate() {
-        let get = |est: &str, metric: &str| {
-            stats
-                .iter()
-                .find(|s| s.point == i && s.estimator == est && s.metric == metric)
-                .map(|s| s.stat)
-        };
-        let fmt = |s: Option<crate::stats::MeanCi>, pct: bool| match s {
-            Some(s) if s.mean.is_finite() => {
-                let k = if pct { 100.0 } else { 1.0 };
-                format!(
-                    "{}{}",
-                    with_ci(k * s.mean, k * (s.high - s.mean)),
-                    if pct { " %" } else { "" }
-                )
-            }
-            _ => "—".into(),
-        };
-        let values: Vec<String> = p.values.iter().map(campaign::cell).collect();
-        let cells: Vec<String> = names.iter().map(|n| fmt(get(n, "mean_error"), false)).collect();
-        writeln!(
-            out,
-            "| {} | {} | {} |",
-            values.join(" | "),
-            fmt(get(campaign::NETWORK, "loss_rate"), true),
-            cells.join(" | ")
-        )?;
+    let (header, rows) = campaign::mean_error_table(plan, stats);
+    writeln!(out, "| {} |", header.join(" | "))?;
+    writeln!(out, "|{}", "---|".repeat(header.len()))?;
+    for r in rows {
+        writeln!(out, "| {} |", r.join(" | "))?;
     }
     Ok(())
 }

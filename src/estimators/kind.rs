@@ -45,6 +45,12 @@ impl Kind {
         Kind::ALL.into_iter().find(|k| k.name() == name)
     }
 
+    /// Where `simnet estimators` lists the scheme called `name` (a name it does not know sorts last): the order of
+    /// every table's estimator columns.
+    pub fn rank(name: &str) -> usize {
+        Kind::from_name(name).map_or(usize::MAX, |k| k as usize)
+    }
+
     /// `"all"` is every scheme; anything else one name of [`Kind::ALL`].
     pub fn parse_list(names: &[String]) -> Result<Vec<Kind>, String> {
         let mut out = Vec::new();

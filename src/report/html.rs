@@ -3,8 +3,7 @@
 
 use std::fmt::Write;
 
-use crate::campaign::{cell, Manifest, PlanFile, PointStat, NETWORK};
-use crate::stats::MeanCi;
+use crate::campaign::{cell, Manifest, PlanFile, PointStat};
 use crate::Summary;
 
 const STYLE: &str = "body{font-family:sans-serif;margin:2em auto;max-width:1200px;padding:0 1em;color:#222}\
@@ -145,12 +144,7 @@ pub fn run_page(s: &Summary, plots: &[(String, String)]) -> String {
             crate::scenario::count(rounds, "consensus round")
         );
         let mut names: Vec<&String> = s.estimators.keys().collect();
-        names.sort_by_key(|n| {
-            (
-                n.as_str() != "centralized",
-                crate::estimators::Kind::from_name(n).map(|k| k as usize),
-            )
-        });
+        names.sort_by_key(|n| (n.as_str() != "centralized", crate::estimators::Kind::rank(n)));
         let rows: Vec<Vec<String>> = names
             .iter()
             .map(|n| {
@@ -282,20 +276,6 @@ pub fn run_page(s: &Summary, plots: &[(String, String)]) -> String {
     h
 }
 
-/// `mean ± half`, to the second significant digit of the half-width.
-fn with_ci(s: &MeanCi) -> String {
-    if !s.mean.is_finite() {
-        return "—".into();
-    }
-    let half = s.high - s.mean;
-    if half.is_finite() && half > 0.0 {
-        let d = (1 - half.log10().floor().clamp(-20.0, 20.0) as i32).clamp(0, 12) as usize;
-        format!("{:.d$} ± {:.d$}", s.mean, half)
-    } else {
-        format!("{:.4}", s.mean)
-    }
-}
-
 /// The page of a campaign: `svg` is `sweep.svg`.
 pub fn sweep_page(plan: &PlanFile, manifest: &Manifest, stats: &[PointStat], svg: &str) -> String {
     let keys: Vec<&str> = plan.axes.iter().map(|a| a.key.as_str()).collect();
@@ -316,57 +296,20 @@ pub fn sweep_page(plan: &PlanFile, manifest: &Manifest, stats: &[PointStat], svg
             manifest.simnet
         ))
     );
-    let mut names: Vec<&str> = stats
-        .iter()
-        .filter(|s| s.estimator != NETWORK)
-        .map(|s| s.estimator.as_str())
-        .collect();
-    names.sort_by_key(|n| crate::estimators::Kind::from_name(n).map_or(usize::MAX, |k| k as usize));
-    names.dedup();
-    let get = |point: usize, est: &str, metric: &str| {
-        stats
-            .iter()
-            .find(|s| s.point == point && s.estimator == est && s.metric == metric)
-            .map(|s| s.stat)
-    };
     let _ = writeln!(
         h,
         "<h2>Mean error per point</h2>\n<p>{}: mean over the seeds ± half the 95 % confidence interval \
          (Student's t); loss: the measured fraction of datagrams lost.</p>",
         escape(plan.model.error_text().label)
     );
-    let mut header: Vec<String> = keys.iter().map(|k| k.to_string()).collect();
-    header.push("loss".into());
-    header.extend(names.iter().map(|n| n.to_string()));
-    let rows: Vec<Vec<String>> = plan
-        .points
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let mut r: Vec<String> = p.values.iter().map(cell).collect();
-            r.push(get(i, NETWORK, "loss_rate").map_or("—".into(), |s| {
-                with_ci(&MeanCi {
-                    mean: 100.0 * s.mean,
-                    low: 100.0 * s.low,
-                    high: 100.0 * s.high,
-                    ..s
-                }) + " %"
-            }));
-            r.extend(
-                names
-                    .iter()
-                    .map(|n| get(i, n, "mean_error").map_or("—".into(), |s| with_ci(&s))),
-            );
-            r
-        })
-        .collect();
+    let (header, rows) = crate::campaign::mean_error_table(plan, stats);
     h.push_str(&table("points", &header, &rows));
     let _ = writeln!(
         h,
         "<h2>Plot</h2>\n<figure>\n{}\n<figcaption>Each figure against {}, one line per estimator, 95 % \
          confidence bands.</figcaption>\n</figure>",
         inline_svg(svg),
-        escape(keys.first().copied().unwrap_or(""))
+        escape(plan.x_axis().map_or("", |a| a.key.as_str()))
     );
     h.push_str("<h2>Every figure</h2>\n<details><summary>points.csv as a table</summary>\n");
     let mut header: Vec<String> = keys.iter().map(|k| k.to_string()).collect();
