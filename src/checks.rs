@@ -27,6 +27,15 @@ pub struct Checks {
     pub(crate) loaded: std::collections::HashMap<String, std::sync::Arc<crate::imu_csv::ImuRecording>>,
 }
 
+/// A number as a message shows it: exponent form when very large or very small (1e308, not 309 digits).
+pub fn num(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e7).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 impl Checks {
     pub(crate) fn bad(&mut self, key: impl Into<String>, message: impl Into<String>) {
         self.problems.push(Problem {
@@ -55,6 +64,16 @@ impl Checks {
             Some(x) => x,
             None => default,
         }
+    }
+
+    /// `v` (already checked finite) no larger than `max`: a value past what any run needs would overflow the clocks
+    /// and distributions it feeds (a 1e308 ms jitter, a delay of 1e20 s).
+    pub(crate) fn at_most(&mut self, key: &str, v: f64, max: f64, unit: &str) -> f64 {
+        if v > max {
+            self.bad(key, format!("must be at most {}{unit}, got {}", num(max), num(v)));
+            return max;
+        }
+        v
     }
 
     pub(crate) fn non_negative(&mut self, key: &str, v: Option<f64>, default: f64) -> f64 {

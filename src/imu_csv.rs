@@ -46,6 +46,14 @@ const GROUPS: [(&str, [&str; 3]); 5] = [
     ("reference attitude", ["roll", "pitch", "yaw"]),
 ];
 
+/// A cell as an error shows it: at most 24 characters.
+fn clip(s: &str) -> String {
+    match s.char_indices().nth(24) {
+        Some((i, _)) => format!("{}…", &s[..i]),
+        None => s.to_string(),
+    }
+}
+
 pub fn parse(text: &str, file: &str) -> Result<ImuRecording, CsvError> {
     let err = |line: usize, message: String| CsvError {
         file: file.to_string(),
@@ -62,11 +70,16 @@ pub fn parse(text: &str, file: &str) -> Result<ImuRecording, CsvError> {
         .ok_or_else(|| err(1, "empty file: expected a header `t,ax,ay,az,gx,gy,gz`".into()))?;
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
     let known = |n: &str| n == "t" || GROUPS.iter().any(|(_, g)| g.contains(&n));
-    if let Some(bad) = names.iter().find(|n| !known(n)) {
+    const EXPECTED: &str = "t, ax…az, gx…gz, mx…mz, x, y, z, roll, pitch, yaw";
+    if !names.iter().any(|n| known(n)) {
+        // Not an IMU file at all: say so without quoting what it holds.
         return Err(err(
             hl,
-            format!("unknown column `{bad}` (expected t, ax…az, gx…gz, mx…mz, x, y, z, roll, pitch, yaw)"),
+            format!("not an IMU file: its header names none of the columns {EXPECTED}"),
         ));
+    }
+    if let Some(bad) = names.iter().find(|n| !known(n)) {
+        return Err(err(hl, format!("unknown column `{}` (expected {EXPECTED})", clip(bad))));
     }
     for (i, n) in names.iter().enumerate() {
         if names[..i].contains(n) {
@@ -109,7 +122,7 @@ pub fn parse(text: &str, file: &str) -> Result<ImuRecording, CsvError> {
         for (f, n) in fields.iter().zip(&names) {
             match f.parse::<f64>() {
                 Ok(v) if v.is_finite() => values.push(v),
-                _ => return Err(err(ln, format!("`{f}` in column `{n}` is not a finite number"))),
+                _ => return Err(err(ln, format!("`{}` in column `{n}` is not a finite number", clip(f)))),
             }
         }
         let t = values[t_col];

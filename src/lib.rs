@@ -29,7 +29,8 @@
 //! | `cli` (crate-private) | clap definitions, exit codes, tracing setup |
 //! | `compose` (crate-private) | the docker compose file of a topology (one container per node) |
 //!
-//! Support: [`checks`] (the validator's shared checks, each problem keyed), [`geom`] (Euler ZYX attitude),
+//! Support: [`checks`] (the validator's shared checks, each problem keyed), [`input`] (untrusted files: regular,
+//! bounded, never quoted), [`geom`] (Euler ZYX attitude),
 //! [`rng`] (seeded streams), [`stats`] (quantiles for tests and reports), `par` (jobs over every core,
 //! crate-private), [`imu_csv`] (recorded IMU files: `simnet run --out` writes them, `imu_csv` on a node and
 //! `simnet reconstruct` read them).
@@ -46,6 +47,7 @@ pub mod estimate;
 pub mod estimators;
 pub mod geom;
 pub mod imu_csv;
+pub mod input;
 pub mod link;
 pub mod model;
 pub mod motion;

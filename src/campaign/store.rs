@@ -7,9 +7,6 @@ use std::path::{Path, PathBuf};
 use super::record::RunRecord;
 use super::{CampaignError, PlanFile};
 
-/// Most bytes read from a record or plan file.
-const MAX_FILE: u64 = 64 << 20;
-
 pub struct Store {
     pub dir: PathBuf,
 }
@@ -86,21 +83,10 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), CampaignError> {
     })
 }
 
-/// A file's text, refused past 64 MiB.
+/// A campaign file's text ([`crate::input::read_text`]), its error naming the file.
 pub fn read_capped(path: &Path) -> Result<String, CampaignError> {
-    use std::io::Read;
-    let io = |source| CampaignError::Io {
+    crate::input::read_text(path, crate::input::MAX_JSON).map_err(|source| CampaignError::Io {
         path: path.to_path_buf(),
         source,
-    };
-    let f = std::fs::File::open(path).map_err(io)?;
-    let mut text = String::new();
-    let read = f.take(MAX_FILE + 1).read_to_string(&mut text).map_err(io)?;
-    if read as u64 > MAX_FILE {
-        return Err(CampaignError::Damaged {
-            path: path.to_path_buf(),
-            message: format!("larger than {} MiB", MAX_FILE >> 20),
-        });
-    }
-    Ok(text)
+    })
 }

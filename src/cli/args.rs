@@ -144,6 +144,16 @@ pub(super) fn positive(s: &str) -> Result<f64, String> {
     }
 }
 
+/// A wait in seconds: positive, at most a day.
+pub(super) fn seconds_in_a_day(s: &str) -> Result<f64, String> {
+    let v = positive(s)?;
+    if v <= 86_400.0 {
+        Ok(v)
+    } else {
+        Err(format!("must be at most 86400 s (a day), got {v}"))
+    }
+}
+
 pub(super) fn non_negative(s: &str) -> Result<f64, String> {
     let v = parse_f64(s)?;
     if v >= 0.0 && v.is_finite() {

@@ -16,7 +16,7 @@ pub struct NodeArgs {
     #[arg(allow_hyphen_values = true, long = "peer", value_name = "ID=HOST:PORT", value_parser = peer)]
     pub peers: Vec<(u32, String)>,
     /// Seconds to wait for every neighbour before starting alone.
-    #[arg(allow_hyphen_values = true, long, default_value_t = 30.0, value_parser = positive)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 30.0, value_parser = seconds_in_a_day)]
     pub handshake_timeout: f64,
     #[command(flatten)]
     pub run: RunArgs,

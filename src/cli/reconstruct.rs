@@ -70,7 +70,7 @@ fn timed(s: &str) -> Result<(f64, Vector3<f64>), String> {
 
 pub fn reconstruct(args: &ReconstructArgs) -> anyhow::Result<ExitCode> {
     super::check_out(&args.out)?;
-    let text = std::fs::read_to_string(&args.file)
+    let text = crate::input::read_text(&args.file, crate::input::MAX_TABLE)
         .map_err(|e| UsageError::Option(format!("cannot read {}: {e}", args.file.display())))?;
     let rec = imu_csv::parse(&text, &args.file.display().to_string()).map_err(|e| UsageError::Option(e.to_string()))?;
     let n = rec.t.len();

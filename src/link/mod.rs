@@ -10,6 +10,9 @@ pub mod rules;
 mod schedule;
 
 pub use egress::{Egress, Stream, Transmit};
+
+/// The longest delay or jitter of a link, ms (about 2.8 hours): past any run, short of overflowing a clock.
+pub const MAX_DELAY_MS: f64 = 1e7;
 use rules::{rules_of, Context};
 pub use rules::{Delivery, Rule};
 pub use schedule::{FaultSchedule, NodeEvent, ScheduledFault};

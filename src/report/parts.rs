@@ -195,6 +195,13 @@ pub fn merge(
             .ok_or_else(|| PartError::Mismatch(format!("{} is a whole-run summary, not a node part", s.topology)))
     };
     for p in parts {
+        // A part is a file anyone could have written: its figures are checked before they size or pace anything.
+        if !(p.rate_hz > 0.0 && p.rate_hz <= crate::scenario::MAX_RATE_HZ) {
+            return Err(PartError::Mismatch(format!(
+                "a step rate of {} Hz is not one a run can have",
+                crate::checks::num(p.rate_hz)
+            )));
+        }
         if p.topology != first.topology || p.seed != first.seed || p.rate_hz != first.rate_hz {
             return Err(PartError::Mismatch(format!(
                 "`{}` seed {} at {} Hz vs `{}` seed {} at {} Hz",
@@ -203,6 +210,40 @@ pub fn merge(
         }
     }
     let infos: Vec<PartInfo> = parts.iter().map(info).collect::<Result<_, _>>()?;
+    let fusion = &infos[0].fusion;
+    let n = fusion.angle_states.len();
+    if n == 0 || fusion.error_rows.iter().any(|&r| r >= n) || (fusion.quaternion && fusion.error_rows.len() != 4) {
+        return Err(PartError::Mismatch(format!(
+            "node {}'s part describes no state its errors can be taken over",
+            infos[0].node
+        )));
+    }
+    if let Some(i) = infos.iter().find(|i| i.fusion != *fusion) {
+        return Err(PartError::Mismatch(format!(
+            "nodes {} and {} estimate different states",
+            infos[0].node, i.node
+        )));
+    }
+    for (id, es) in estimates {
+        if let Some(e) = es
+            .iter()
+            .find(|e| e.networked.x.len() != n || e.truth.len() != n || e.schemes.iter().any(|(_, x)| x.len() != n))
+        {
+            return Err(PartError::Mismatch(format!(
+                "node {id}'s estimates of step {} have {} states, the run's have {n}",
+                e.step,
+                e.networked.x.len()
+            )));
+        }
+    }
+    let mut seen = std::collections::BTreeSet::new();
+    if let Some(twice) = infos.iter().find(|i| !seen.insert(i.node)) {
+        return Err(PartError::Mismatch(format!(
+            "node {} has two parts (an earlier run's beside this one's?)",
+            twice.node
+        )));
+    }
+    missing_parts(first, &infos)?;
     let mut nodes: Vec<_> = parts.iter().flat_map(|p| p.nodes.clone()).collect();
     nodes.sort_by_key(|n| n.id);
     let mut links = Vec::new();
@@ -257,6 +298,48 @@ pub fn merge(
         }),
     };
     Ok((merged, observer))
+}
+
+/// Every node of the run (its resolved scenario, which parts record) has a part: a missing one would read as a node
+/// that never sent nor received, 100 % loss on its links.
+fn missing_parts(first: &Summary, infos: &[PartInfo]) -> Result<(), PartError> {
+    let Some(text) = first
+        .settings
+        .as_ref()
+        .map(|s| s.scenario.as_str())
+        .filter(|t| !t.is_empty())
+    else {
+        // A part from before parts recorded their scenario.
+        return Ok(());
+    };
+    let Ok(raw) = toml::from_str::<crate::scenario::toml::RawTopology>(text) else {
+        return Err(PartError::Mismatch("the parts' scenario does not read back".into()));
+    };
+    let ids: Vec<u32> = match &raw.generate {
+        Some(g) => (0..g.nodes.unwrap_or(0).clamp(0, crate::scenario::graph::MAX_GENERATED) as u32).collect(),
+        None => raw
+            .node
+            .iter()
+            .enumerate()
+            .map(|(i, n)| n.id.unwrap_or(i as i64).clamp(0, u32::MAX as i64) as u32)
+            .collect(),
+    };
+    let have: std::collections::BTreeSet<u32> = infos.iter().map(|i| i.node).collect();
+    let missing: Vec<String> = ids
+        .iter()
+        .filter(|id| !have.contains(id))
+        .map(|id| format!("node-{id}.json"))
+        .collect();
+    if missing.is_empty() {
+        Ok(())
+    } else {
+        Err(PartError::Mismatch(format!(
+            "{} of the run's {} nodes have no part: {} (collect every node's directory)",
+            missing.len(),
+            ids.len(),
+            missing.join(", ")
+        )))
+    }
 }
 
 /// Every part's estimators, node by node, with the traffic summed; the median over the nodes and the disagreement
@@ -327,18 +410,20 @@ pub fn read_parts(dirs: &[std::path::PathBuf]) -> Result<Parts, PartError> {
                 message,
             };
             let id: u32 = id.parse().map_err(|_| bad(format!("`{id}` is not a node id")))?;
-            let text = std::fs::read_to_string(&p).map_err(io_err(&p))?;
+            let text = crate::input::read_text(&p, crate::input::MAX_JSON).map_err(io_err(&p))?;
             let s: Summary = serde_json::from_str(&text).map_err(|e| bad(format!("not a node part: {e}")))?;
             let node_index = out.summaries.len();
             out.summaries.push(s);
             let est = dir.join(format!("estimates-{id}.csv"));
-            if let Ok(f) = std::fs::File::open(&est) {
-                let es = read_estimates(io::BufReader::new(f), node_index, &est.display().to_string())?;
+            if est.exists() {
+                let f = crate::input::open_lines(&est, crate::input::MAX_TABLE).map_err(io_err(&est))?;
+                let es = read_estimates(f, node_index, &est.display().to_string())?;
                 out.estimates.insert(id, es);
             }
             let tr = dir.join(format!("trace-{id}.csv"));
-            if let Ok(f) = std::fs::File::open(&tr) {
-                let (names, r) = read_trace(io::BufReader::new(f), &tr.display().to_string())?;
+            if tr.exists() {
+                let f = crate::input::open_lines(&tr, crate::input::MAX_TABLE).map_err(io_err(&tr))?;
+                let (names, r) = read_trace(f, &tr.display().to_string())?;
                 if out.columns.is_empty() {
                     out.columns = names;
                 }

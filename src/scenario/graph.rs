@@ -7,8 +7,11 @@ use rand::Rng;
 use super::toml::{RawNode, RawTopology};
 use crate::checks::Checks;
 
-/// The most nodes `[generate]` makes.
+/// The most nodes `[generate]` makes, the most edges, and the most nodes of the graphs whose construction looks at
+/// every pair (complete, random geometric).
 pub const MAX_GENERATED: i64 = 10_000;
+pub const MAX_GENERATED_EDGES: usize = 200_000;
+pub const MAX_PAIRWISE: usize = 2_000;
 
 /// Edges (a, b), a < b unless the ring closes, joining 0 … n−1 in a ring (one edge for two nodes).
 pub fn ring(n: usize) -> Vec<(usize, usize)> {
@@ -113,6 +116,16 @@ impl Checks {
                 None
             }
         };
+        if matches!(g.graph.as_str(), "complete" | "random-geometric") && n > MAX_PAIRWISE {
+            self.bad(
+                "generate.nodes",
+                format!(
+                    "a {} graph is built from every pair: at most {MAX_PAIRWISE} nodes, got {n}",
+                    g.graph
+                ),
+            );
+            return raw;
+        }
         let edges = match g.graph.as_str() {
             "ring" => ring(n),
             "grid" => {
@@ -136,6 +149,16 @@ impl Checks {
                 return raw;
             }
         };
+        if edges.len() > MAX_GENERATED_EDGES {
+            self.bad(
+                "generate.nodes",
+                format!(
+                    "{} edges, more than the {MAX_GENERATED_EDGES} a generated graph may have",
+                    edges.len()
+                ),
+            );
+            return raw;
+        }
         for (key, given, graphs) in [
             ("columns", g.columns.is_some(), "grid"),
             ("seed", g.seed.is_some(), "random-geometric"),

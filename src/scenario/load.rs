@@ -22,7 +22,7 @@ impl Checks {
                 data: data.clone(),
             });
         }
-        let text = match std::fs::read_to_string(&resolved) {
+        let text = match crate::input::read_text(&resolved, crate::input::MAX_TABLE) {
             Ok(t) => t,
             Err(e) => {
                 self.bad(key, format!("cannot read {shown}: {e}"));

@@ -217,6 +217,8 @@ impl EstimatorsConfig {
 
 /// Most consensus rounds per step.
 pub const MAX_ROUNDS: usize = 100;
+/// The fastest step rate: a period of a microsecond.
+pub const MAX_RATE_HZ: f64 = 1e6;
 
 #[derive(Debug, Clone)]
 pub struct NodeConfig {

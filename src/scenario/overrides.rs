@@ -39,12 +39,15 @@ impl Overrides {
         if let Some(l) = self.loss {
             c.loss(&key("loss"), &RawLoss::from(l));
         }
-        c.non_negative(&key("delay_ms"), self.delay_ms, 0.0);
-        c.non_negative(&key("jitter_ms"), self.jitter_ms, 0.0);
+        for (k, v) in [("delay_ms", self.delay_ms), ("jitter_ms", self.jitter_ms)] {
+            let x = c.non_negative(&key(k), v, 0.0);
+            c.at_most(&key(k), x, crate::link::MAX_DELAY_MS, " ms");
+        }
         c.prob(&key("duplicate"), self.duplicate, 0.0);
         c.prob(&key("corrupt"), self.corrupt, 0.0);
         c.positive(&key("duration_s"), self.duration_s, 1.0);
-        c.positive(&key("rate_hz"), self.rate_hz, 1.0);
+        let r = c.positive(&key("rate_hz"), self.rate_hz, 1.0);
+        c.at_most(&key("rate_hz"), r, super::MAX_RATE_HZ, " Hz");
     }
 
     /// The link options replace one link's (the `[link]` defaults or an `[[edge]]`'s own).

@@ -17,7 +17,7 @@ pub(crate) fn in_topologies(name: &str) -> String {
 impl Scenario {
     pub fn from_path(path: &Path) -> Result<Scenario, ScenarioError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
+        let text = crate::input::read_text(path, crate::input::MAX_TOPOLOGY).map_err(|source| ScenarioError::Io {
             file: file.clone(),
             source,
         })?;
@@ -34,7 +34,7 @@ impl Scenario {
     pub fn resolve_text(name_or_path: &str) -> Result<(String, String), ScenarioError> {
         let read = |p: &Path| {
             let file = p.display().to_string();
-            std::fs::read_to_string(p)
+            crate::input::read_text(p, crate::input::MAX_TOPOLOGY)
                 .map(|t| (t, file.clone()))
                 .map_err(|source| ScenarioError::Io { file, source })
         };

@@ -39,8 +39,14 @@ RUSTFLAGS='-C target-feature=+crt-static' cargo build --release --locked --targe
 PROJECT="simnetfaults$$"
 WORK=$(mktemp -d)
 dc() { "${COMPOSE[@]}" -p "$PROJECT" -f docker-compose.yml "$@"; }
+# The engine is left as found: the image compose builds goes too, unless it was there before.
+HAD_IMAGE=0
+docker image inspect simnet:latest >/dev/null 2>&1 && HAD_IMAGE=1
 cleanup() {
   dc down -v --remove-orphans >/dev/null 2>&1 || true
+  if [ "$HAD_IMAGE" = 0 ]; then
+    docker image rm simnet:latest >/dev/null 2>&1 || true
+  fi
   rm -rf "$WORK"
 }
 trap cleanup EXIT

@@ -25,6 +25,9 @@ IMAGE="simnetsweep:$$"
 STACK="simnetsweep$$"
 WORK=$(mktemp -d)
 MADE_SWARM=0
+# `swarm init` makes the docker_gwbridge network and `swarm leave` keeps it: it goes too if it was not there before.
+HAD_GWBRIDGE=0
+docker network inspect docker_gwbridge >/dev/null 2>&1 && HAD_GWBRIDGE=1
 cleanup() {
   docker stack rm "$STACK" >/dev/null 2>&1 || true
   # The volume can go once the stack's containers have.
@@ -36,6 +39,9 @@ cleanup() {
   docker image rm -f "$IMAGE" >/dev/null 2>&1 || true
   if [ "$MADE_SWARM" = 1 ]; then
     docker swarm leave --force >/dev/null 2>&1 || true
+    if [ "$HAD_GWBRIDGE" = 0 ]; then
+      docker network rm docker_gwbridge >/dev/null 2>&1 || true
+    fi
   fi
   rm -rf "$WORK"
 }

@@ -14,3 +14,4 @@ mod outputs;
 mod protocol;
 mod reproduce;
 mod riccati;
+mod untrusted;

@@ -94,8 +94,16 @@ impl Checks {
         };
         LinkConfig {
             loss,
-            delay_ms: self.non_negative(&format!("{key}.delay_ms"), raw.delay_ms, base.delay_ms),
-            jitter_ms: self.non_negative(&format!("{key}.jitter_ms"), raw.jitter_ms, base.jitter_ms),
+            delay_ms: {
+                let k = format!("{key}.delay_ms");
+                let d = self.non_negative(&k, raw.delay_ms, base.delay_ms);
+                self.at_most(&k, d, crate::link::MAX_DELAY_MS, " ms")
+            },
+            jitter_ms: {
+                let k = format!("{key}.jitter_ms");
+                let j = self.non_negative(&k, raw.jitter_ms, base.jitter_ms);
+                self.at_most(&k, j, crate::link::MAX_DELAY_MS, " ms")
+            },
             jitter,
             duplicate: self.prob(&format!("{key}.duplicate"), raw.duplicate, base.duplicate),
             corrupt: self.prob(&format!("{key}.corrupt"), raw.corrupt, base.corrupt),

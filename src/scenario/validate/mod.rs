@@ -21,9 +21,24 @@ impl Scenario {
     pub fn from_toml(text: &str, file: &str) -> Result<Scenario, ScenarioError> {
         let raw: RawTopology = ::toml::from_str(text).map_err(|e| ScenarioError::Parse {
             file: file.to_string(),
-            message: e.to_string().trim_end().to_string(),
+            message: parse_error(text, &e),
         })?;
         Checks::default().validate(raw, file)
+    }
+}
+
+/// Where the TOML went wrong and why, without the line itself: a file that is not a topology (a password file given
+/// by mistake) is not printed back.
+fn parse_error(text: &str, e: &::toml::de::Error) -> String {
+    let why = e.message().trim_end();
+    match e.span() {
+        Some(span) => {
+            let before = &text[..span.start.min(text.len())];
+            let line = before.matches('\n').count() + 1;
+            let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+            format!("TOML parse error at line {line}, column {column}: {why}")
+        }
+        None => format!("TOML parse error: {why}"),
     }
 }
 
@@ -302,7 +317,18 @@ impl Checks {
 
     fn sim(&mut self, s: RawSim) -> SimConfig {
         let rate_hz = self.positive("sim.rate_hz", s.rate_hz, 100.0);
+        let rate_hz = self.at_most("sim.rate_hz", rate_hz, super::MAX_RATE_HZ, " Hz");
         let duration_s = self.positive("sim.duration_s", s.duration_s, 30.0);
+        if duration_s * rate_hz < 1.0 {
+            self.bad(
+                "sim.duration_s",
+                format!(
+                    "{} s at {} Hz is not one step: a run needs at least one period",
+                    crate::checks::num(duration_s),
+                    crate::checks::num(rate_hz)
+                ),
+            );
+        }
         let burn_in_s = self.non_negative("sim.burn_in_s", s.burn_in_s, 3.0_f64.min(duration_s / 10.0));
         if burn_in_s >= duration_s {
             self.bad(
