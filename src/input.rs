@@ -7,6 +7,8 @@ use std::path::Path;
 
 /// A topology file.
 pub const MAX_TOPOLOGY: u64 = 16 << 20;
+/// A key file.
+pub const MAX_KEY: u64 = 4 << 10;
 /// A JSON document simnet wrote (a part's summary, a campaign's record).
 pub const MAX_JSON: u64 = 64 << 20;
 /// A table: a recorded IMU file, a part's trace or estimates.

@@ -53,6 +53,12 @@ pub struct RunArgs {
     /// Pace steps by the wall clock instead of the virtual lockstep clock.
     #[arg(long)]
     pub realtime: bool,
+    /// The network key (`simnet keygen`): every datagram authenticated with it (AES-128-CCM).
+    #[arg(long, env = "SIMNET_KEY_FILE")]
+    pub key_file: Option<PathBuf>,
+    /// Authenticate every datagram with a key of the run's own (from its seed): an in-process run measures the cost.
+    #[arg(long)]
+    pub auth: bool,
     /// Write summary.json, trace.csv, links.csv and SVG plots here.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -211,6 +217,8 @@ impl RunArgs {
             seed: self.seed,
             estimators: self.estimators.as_deref().map(EstimatorChoice::kinds),
             rounds: self.rounds,
+            key_file: self.key_file.as_ref().map(|p| p.display().to_string()),
+            auth: self.auth.then_some(true),
         })
     }
 

@@ -33,6 +33,9 @@ pub struct NodeCounters {
     /// The first step this node ran (0 unless it joined a running network late).
     pub first_step: u64,
     pub steps_run: u64,
+    /// Datagrams refused by authentication, by cause.
+    #[serde(default)]
+    pub rejected: super::Rejections,
 }
 
 /// Everything a node reports at the end of a run.

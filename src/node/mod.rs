@@ -40,6 +40,7 @@ mod filters;
 mod inbox;
 mod schemes;
 mod session;
+mod wire;
 
 use std::sync::Arc;
 
@@ -55,7 +56,7 @@ use crate::observe::{
 };
 use crate::scenario::{Role, Scenario};
 use crate::sensor::{ImuInterval, ImuSample, Sensor};
-use crate::wire::{Datagram, Header, Payload, WireError};
+use crate::wire::{Header, Payload};
 use filters::Filters;
 use inbox::{Inbox, Received};
 use schemes::Schemes;
@@ -65,6 +66,8 @@ pub use schemes::{Feed, Traffic};
 
 pub use crate::observe::{LmiStep, MeasurementRow, StepEstimate, TraceRow};
 pub use events::{Arrival, NodeCounters, NodeReport};
+pub use wire::Rejections;
+use wire::{Refused, Wire};
 
 pub struct Node {
     index: usize,
@@ -84,7 +87,8 @@ pub struct Node {
     last_imu: Option<ImuSample>,
     /// The outgoing links and the copies they have yet to deliver.
     egress: Egress,
-    seq: u32,
+    /// Encoding and sealing what goes out, checking and authenticating what comes in.
+    wire: Wire,
     up: bool,
     /// Restarted since the last step: the next step re-initialises the filters.
     restarting: bool,
@@ -167,7 +171,7 @@ impl Node {
             },
             last_imu: None,
             egress: Egress::with_rounds(links, round_links),
-            seq: 0,
+            wire: Wire::new(topo.nodes()[index].id, topo.security().key.as_ref(), 0),
             up: true,
             restarting: false,
             inbox: Inbox::new(topo.in_links(index).map(|l| l.from), obs_dim),
@@ -246,6 +250,18 @@ impl Node {
     pub fn handle_restart(&mut self) {
         self.up = true;
         self.restarting = true;
+        self.wire.reboot();
+    }
+
+    /// This process booted at `epoch` (its boot time with random low bits): an authenticated node's datagrams
+    /// are sealed under this boot's key, never a key an earlier boot used.
+    pub fn boot(&mut self, epoch: u64) {
+        self.wire.boot(epoch);
+    }
+
+    /// The (epoch, counter) of the next sealed datagram (none unauthenticated): every nonce this node uses.
+    pub fn next_nonce(&self) -> Option<(u64, u64)> {
+        self.wire.next_nonce()
     }
 
     /// Apply one event of the crash timeline.
@@ -349,8 +365,11 @@ impl Node {
         let round0 = if self.schemes.is_empty() {
             Vec::new()
         } else {
-            self.schemes
-                .begin(k, &schemes::input(&*self.model, &self.obs, own.as_ref()), self.id)
+            self.schemes.begin(
+                k,
+                &schemes::input(&*self.model, &self.obs, own.as_ref()),
+                &mut self.wire,
+            )
         };
         self.send(k, t, own.as_ref(), &round0);
         self.inbox.open(k, own);
@@ -363,7 +382,7 @@ impl Node {
             return;
         }
         let input = schemes::input(&*self.model, &self.obs, self.inbox.own());
-        let out = self.schemes.close_round(k, r, &input, self.id);
+        let out = self.schemes.close_round(k, r, &input, &mut self.wire);
         if out.is_empty() {
             return;
         }
@@ -418,12 +437,11 @@ impl Node {
             let mut first = true;
             for rows in &groups {
                 let values: Vec<f64> = (0..m).filter(|r| rows & (1 << r) != 0).map(|r| z[r]).collect();
-                let dg = Datagram {
-                    header: Header::new(self.id, self.seq, k),
-                    payload: Payload::measurement(*rows, values),
-                };
-                self.seq = self.seq.wrapping_add(1);
-                match dg.encode() {
+                let id = self.id;
+                match self
+                    .wire
+                    .encode(|seq| Header::new(id, seq, k), Payload::measurement(*rows, values))
+                {
                     Ok(bytes) if first && rides => {
                         let mut group = vec![bytes];
                         group.extend_from_slice(round0);
@@ -455,9 +473,11 @@ impl Node {
     /// Bytes arrived; `from` is the sender's node index when the shell knows it by address.
     pub fn handle_datagram(&mut self, from: Option<usize>, bytes: &[u8]) -> Option<Arrival> {
         self.counters.datagrams_in += 1;
-        let dg = match Datagram::decode(bytes) {
+        let (topo, session) = (&self.topo, &self.session);
+        let known = |id: u32| topo.index_of(id).is_some_and(|j| session.neighbours.contains(&j));
+        let dg = match self.wire.decode(bytes, known) {
             Ok(d) => d,
-            Err(WireError::Checksum) if from.is_some() => {
+            Err(Refused::Corrupted) if from.is_some() => {
                 // A peer's datagram damaged on the way: the link layer's corruption, caught.
                 self.counters.corrupted += 1;
                 if let Some(f) = from {
@@ -465,7 +485,15 @@ impl Node {
                 }
                 return None;
             }
-            Err(e) => {
+            Err(Refused::Rejected(r)) => {
+                tracing::debug!(node = self.id, "rejected datagram: {r}");
+                return None;
+            }
+            Err(Refused::Corrupted) => {
+                self.counters.malformed += 1;
+                return None;
+            }
+            Err(Refused::Malformed(e)) => {
                 tracing::debug!(node = self.id, "malformed datagram: {e}");
                 self.counters.malformed += 1;
                 return None;
@@ -693,12 +721,11 @@ impl Node {
 
     /// Hello datagrams for every neighbour (control traffic of the start handshake: not subject to the link layer).
     pub fn hello(&mut self, running: Option<u64>) -> Vec<Transmit> {
-        let dg = Datagram {
-            header: Header::hello(self.id, self.seq),
-            payload: Payload::Hello { running },
-        };
-        self.seq = self.seq.wrapping_add(1);
-        match dg.encode() {
+        let id = self.id;
+        match self
+            .wire
+            .encode(|seq| Header::hello(id, seq), Payload::Hello { running })
+        {
             Ok(bytes) => self
                 .session
                 .neighbours
@@ -748,7 +775,10 @@ impl Node {
             rounds_late: self.schemes.late,
             links_out: self.egress.counters(),
             rx: self.inbox.rx.clone(),
-            counters: self.counters,
+            counters: NodeCounters {
+                rejected: self.wire.rejected,
+                ..self.counters
+            },
             trace: self.take_trace(),
             imu: self.take_imu(),
         }

@@ -13,7 +13,9 @@ use crate::model::{Measurement, Model};
 use crate::observe::{Filter, Update};
 use crate::scenario::Scenario;
 use crate::sensor::ImuInterval;
-use crate::wire::{Body, Datagram, Header, Payload};
+use crate::wire::{Body, Header, Payload};
+
+use super::wire::Wire;
 
 /// Most messages of later rounds or steps a node holds.
 const HELD_CAP: usize = 1024;
@@ -46,7 +48,6 @@ pub(super) struct Schemes {
     held: Vec<(u64, usize, usize, usize, Message)>,
     /// Round messages that came after their round closed.
     pub late: u64,
-    seq: u32,
     /// Out-links: each message is sent on every one.
     links: usize,
 }
@@ -70,7 +71,6 @@ impl Schemes {
             arrived: vec![vec![Vec::new(); rounds]; n],
             held: Vec::new(),
             late: 0,
-            seq: 0,
             links,
         }
     }
@@ -103,7 +103,7 @@ impl Schemes {
     }
 
     /// Open step `k` with the node's own measurement; the datagrams of round 0 (one per scheme that sends).
-    pub fn begin(&mut self, k: u64, input: &StepInput<'_>, src: u32) -> Vec<Bytes> {
+    pub fn begin(&mut self, k: u64, input: &StepInput<'_>, wire: &mut Wire) -> Vec<Bytes> {
         self.open = Some((k, 0));
         for (i, s) in self.slots.iter_mut().enumerate() {
             s.prior = s.est.state().cloned();
@@ -120,11 +120,11 @@ impl Schemes {
                 std::cmp::Ordering::Less => self.late += 1,
             }
         }
-        self.messages(k, 0, src)
+        self.messages(k, 0, wire)
     }
 
     /// The datagrams of round `r` of step `k`.
-    fn messages(&mut self, k: u64, r: usize, src: u32) -> Vec<Bytes> {
+    fn messages(&mut self, k: u64, r: usize, wire: &mut Wire) -> Vec<Bytes> {
         let mut out = Vec::new();
         for s in &mut self.slots {
             if s.failed {
@@ -138,16 +138,13 @@ impl Schemes {
                     continue;
                 }
             };
-            let dg = Datagram {
-                header: Header::round(src, self.seq, k),
-                payload: Payload::Round {
-                    round: r as u8,
-                    scheme: s.kind as u8,
-                    body,
-                },
+            let id = wire.id();
+            let payload = Payload::Round {
+                round: r as u8,
+                scheme: s.kind as u8,
+                body,
             };
-            self.seq = self.seq.wrapping_add(1);
-            match dg.encode() {
+            match wire.encode(|seq| Header::round(id, seq, k), payload) {
                 Ok(b) => {
                     s.traffic.messages += self.links as u64;
                     s.traffic.bytes += (b.len() * self.links) as u64;
@@ -190,7 +187,7 @@ impl Schemes {
 
     /// Close round `r` of step `k` (its sub-deadline): every scheme combines what arrived; the datagrams of round
     /// r + 1, if there is one. Nothing when `(k, r)` is not the round that comes next.
-    pub fn close_round(&mut self, k: u64, r: usize, input: &StepInput<'_>, src: u32) -> Vec<Bytes> {
+    pub fn close_round(&mut self, k: u64, r: usize, input: &StepInput<'_>, wire: &mut Wire) -> Vec<Bytes> {
         if self.open != Some((k, r)) {
             return Vec::new();
         }
@@ -206,7 +203,7 @@ impl Schemes {
         }
         self.open = Some((k, r + 1));
         if r + 1 < self.rounds {
-            self.messages(k, r + 1, src)
+            self.messages(k, r + 1, wire)
         } else {
             Vec::new()
         }
@@ -214,14 +211,19 @@ impl Schemes {
 
     /// The deadline of step `k`: the last round closes and every scheme finishes. Each scheme's (prior,
     /// posterior, failed), by slot; none when step `k` is not open.
-    pub fn finish(&mut self, k: u64, input: &StepInput<'_>, src: u32) -> Option<Vec<(Gaussian, Gaussian, bool)>> {
+    pub fn finish(
+        &mut self,
+        k: u64,
+        input: &StepInput<'_>,
+        wire: &mut Wire,
+    ) -> Option<Vec<(Gaussian, Gaussian, bool)>> {
         let (open, _) = self.open?;
         if open != k {
             return None;
         }
         if let Some((_, r)) = self.open.filter(|(_, r)| *r < self.rounds) {
             for r in r..self.rounds {
-                self.close_round(k, r, input, src);
+                self.close_round(k, r, input, wire);
             }
         }
         self.open = None;
@@ -303,7 +305,7 @@ impl super::Node {
             return Vec::new();
         }
         let input = input(&*self.model, &self.obs, self.inbox.own());
-        let Some(posts) = self.schemes.finish(k, &input, self.id) else {
+        let Some(posts) = self.schemes.finish(k, &input, &mut self.wire) else {
             return Vec::new();
         };
         if !self.role.estimates() {

@@ -2,6 +2,7 @@
 //! `estimate::attitude`'s EKF.
 
 use super::*;
+use crate::wire::Datagram;
 
 /// One lockstep step with the scenario's deadline.
 fn step_in_memory(nodes: &mut [Node], k: u64) {

@@ -296,6 +296,10 @@ pub fn merge(
             a.merge(&b);
             a
         }),
+        security: parts.iter().filter_map(|p| p.security.clone()).reduce(|mut a, b| {
+            a.rejected.add(&b.rejected);
+            a
+        }),
     };
     Ok((merged, observer))
 }

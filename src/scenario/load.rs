@@ -8,12 +8,49 @@ use super::{Checks, NodeConfig, Problem, RecordedImu, Scenario, ScenarioError, S
 
 impl Checks {
     /// Read `imu_csv`: relative to the topology file's folder, or to the working directory for a built-in.
-    pub(crate) fn recording(&mut self, key: &str, path: &str, topology_file: &str) -> Option<RecordedImu> {
-        let base = Path::new(topology_file);
-        let resolved = match base.parent() {
-            Some(dir) if base.is_file() && Path::new(path).is_relative() => dir.join(path),
-            _ => Path::new(path).to_path_buf(),
+    /// `[security]`: the key file read (relative to the topology file), or the run's own key from its seed when
+    /// `auth` is set without a file.
+    pub(crate) fn security(
+        &mut self,
+        raw: Option<&super::toml::RawSecurity>,
+        topology_file: &str,
+        seed: u64,
+    ) -> super::SecurityConfig {
+        let Some(raw) = raw else {
+            return super::SecurityConfig::default();
         };
+        if let Some(path) = &raw.key_file {
+            let resolved = beside(topology_file, path);
+            let shown = resolved.display().to_string();
+            let key = crate::input::read_text(&resolved, crate::input::MAX_KEY)
+                .map_err(|e| format!("cannot read {shown}: {e}"))
+                .and_then(|t| crate::wire::secure::Key::parse(&t).map_err(|e| format!("{shown}: {e}")));
+            return match key {
+                Ok(k) => super::SecurityConfig {
+                    key: Some(k),
+                    key_source: Some(shown),
+                },
+                Err(m) => {
+                    self.bad("security.key_file", m);
+                    super::SecurityConfig::default()
+                }
+            };
+        }
+        if raw.auth == Some(true) {
+            use sha2::Digest;
+            let d = sha2::Sha256::digest(format!("simnet run key, seed {seed}").as_bytes());
+            let mut k = [0u8; 16];
+            k.copy_from_slice(&d[..16]);
+            return super::SecurityConfig {
+                key: Some(crate::wire::secure::Key::from_bytes(k)),
+                key_source: Some("seed".into()),
+            };
+        }
+        super::SecurityConfig::default()
+    }
+
+    pub(crate) fn recording(&mut self, key: &str, path: &str, topology_file: &str) -> Option<RecordedImu> {
+        let resolved = beside(topology_file, path);
         let shown = resolved.display().to_string();
         if let Some(data) = self.loaded.get(&shown) {
             return Some(RecordedImu {
@@ -49,6 +86,15 @@ impl Checks {
 
 /// A recording that ends before the run does. Checked once the command-line overrides have set the duration and
 /// the rate ([`Scenario::check_recordings`]); a node runs past the end of its file without IMU samples.
+/// `path` as a topology file names it: relative to the file's folder.
+fn beside(topology_file: &str, path: &str) -> std::path::PathBuf {
+    let base = Path::new(topology_file);
+    match base.parent() {
+        Some(dir) if base.is_file() && Path::new(path).is_relative() => dir.join(path),
+        _ => Path::new(path).to_path_buf(),
+    }
+}
+
 fn recording_problems(sim: &SimConfig, nodes: &[NodeConfig]) -> Vec<Problem> {
     let need = sim.steps().saturating_sub(1) as f64 * sim.dt();
     nodes

@@ -215,6 +215,15 @@ impl EstimatorsConfig {
     }
 }
 
+/// `[security]`: whether datagrams are authenticated, and with which key.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SecurityConfig {
+    /// Every datagram sealed with this key ([`crate::wire::secure`]); none: unauthenticated.
+    pub key: Option<crate::wire::secure::Key>,
+    /// Where the key came from: the key file, or `seed` (an in-process run's own key, from the run seed).
+    pub key_source: Option<String>,
+}
+
 /// Most consensus rounds per step.
 pub const MAX_ROUNDS: usize = 100;
 /// The fastest step rate: a period of a microsecond.
@@ -258,6 +267,7 @@ pub struct Scenario {
     model: ModelConfig,
     consensus: ConsensusConfig,
     estimators: EstimatorsConfig,
+    security: SecurityConfig,
     nodes: Vec<NodeConfig>,
     links: Vec<DirectedLink>,
     /// Indices into `links` of each node's incoming and outgoing links.
@@ -294,6 +304,9 @@ impl Scenario {
     }
     pub fn estimators(&self) -> &EstimatorsConfig {
         &self.estimators
+    }
+    pub fn security(&self) -> &SecurityConfig {
+        &self.security
     }
     /// The nodes in file order; a node's index is its position here.
     pub fn nodes(&self) -> &[NodeConfig] {

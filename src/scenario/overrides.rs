@@ -30,6 +30,12 @@ pub struct Overrides {
     /// Consensus rounds per step (`--rounds`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rounds: Option<u64>,
+    /// The network key file (`--key-file`): every datagram authenticated with it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub key_file: Option<String>,
+    /// Authenticate with the run's own key where no key file is given (`--auth`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auth: Option<bool>,
 }
 
 impl Overrides {
@@ -81,6 +87,8 @@ impl Overrides {
             seed: b.seed.or(self.seed),
             estimators: b.estimators.clone().or(self.estimators.clone()),
             rounds: b.rounds.or(self.rounds),
+            key_file: b.key_file.clone().or(self.key_file.clone()),
+            auth: b.auth.or(self.auth),
         }
     }
 }
@@ -145,6 +153,18 @@ impl Scenario {
                 e.run = Some(run.iter().map(|k| k.name().to_string()).collect());
             }
             e.rounds = o.rounds.or(e.rounds);
+        }
+        if o.key_file.is_some() || o.auth.is_some() {
+            let s = raw.security.get_or_insert_with(Default::default);
+            if let Some(f) = &o.key_file {
+                // A path given on the command line is the caller's, not relative to the topology file.
+                s.key_file = Some(
+                    std::path::Path::new(f)
+                        .canonicalize()
+                        .map_or(f.clone(), |p| p.display().to_string()),
+                );
+            }
+            s.auth = o.auth.or(s.auth);
         }
         let mut t = self.revalidate(raw, c)?;
         t.sim.burn_in_shortened_from = shortened;

@@ -18,6 +18,7 @@ pub struct RawTopology {
     pub estimators: Option<RawEstimators>,
     /// Nodes and edges from a graph generator instead of `[[node]]`/`[[edge]]`.
     pub generate: Option<RawGenerate>,
+    pub security: Option<RawSecurity>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub node: Vec<RawNode>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -97,6 +98,17 @@ pub struct RawLoss {
     /// Friendly Gilbert–Elliott form: target loss and mean burst.
     pub rate: Option<f64>,
     pub burst: Option<f64>,
+}
+
+/// `[security]`: authenticated datagrams.
+#[derive(Debug, Serialize, Deserialize, Default, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct RawSecurity {
+    /// The network's key file (`simnet keygen`), relative to the topology file.
+    pub key_file: Option<String>,
+    /// Authenticate with a key of the run's own (from its seed) where no key file is given: what an in-process run
+    /// needs to measure the cost of authentication.
+    pub auth: Option<bool>,
 }
 
 /// `[generate]`: a graph of `nodes` nodes (ids 0 … n−1) and its undirected edges.

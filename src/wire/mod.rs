@@ -8,9 +8,9 @@
 //! ```
 //! A [`Payload::Round`] carries one distributed estimator's message of one consensus round; matrices travel as
 //! their upper triangle, row by row (they are symmetric), so that a 9-state hybrid message fits one datagram.
-//! At most [`MAX_DATAGRAM`] bytes. `flags` bit 0 is reserved for an authentication tag that would trail the
-//! payload; version 1 senders write 0 and receivers reject any set flag. Decoding untrusted bytes never panics:
-//! every failure is a [`WireError`].
+//! At most [`MAX_DATAGRAM`] bytes. `flags` bit 0 marks a sealed datagram ([`secure`]: AES-128-CCM, the header as
+//! associated data, an epoch and counter after it, an 8-byte tag after the payload); other flags are rejected.
+//! Decoding untrusted bytes never panics: every failure is a [`WireError`].
 //!
 //! ```
 //! use simnet::wire::{Datagram, Header, Payload};
@@ -23,6 +23,7 @@ use bytes::Bytes;
 use serde::{Deserialize, Serialize};
 
 mod frame;
+pub mod secure;
 pub use frame::{Frame, FrameView, FrameWriter, MAX_FRAME};
 
 pub const MAGIC: u16 = 0x534E; // "SN"
@@ -217,19 +218,9 @@ impl Datagram {
         Ok(Bytes::from(buf))
     }
 
-    /// Checked decode of untrusted bytes.
+    /// Checked decode of untrusted bytes (an unsealed datagram: a sealed one goes through [`secure::Opener`]).
     pub fn decode(bytes: &[u8]) -> Result<Datagram, WireError> {
-        if bytes.len() > MAX_DATAGRAM {
-            return Err(WireError::TooLong(bytes.len()));
-        }
-        if bytes.len() < CRC_LEN + 8 {
-            return Err(WireError::TooShort(bytes.len()));
-        }
-        let (body, crc) = bytes.split_at(bytes.len() - CRC_LEN);
-        let want = u32::from_le_bytes([crc[0], crc[1], crc[2], crc[3]]);
-        if crc32fast::hash(body) != want {
-            return Err(WireError::Checksum);
-        }
+        let body = checked_body(bytes)?;
         let ((header, payload), rest): ((Header, Payload), &[u8]) =
             postcard::take_from_bytes(body).map_err(|e| WireError::Malformed(e.to_string()))?;
         if !rest.is_empty() {
@@ -241,17 +232,13 @@ impl Datagram {
     }
 
     fn validate(&self) -> Result<(), WireError> {
-        let h = &self.header;
-        if h.magic != MAGIC {
-            return Err(WireError::Magic(h.magic));
-        }
-        if h.version != VERSION {
-            return Err(WireError::Version(h.version));
-        }
-        if h.flags != 0 {
-            return Err(WireError::Flags(h.flags));
-        }
-        if h.kind != self.payload.kind() {
+        self.header.validate(0)?;
+        self.validate_payload()
+    }
+
+    /// The payload is of the header's kind and within its limits.
+    fn validate_payload(&self) -> Result<(), WireError> {
+        if self.header.kind != self.payload.kind() {
             return Err(WireError::Invalid("kind does not match the payload"));
         }
         match &self.payload {
@@ -261,6 +248,37 @@ impl Datagram {
         }
         Ok(())
     }
+}
+
+impl Header {
+    /// Magic, version, and `flags` as expected (0, or [`secure::SEALED`]).
+    fn validate(&self, flags: u8) -> Result<(), WireError> {
+        if self.magic != MAGIC {
+            return Err(WireError::Magic(self.magic));
+        }
+        if self.version != VERSION {
+            return Err(WireError::Version(self.version));
+        }
+        if self.flags != flags {
+            return Err(WireError::Flags(self.flags));
+        }
+        Ok(())
+    }
+}
+
+/// The bytes before the checksum, if the length is possible and the checksum holds.
+fn checked_body(bytes: &[u8]) -> Result<&[u8], WireError> {
+    if bytes.len() > MAX_DATAGRAM {
+        return Err(WireError::TooLong(bytes.len()));
+    }
+    if bytes.len() < CRC_LEN + 8 {
+        return Err(WireError::TooShort(bytes.len()));
+    }
+    let (body, crc) = bytes.split_at(bytes.len() - CRC_LEN);
+    if crc32fast::hash(body) != u32::from_le_bytes([crc[0], crc[1], crc[2], crc[3]]) {
+        return Err(WireError::Checksum);
+    }
+    Ok(body)
 }
 
 #[cfg(test)]

@@ -98,6 +98,7 @@ impl Summary {
                     corrupted: r.counters.corrupted,
                     restarts: r.counters.restarts,
                     steps_down: r.counters.steps_down,
+                    rejected: r.counters.rejected,
                 }
             })
             .collect();
@@ -132,6 +133,14 @@ impl Summary {
             settings: Some(Settings::of(topo)),
             part: None,
             schedule: None,
+            security: topo.security().key.as_ref().map(|_| SecuritySummary {
+                aead: "AES-128-CCM, 8-byte tag".into(),
+                key: topo.security().key_source.clone().unwrap_or_default(),
+                rejected: reports.iter().fold(Default::default(), |mut a, r| {
+                    a.add(&r.counters.rejected);
+                    a
+                }),
+            }),
         }
     }
 }

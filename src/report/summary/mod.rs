@@ -27,6 +27,9 @@ pub struct NodeSummary {
     pub corrupted: u64,
     pub restarts: u64,
     pub steps_down: u64,
+    /// Datagrams refused by authentication, by cause.
+    #[serde(default)]
+    pub rejected: crate::node::Rejections,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -117,6 +120,20 @@ pub struct Summary {
     /// How far the wall-clock runs fell behind their schedule; absent from virtual-clock runs.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub schedule: Option<Schedule>,
+    /// Authenticated datagrams: where the key came from and what was refused; absent from unauthenticated runs.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub security: Option<SecuritySummary>,
+}
+
+/// How a run's datagrams were authenticated.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct SecuritySummary {
+    /// AES-128-CCM, 8-byte tags.
+    pub aead: String,
+    /// The key file, or `seed` (an in-process run's own key).
+    pub key: String,
+    /// Datagrams refused by authentication at every node, by cause.
+    pub rejected: crate::node::Rejections,
 }
 
 /// How far a wall-clock run fell behind its schedule: each node step's start against t₀ + k·Δt.

@@ -126,6 +126,20 @@ impl Summary {
                 e(fu.optimal_mean_trace_p)
             )?;
         }
+        if let Some(sec) = &self.security {
+            let r = &sec.rejected;
+            writeln!(
+                w,
+                "authenticated ({}, key: {}): {} datagrams refused — bad tag {}, replay {}, too old {}, unknown source {}",
+                sec.aead,
+                sec.key,
+                r.total(),
+                r.bad_tag,
+                r.replay,
+                r.too_old,
+                r.unknown_source
+            )?;
+        }
         if let Some(s) = &self.schedule {
             writeln!(
                 w,

@@ -215,6 +215,7 @@ impl Checks {
             estimators.weights = Arc::new(crate::estimators::metropolis(&heard));
         }
         let faults = self.faults(&raw.fault, &ids, n);
+        let security = self.security(raw.security.as_ref(), file, sim.seed);
 
         if sim.split_channels && model.get().observation().channels() < 2 {
             self.bad(
@@ -231,6 +232,7 @@ impl Checks {
             model,
             consensus,
             estimators,
+            security,
             applied: Overrides::default(),
             raw: kept,
             nodes,

@@ -1,0 +1,131 @@
+//! A node's two ends of the wire: what it sends (numbered; sealed with its boot's key when the run is
+//! authenticated) and what it accepts (checked, and authenticated against each source's replay window), with the
+//! rejections counted by cause.
+
+use bytes::Bytes;
+use serde::{Deserialize, Serialize};
+
+use crate::wire::secure::{Key, Opener, Rejected, Sealer};
+use crate::wire::{Datagram, Header, Payload, WireError};
+
+/// Datagrams refused by authentication, by cause (zero in an unauthenticated run).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Rejections {
+    /// The checksum held but no tag verified: forged, tampered with on the way, or sent unsealed.
+    pub bad_tag: u64,
+    /// A counter accepted before (an attacker's replay, or a link's duplicate copy).
+    pub replay: u64,
+    /// An earlier boot of the source, or a counter below its window.
+    pub too_old: u64,
+    /// A source this node does not hear from.
+    pub unknown_source: u64,
+}
+
+impl Rejections {
+    pub fn total(&self) -> u64 {
+        self.bad_tag + self.replay + self.too_old + self.unknown_source
+    }
+
+    pub fn add(&mut self, o: &Rejections) {
+        self.bad_tag += o.bad_tag;
+        self.replay += o.replay;
+        self.too_old += o.too_old;
+        self.unknown_source += o.unknown_source;
+    }
+}
+
+/// What a datagram turned out to be, when it is not accepted.
+pub(super) enum Refused {
+    /// The link's bit flip, caught by the checksum.
+    Corrupted,
+    Malformed(WireError),
+    /// Refused by authentication (already counted in [`Rejections`]).
+    Rejected(Rejected),
+}
+
+/// The node's sending and receiving ends.
+pub(super) struct Wire {
+    id: u32,
+    /// Per-sender sequence number of the header (duplicates share it).
+    seq: u32,
+    key: Option<Key>,
+    /// This boot's epoch: each restart takes the next.
+    epoch: u64,
+    sealer: Option<Sealer>,
+    opener: Option<Opener>,
+    pub rejected: Rejections,
+}
+
+impl Wire {
+    /// Node `id`'s ends; sealed under `key` from boot `epoch` when the run is authenticated.
+    pub fn new(id: u32, key: Option<&Key>, epoch: u64) -> Wire {
+        Wire {
+            id,
+            seq: 0,
+            key: key.cloned(),
+            epoch,
+            sealer: key.map(|k| Sealer::new(k, id, epoch)),
+            opener: key.map(Opener::new),
+            rejected: Rejections::default(),
+        }
+    }
+
+    /// Boot from `epoch` (a process's boot time): no earlier boot of this node may have had it or a larger one.
+    pub fn boot(&mut self, epoch: u64) {
+        self.epoch = epoch;
+        if let Some(k) = &self.key {
+            self.sealer = Some(Sealer::new(k, self.id, epoch));
+        }
+    }
+
+    /// A restart: the next epoch, counters from 0 under its own key, so that no nonce is used twice.
+    pub fn reboot(&mut self) {
+        self.boot(self.epoch + 1);
+    }
+
+    pub fn id(&self) -> u32 {
+        self.id
+    }
+
+    /// The (epoch, counter) the next sealed datagram takes; none unauthenticated.
+    pub fn next_nonce(&self) -> Option<(u64, u64)> {
+        self.sealer.as_ref().map(Sealer::next_nonce)
+    }
+
+    /// `payload` of step `step` as bytes on the wire, with the next sequence number.
+    pub fn encode(&mut self, header: impl FnOnce(u32) -> Header, payload: Payload) -> Result<Bytes, WireError> {
+        let d = Datagram {
+            header: header(self.seq),
+            payload,
+        };
+        self.seq = self.seq.wrapping_add(1);
+        match &mut self.sealer {
+            Some(s) => s.seal(&d),
+            None => d.encode(),
+        }
+    }
+
+    /// Checked (and, when authenticated, opened) bytes from a source `known(src)` accepts.
+    pub fn decode(&mut self, bytes: &[u8], known: impl Fn(u32) -> bool) -> Result<Datagram, Refused> {
+        let Some(o) = &mut self.opener else {
+            return Datagram::decode(bytes).map_err(|e| match e {
+                WireError::Checksum => Refused::Corrupted,
+                e => Refused::Malformed(e),
+            });
+        };
+        o.open(bytes, known).map(|(d, _, _)| d).map_err(|r| {
+            let c = &mut self.rejected;
+            match r {
+                Rejected::Corrupted(_) => return Refused::Corrupted,
+                // Unsealed where every datagram must carry a tag.
+                Rejected::Malformed(WireError::Flags(0)) => c.bad_tag += 1,
+                Rejected::Malformed(e) => return Refused::Malformed(e),
+                Rejected::BadTag => c.bad_tag += 1,
+                Rejected::Replay { .. } => c.replay += 1,
+                Rejected::TooOld { .. } => c.too_old += 1,
+                Rejected::UnknownSource(_) => c.unknown_source += 1,
+            }
+            Refused::Rejected(r)
+        })
+    }
+}

@@ -1,0 +1,449 @@
+//! Authenticated datagrams, on the model of IEEE 802.15.4 security and OSCORE: AES-128-CCM with an 8-byte tag over
+//! the payload, the header authenticated as associated data.
+//!
+//! ```text
+//! | header (postcard, flags = SEALED) | epoch u64 LE | counter u64 LE | CCM(payload) | tag (8) | crc32 |
+//!   └──────────── associated data ───────────────────┘
+//! ```
+//!
+//! AES-CCM with 8-byte tags (CCM*'s security level of 802.15.4, OSCORE's default algorithm) rather than
+//! ChaCha20-Poly1305: it is what a sensor node's radio computes in hardware, so real firmware could join a simnet
+//! network, and its tag is half the size of Poly1305's in a 1200-byte budget. Each sender boot has its own key,
+//! HKDF-SHA-256 of the network key with the sender's id and its boot's epoch, and numbers its datagrams from 0:
+//! the nonce (the id and the counter) never repeats under a key, across crashes and process restarts alike, as long
+//! as a boot's epoch is new — larger than every earlier boot's (the restart count in a simulation; the boot time
+//! with random low bits for a process). The CRC stays outside, so that a link's bit flip still counts as corruption
+//! and only a datagram whose checksum holds and whose tag does not counts as forged.
+//!
+//! A receiver keeps, per source, the epoch it accepts and a 64-entry window of counters ([`Replay`]): a counter
+//! seen before is a replay, one below the window or an earlier epoch is too old, a later epoch (the source
+//! restarted) replaces the window once a datagram of it authenticates.
+
+use std::collections::HashMap;
+
+use aes::Aes128;
+use bytes::Bytes;
+use ccm::aead::{AeadInPlace, KeyInit};
+use ccm::consts::{U13, U8};
+use ccm::Ccm;
+use hkdf::Hkdf;
+use sha2::Sha256;
+
+use super::{Datagram, Header, Payload, WireError, MAX_DATAGRAM};
+
+type Cipher = Ccm<Aes128, U8, U13>;
+
+/// `header.flags` of a sealed datagram.
+pub const SEALED: u8 = 1;
+pub const TAG_LEN: usize = 8;
+/// Epoch and counter, in the clear after the header.
+const SEQ_LEN: usize = 16;
+/// Replay window, in datagrams.
+pub const WINDOW: u64 = 64;
+
+/// The network's key (`simnet keygen`); never printed.
+#[derive(Clone, PartialEq, Eq)]
+pub struct Key([u8; 16]);
+
+impl std::fmt::Debug for Key {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Key(…)")
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum KeyError {
+    #[error("not a simnet key file: expected one line `simnet-key-v1 <32 hex digits>`")]
+    Format,
+}
+
+/// First word of a key file.
+const KEY_TAG: &str = "simnet-key-v1";
+
+impl Key {
+    pub fn from_bytes(b: [u8; 16]) -> Key {
+        Key(b)
+    }
+
+    /// A key file's text: `simnet-key-v1 <32 hex digits>` (comments after `#`).
+    pub fn parse(text: &str) -> Result<Key, KeyError> {
+        let line = text
+            .lines()
+            .map(|l| l.split('#').next().unwrap_or("").trim())
+            .find(|l| !l.is_empty())
+            .ok_or(KeyError::Format)?;
+        let hex = line.strip_prefix(KEY_TAG).ok_or(KeyError::Format)?.trim();
+        if hex.len() != 32 || !hex.is_ascii() {
+            return Err(KeyError::Format);
+        }
+        let mut k = [0u8; 16];
+        for (i, b) in k.iter_mut().enumerate() {
+            *b = u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).map_err(|_| KeyError::Format)?;
+        }
+        Ok(Key(k))
+    }
+
+    /// The key file's text.
+    pub fn to_file(&self) -> String {
+        let hex: String = self.0.iter().map(|b| format!("{b:02x}")).collect();
+        format!("# simnet network key: every node of a run holds the same one. Keep it secret.\n{KEY_TAG} {hex}\n")
+    }
+
+    /// The key of one sender boot: HKDF-SHA-256 (RFC 5869) of the network key, `info` = the sender's id and epoch.
+    fn boot(&self, src: u32, epoch: u64) -> Cipher {
+        let mut info = [0u8; 12];
+        info[..4].copy_from_slice(&src.to_be_bytes());
+        info[4..].copy_from_slice(&epoch.to_be_bytes());
+        let mut k = [0u8; 16];
+        // 16 bytes is far inside HKDF-SHA-256's limit: expand cannot fail.
+        let _ = Hkdf::<Sha256>::new(Some(b"simnet boot key"), &self.0).expand(&info, &mut k);
+        Cipher::new(&k.into())
+    }
+}
+
+/// The 13-byte CCM nonce: the sender's id and the counter (unique under a boot's key).
+fn nonce(src: u32, counter: u64) -> [u8; 13] {
+    let mut n = [0u8; 13];
+    n[..4].copy_from_slice(&src.to_be_bytes());
+    n[4..12].copy_from_slice(&counter.to_be_bytes());
+    n
+}
+
+/// One boot of a sender: its key and the next counter.
+pub struct Sealer {
+    src: u32,
+    epoch: u64,
+    counter: u64,
+    cipher: Cipher,
+}
+
+impl Sealer {
+    pub fn new(key: &Key, src: u32, epoch: u64) -> Sealer {
+        Sealer {
+            src,
+            epoch,
+            counter: 0,
+            cipher: key.boot(src, epoch),
+        }
+    }
+
+    /// The (epoch, counter) the next datagram takes.
+    pub fn next_nonce(&self) -> (u64, u64) {
+        (self.epoch, self.counter)
+    }
+
+    /// `d` sealed: its header must name this sender.
+    pub fn seal(&mut self, d: &Datagram) -> Result<Bytes, WireError> {
+        if d.header.src != self.src {
+            return Err(WireError::Invalid("a sealer seals its own node's datagrams"));
+        }
+        d.validate_payload()?;
+        let header = Header {
+            flags: SEALED,
+            ..d.header
+        };
+        let mut buf = postcard::to_allocvec(&header).map_err(|e| WireError::Malformed(e.to_string()))?;
+        buf.extend_from_slice(&self.epoch.to_le_bytes());
+        buf.extend_from_slice(&self.counter.to_le_bytes());
+        let aad_len = buf.len();
+        let mut body = postcard::to_allocvec(&d.payload).map_err(|e| WireError::Malformed(e.to_string()))?;
+        let tag = self
+            .cipher
+            .encrypt_in_place_detached(&nonce(self.src, self.counter).into(), &buf, &mut body)
+            .map_err(|_| WireError::Invalid("payload too long to seal"))?;
+        debug_assert_eq!(buf.len(), aad_len);
+        buf.extend_from_slice(&body);
+        buf.extend_from_slice(&tag);
+        let crc = crc32fast::hash(&buf);
+        buf.extend_from_slice(&crc.to_le_bytes());
+        if buf.len() > MAX_DATAGRAM {
+            return Err(WireError::TooLong(buf.len()));
+        }
+        // Never again under this key, whatever happened to the datagram.
+        self.counter += 1;
+        Ok(Bytes::from(buf))
+    }
+}
+
+/// Why a datagram was not accepted by [`Opener::open`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum Rejected {
+    /// Checksum failed: damaged on the way.
+    #[error("corrupted: {0}")]
+    Corrupted(WireError),
+    /// Not a datagram at all, or not sealed where a key is required.
+    #[error("malformed: {0}")]
+    Malformed(WireError),
+    /// The checksum holds but the tag does not: forged or tampered with.
+    #[error("the authentication tag does not verify")]
+    BadTag,
+    /// A counter already accepted.
+    #[error("replayed: counter {counter} of epoch {epoch} was accepted before")]
+    Replay { epoch: u64, counter: u64 },
+    /// An earlier epoch of the source, or a counter below its window.
+    #[error("too old: counter {counter} of epoch {epoch}")]
+    TooOld { epoch: u64, counter: u64 },
+    /// A source the receiver does not hear from.
+    #[error("from unknown source {0}")]
+    UnknownSource(u32),
+}
+
+/// The counters of one source's current epoch that were accepted: the highest, and a bitmap of the 64 below it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Replay {
+    pub epoch: u64,
+    highest: u64,
+    /// Bit i: counter `highest − i` was accepted.
+    seen: u64,
+}
+
+impl Replay {
+    /// Whether (epoch, counter) may be accepted, without changing anything.
+    fn check(this: Option<&Replay>, epoch: u64, counter: u64) -> Result<(), Rejected> {
+        let Some(w) = this else { return Ok(()) };
+        if epoch < w.epoch {
+            return Err(Rejected::TooOld { epoch, counter });
+        }
+        if epoch > w.epoch || counter > w.highest {
+            return Ok(());
+        }
+        let back = w.highest - counter;
+        if back >= WINDOW {
+            Err(Rejected::TooOld { epoch, counter })
+        } else if w.seen & (1 << back) != 0 {
+            Err(Rejected::Replay { epoch, counter })
+        } else {
+            Ok(())
+        }
+    }
+
+    /// Record an accepted (epoch, counter) that passed [`Replay::check`].
+    fn accept(this: &mut Option<Replay>, epoch: u64, counter: u64) {
+        match this {
+            Some(w) if w.epoch == epoch => {
+                if counter > w.highest {
+                    let shift = counter - w.highest;
+                    w.seen = if shift >= WINDOW { 0 } else { w.seen << shift };
+                    w.highest = counter;
+                    w.seen |= 1;
+                } else {
+                    w.seen |= 1 << (w.highest - counter);
+                }
+            }
+            // A first datagram, or the source restarted: a new window.
+            _ => {
+                *this = Some(Replay {
+                    epoch,
+                    highest: counter,
+                    seen: 1,
+                })
+            }
+        }
+    }
+}
+
+/// A receiver: the key, each source's boot key and replay window.
+pub struct Opener {
+    key: Key,
+    /// By source: the accepted epoch's key, so that it is derived once per boot.
+    boots: HashMap<u32, (u64, Cipher)>,
+    windows: HashMap<u32, Option<Replay>>,
+}
+
+impl Opener {
+    pub fn new(key: &Key) -> Opener {
+        Opener {
+            key: key.clone(),
+            boots: HashMap::new(),
+            windows: HashMap::new(),
+        }
+    }
+
+    /// Checked open of untrusted bytes from a source `known(src)` accepts: (datagram, epoch, counter). Nothing in
+    /// the receiver changes unless the datagram authenticates and is new.
+    pub fn open(&mut self, bytes: &[u8], known: impl Fn(u32) -> bool) -> Result<(Datagram, u64, u64), Rejected> {
+        let body = super::checked_body(bytes).map_err(|e| match e {
+            WireError::Checksum => Rejected::Corrupted(e),
+            e => Rejected::Malformed(e),
+        })?;
+        let (header, rest): (Header, &[u8]) =
+            postcard::take_from_bytes(body).map_err(|e| Rejected::Malformed(WireError::Malformed(e.to_string())))?;
+        header.validate(SEALED).map_err(Rejected::Malformed)?;
+        if !known(header.src) {
+            return Err(Rejected::UnknownSource(header.src));
+        }
+        if rest.len() < SEQ_LEN + TAG_LEN {
+            return Err(Rejected::Malformed(WireError::TooShort(bytes.len())));
+        }
+        let mut e = [0u8; 8];
+        e.copy_from_slice(&rest[..8]);
+        let epoch = u64::from_le_bytes(e);
+        e.copy_from_slice(&rest[8..16]);
+        let counter = u64::from_le_bytes(e);
+        let window = self.windows.get(&header.src).copied().flatten();
+        Replay::check(window.as_ref(), epoch, counter)?;
+        let aad = &body[..body.len() - rest.len() + SEQ_LEN];
+        let (sealed, tag) = rest[SEQ_LEN..].split_at(rest.len() - SEQ_LEN - TAG_LEN);
+        let mut plain = sealed.to_vec();
+        let fresh;
+        let cipher = match self.boots.get(&header.src) {
+            Some((ep, c)) if *ep == epoch => c,
+            _ => {
+                fresh = self.key.boot(header.src, epoch);
+                &fresh
+            }
+        };
+        cipher
+            .decrypt_in_place_detached(&nonce(header.src, counter).into(), aad, &mut plain, tag.into())
+            .map_err(|_| Rejected::BadTag)?;
+        let (payload, left): (Payload, &[u8]) =
+            postcard::take_from_bytes(&plain).map_err(|e| Rejected::Malformed(WireError::Malformed(e.to_string())))?;
+        if !left.is_empty() {
+            return Err(Rejected::Malformed(WireError::Trailing(left.len())));
+        }
+        let d = Datagram {
+            header: Header { flags: 0, ..header },
+            payload,
+        };
+        d.validate_payload().map_err(Rejected::Malformed)?;
+        // Authentic and new: remember it.
+        if self.boots.get(&header.src).is_none_or(|(ep, _)| *ep != epoch) {
+            self.boots.insert(header.src, (epoch, self.key.boot(header.src, epoch)));
+        }
+        Replay::accept(self.windows.entry(header.src).or_default(), epoch, counter);
+        Ok((d, epoch, counter))
+    }
+}
+
+/// What sealing adds to a datagram's length.
+pub const OVERHEAD: usize = SEQ_LEN + TAG_LEN;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::wire::{Body, CRC_LEN};
+
+    fn key() -> Key {
+        Key::from_bytes([7; 16])
+    }
+
+    fn sample(src: u32, step: u64) -> Datagram {
+        Datagram {
+            header: Header::new(src, 9, step),
+            payload: Payload::measurement(0b101, vec![1.5, -2.0]),
+        }
+    }
+
+    #[test]
+    fn sealed_datagrams_open_once_and_only_with_the_key() {
+        let mut s = Sealer::new(&key(), 3, 11);
+        let mut o = Opener::new(&key());
+        let d = sample(3, 40);
+        let b = s.seal(&d).unwrap();
+        assert_eq!(b.len(), d.encode().unwrap().len() + OVERHEAD);
+        assert_eq!(o.open(&b, |_| true).unwrap(), (d.clone(), 11, 0));
+        // The same bytes again: a replay.
+        assert_eq!(o.open(&b, |_| true), Err(Rejected::Replay { epoch: 11, counter: 0 }));
+        // Another key: the tag fails.
+        let mut other = Opener::new(&Key::from_bytes([8; 16]));
+        assert_eq!(other.open(&s.seal(&d).unwrap(), |_| true), Err(Rejected::BadTag));
+        // An unsealed datagram where a key is required, and an unknown source.
+        assert!(matches!(
+            o.open(&d.encode().unwrap(), |_| true),
+            Err(Rejected::Malformed(_))
+        ));
+        assert_eq!(
+            o.open(&s.seal(&d).unwrap(), |src| src != 3),
+            Err(Rejected::UnknownSource(3))
+        );
+        // A sealer seals only its own node's datagrams.
+        assert!(s.seal(&sample(4, 1)).is_err());
+    }
+
+    /// Every bit flip is caught: by the checksum, or by the tag once the checksum is made to match (tampering).
+    #[test]
+    fn every_flip_is_corruption_and_every_tampering_a_bad_tag() {
+        let round = Datagram {
+            header: Header::round(2, 5, 9),
+            payload: Payload::Round {
+                round: 1,
+                scheme: 4,
+                body: Body::Information {
+                    n: 2,
+                    sym: vec![1.0, 0.5, 2.0],
+                    vec: vec![0.25, -1.0],
+                },
+            },
+        };
+        let mut s = Sealer::new(&key(), 2, 1);
+        let bytes = s.seal(&round).unwrap();
+        let n = bytes.len();
+        for bit in 0..n * 8 {
+            let mut b = bytes.to_vec();
+            b[bit / 8] ^= 1 << (bit % 8);
+            let mut o = Opener::new(&key());
+            assert!(o.open(&b, |_| true).is_err(), "bit {bit} went undetected");
+            // With the checksum recomputed: anything but the CRC itself is caught by the header's checks or the tag.
+            if bit / 8 < n - CRC_LEN {
+                let crc = crc32fast::hash(&b[..n - CRC_LEN]);
+                b[n - CRC_LEN..].copy_from_slice(&crc.to_le_bytes());
+                let r = Opener::new(&key()).open(&b, |_| true);
+                assert!(
+                    matches!(r, Err(Rejected::BadTag) | Err(Rejected::Malformed(_))),
+                    "bit {bit}: {r:?}"
+                );
+            }
+        }
+    }
+
+    /// The window takes reordered datagrams once each, refuses what fell out of it, and a restart's later epoch.
+    #[test]
+    fn the_window_tolerates_reordering_and_refuses_replays() {
+        let mut s = Sealer::new(&key(), 1, 5);
+        let sealed: Vec<Bytes> = (0..200).map(|k| s.seal(&sample(1, k)).unwrap()).collect();
+        let mut o = Opener::new(&key());
+        // 0, then 100, then 60 (inside the window), then 20 (below it).
+        assert!(o.open(&sealed[0], |_| true).is_ok());
+        assert!(o.open(&sealed[100], |_| true).is_ok());
+        assert!(o.open(&sealed[60], |_| true).is_ok());
+        assert_eq!(
+            o.open(&sealed[60], |_| true),
+            Err(Rejected::Replay { epoch: 5, counter: 60 })
+        );
+        assert_eq!(
+            o.open(&sealed[20], |_| true),
+            Err(Rejected::TooOld { epoch: 5, counter: 20 })
+        );
+        assert!(o.open(&sealed[99], |_| true).is_ok());
+        // The source restarts: epoch 6 from counter 0; epoch 5 is then too old.
+        let mut again = Sealer::new(&key(), 1, 6);
+        assert!(o.open(&again.seal(&sample(1, 300)).unwrap(), |_| true).is_ok());
+        assert_eq!(
+            o.open(&sealed[150], |_| true),
+            Err(Rejected::TooOld { epoch: 5, counter: 150 })
+        );
+        // A forged datagram of a later epoch changes nothing: its tag fails first.
+        let mut forger = Sealer::new(&Key::from_bytes([9; 16]), 1, 99);
+        assert_eq!(
+            o.open(&forger.seal(&sample(1, 301)).unwrap(), |_| true),
+            Err(Rejected::BadTag)
+        );
+        assert!(o.open(&again.seal(&sample(1, 302)).unwrap(), |_| true).is_ok());
+    }
+
+    #[test]
+    fn key_files_read_back_and_bad_ones_say_what_is_expected() {
+        let k = Key::from_bytes([0xab; 16]);
+        assert_eq!(Key::parse(&k.to_file()).unwrap(), k);
+        assert_eq!(format!("{k:?}"), "Key(…)");
+        for bad in [
+            "",
+            "simnet-key-v1 abc",
+            "root:x:0:0",
+            "simnet-key-v1 zz000000000000000000000000000000",
+        ] {
+            let e = Key::parse(bad).unwrap_err().to_string();
+            assert!(!e.contains("root") && e.contains("simnet-key-v1"), "{bad}: {e}");
+        }
+    }
+}
