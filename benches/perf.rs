@@ -605,6 +605,93 @@ fn realtime() {
     }
 }
 
+/// What authentication costs: sealing and opening one measurement datagram against encoding and decoding it, and
+/// whole runs with `--auth` against the same runs without, in memory and over UDP (each the median of three).
+fn auth_ratios() {
+    use simnet::wire::secure::{Key, Opener, Sealer};
+    let d = Datagram {
+        header: Header::new(3, 17, 12345),
+        payload: Payload::measurement(0b111111, vec![0.11, 0.09, 0.1, 0.1, 0.1, 0.12]),
+    };
+    let key = Key::from_bytes([7; 16]);
+    let mut sealer = Sealer::new(&key, 3, 1);
+    let plain = d.encode().unwrap();
+    let enc = time_per_call(|| {
+        black_box(black_box(&d).encode().unwrap());
+    });
+    let seal = time_per_call(|| {
+        black_box(sealer.seal(black_box(&d)).unwrap());
+    });
+    let dec = time_per_call(|| {
+        black_box(Datagram::decode(black_box(&plain)).unwrap());
+    });
+    // A fresh opener each call: every sealed datagram opens once.
+    let mut fresh = Sealer::new(&key, 3, 2);
+    let sealed: Vec<_> = (0..64).map(|_| fresh.seal(&d).unwrap()).collect();
+    let mut i = 0;
+    let mut opener = Opener::new(&key);
+    let open = time_per_call(|| {
+        if i % 64 == 0 {
+            opener = Opener::new(&key);
+        }
+        black_box(opener.open(black_box(&sealed[i % 64]), |_| true).unwrap());
+        i += 1;
+    });
+    println!(
+        "| seal / open a {} B measurement datagram (AES-128-CCM, {} B sealed) | {seal:.0} ns / {open:.0} ns = {:.1}× / {:.1}× encode / decode |",
+        plain.len(),
+        sealed[0].len(),
+        seal / enc,
+        open / dec
+    );
+    for (name, udp) in [("ring3", false), ("rgg50", false), ("ring3", true)] {
+        let wall = |auth: bool| {
+            let topo = Scenario::resolve(name)
+                .unwrap()
+                .with(&Overrides {
+                    duration_s: Some(if name == "rgg50" { 5.0 } else { 30.0 }),
+                    auth: auth.then_some(true),
+                    ..Default::default()
+                })
+                .unwrap();
+            median(
+                (0..3)
+                    .map(|_| {
+                        let t = Instant::now();
+                        if udp {
+                            let rt = tokio::runtime::Builder::new_multi_thread()
+                                .enable_all()
+                                .build()
+                                .unwrap();
+                            black_box(
+                                rt.block_on(net::run(
+                                    Arc::new(topo.clone()),
+                                    RunOptions::default(),
+                                    std::future::pending(),
+                                ))
+                                .unwrap(),
+                            );
+                        } else {
+                            black_box(simnet::Sim::new(&topo).unwrap().run().unwrap());
+                        }
+                        t.elapsed().as_secs_f64()
+                    })
+                    .collect(),
+            )
+        };
+        let (plain, sealed) = (wall(false), wall(true));
+        println!(
+            "| `{name}` {} with `--auth` against without | {sealed:.2} s / {plain:.2} s = {:.3}× |",
+            if udp {
+                "over UDP (virtual clock)"
+            } else {
+                "in memory (Sim)"
+            },
+            sealed / plain
+        );
+    }
+}
+
 fn main() {
     // `cargo bench --bench perf -- MODE` runs one part: `lockstep [N]` (the lockstep ratios, of the ring of N),
     // `estimation` (the kernel and node-step ratios), `realtime`, `scale`, `scaling`; `kf-loop` and `sim-loop` are
@@ -621,6 +708,12 @@ fn main() {
             args[i + 3].parse().unwrap(),
             &args[i + 4],
         );
+        return;
+    }
+    if args.iter().any(|a| a == "auth") {
+        println!("| benchmark | figure |");
+        println!("|---|---|");
+        auth_ratios();
         return;
     }
     if args.iter().any(|a| a == "realtime") {
@@ -775,6 +868,7 @@ fn main() {
             100.0 * dg / raw
         );
     }
+    auth_ratios();
     lockstep_ratios(None);
     kernel_ratios();
     estimation_ratios();

@@ -35,8 +35,13 @@ pub fn service_name(topo: &Scenario, index: usize) -> String {
     addr.rsplit_once(':').map_or(addr.clone(), |(h, _)| h.to_string())
 }
 
+/// The Docker secret holding the network key, as the containers see it.
+pub const KEY_SECRET: &str = "simnet_key";
+
 /// `topology_arg` is what the containers are given: a built-in name as it is, a path mounted at /topology.toml.
-pub fn compose_file(topo: &Scenario, topology_arg: &str, builtin: bool, image: &str) -> String {
+/// `key_file`: the network key on the host, handed to every node as the Docker secret [`KEY_SECRET`] (the engine's
+/// own mechanism: a file under /run/secrets, in no image, environment or command line); none: `--insecure` nodes.
+pub fn compose_file(topo: &Scenario, topology_arg: &str, builtin: bool, image: &str, key_file: Option<&str>) -> String {
     let (in_container, mount) = if builtin {
         (topology_arg.to_string(), None)
     } else {
@@ -79,6 +84,9 @@ pub fn compose_file(topo: &Scenario, topology_arg: &str, builtin: bool, image: &
             };
             writeln!(y, "    - {host}:{inside}:ro")?;
         }
+        if key_file.is_some() {
+            writeln!(y, "  secrets: [{KEY_SECRET}]")?;
+        }
         writeln!(y, "  stop_grace_period: 5s")?;
         writeln!(y, "  environment:")?;
         for v in ENV {
@@ -86,12 +94,16 @@ pub fn compose_file(topo: &Scenario, topology_arg: &str, builtin: bool, image: &
         }
         writeln!(y)?;
         writeln!(y, "services:")?;
+        let auth = match key_file {
+            Some(_) => format!(r#""--key-file", "/run/secrets/{KEY_SECRET}""#),
+            None => r#""--insecure""#.to_string(),
+        };
         for (i, n) in topo.nodes().iter().enumerate() {
             writeln!(y, "  {}:", service_name(topo, i))?;
             writeln!(y, "    <<: *node")?;
             writeln!(
                 y,
-                r#"    command: ["node", "--topology", "{in_container}", "--id", "{}", "--out", "/results", "-q"]"#,
+                r#"    command: ["node", "--topology", "{in_container}", "--id", "{}", {auth}, "--out", "/results", "-q"]"#,
                 n.id
             )?;
         }
@@ -109,7 +121,17 @@ pub fn compose_file(topo: &Scenario, topology_arg: &str, builtin: bool, image: &
         writeln!(y)?;
         writeln!(y, "networks:\n  simnet:\n    driver: bridge\n    internal: true")?;
         writeln!(y)?;
-        writeln!(y, "volumes:\n  results: {{}}")
+        writeln!(y, "volumes:\n  results: {{}}")?;
+        if let Some(k) = key_file {
+            let host = if std::path::Path::new(k).is_absolute() || k.starts_with('.') {
+                k.to_string()
+            } else {
+                format!("./{k}")
+            };
+            writeln!(y)?;
+            writeln!(y, "secrets:\n  {KEY_SECRET}:\n    file: {host}")?;
+        }
+        Ok(())
     })();
     y
 }

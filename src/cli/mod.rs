@@ -28,8 +28,8 @@ pub use args::RunArgs;
 use args::*;
 use bounds::bounds;
 pub use bounds::BoundsArgs;
-use node::{collect, compose, run_node};
-pub use node::{CollectArgs, ComposeArgs, NodeArgs};
+use node::{collect, compose, keygen, run_node};
+pub use node::{CollectArgs, ComposeArgs, KeygenArgs, NodeArgs};
 pub(crate) use out::check_out;
 use out::*;
 use run::run;
@@ -77,8 +77,11 @@ pub enum Command {
     Node(NodeArgs),
     /// Merge the parts written by `simnet node --out` into one summary, table and plots.
     Collect(CollectArgs),
-    /// Print a docker compose file that runs a topology with one container per node.
+    /// Print a docker compose file that runs a topology with one container per node, authenticated with a
+    /// network key handed to them as a Docker secret.
     Compose(ComposeArgs),
+    /// Write a network key file: every datagram of a run holding it is authenticated (AES-128-CCM).
+    Keygen(KeygenArgs),
     /// Covariance bounds of a linear model under intermittent observations (Sinopoli et al.): λ_min, λ̄, S̄, V̄.
     Bounds(BoundsArgs),
     /// Find β weights that keep (17) and (19) feasible along a run with the most useful exchange (Sequeira (2023) §5).
@@ -150,6 +153,7 @@ pub fn main() -> ExitCode {
         Some(Command::Node(args)) => run_node(&args, cli.quiet),
         Some(Command::Collect(args)) => collect(&args),
         Some(Command::Compose(args)) => compose(&args),
+        Some(Command::Keygen(args)) => keygen(&args),
         Some(Command::Bounds(args)) => bounds(&args),
         Some(Command::Protocol(args)) => protocol::protocol(&args, cli.quiet),
         Some(Command::Reproduce(paper)) => reproduce::reproduce(&paper, cli.quiet),

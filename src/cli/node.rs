@@ -9,7 +9,8 @@ pub struct NodeArgs {
     /// This node's id in the topology.
     #[arg(long)]
     pub id: u32,
-    /// Address to bind (default 0.0.0.0 and the port of the node's `addr`, or 7000).
+    /// Address to bind (default: the node's `addr` in the topology, or `node<ID>:7000`, resolved; 0.0.0.0:PORT only
+    /// when given).
     #[arg(long)]
     pub bind: Option<std::net::SocketAddr>,
     /// A neighbour's address, overriding the topology (`addr`, default `node<ID>:7000`). Repeatable.
@@ -18,6 +19,9 @@ pub struct NodeArgs {
     /// Seconds to wait for every neighbour before starting alone.
     #[arg(allow_hyphen_values = true, long, default_value_t = 30.0, value_parser = seconds_in_a_day)]
     pub handshake_timeout: f64,
+    /// Run without authenticating datagrams (anyone who can reach the port can then feed this node).
+    #[arg(long)]
+    pub insecure: bool,
     #[command(flatten)]
     pub run: RunArgs,
 }
@@ -43,6 +47,72 @@ pub struct ComposeArgs {
     /// Image name of the simnet image.
     #[arg(long, default_value = "simnet:latest")]
     pub image: String,
+    /// The network key handed to the containers as a Docker secret; written (`simnet keygen`) when absent.
+    #[arg(long, default_value = "simnet.key", conflicts_with = "insecure")]
+    pub key_file: PathBuf,
+    /// Nodes that do not authenticate their datagrams (no key, no secret).
+    #[arg(long)]
+    pub insecure: bool,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct KeygenArgs {
+    /// Where to write the key (readable by its owner alone); `-` prints it.
+    #[arg(default_value = "simnet.key")]
+    pub file: PathBuf,
+    /// Replace an existing file.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Write a fresh key to `path`, readable by its owner alone; an existing file is kept unless `force`.
+fn write_key(path: &std::path::Path, force: bool) -> anyhow::Result<()> {
+    use std::io::Write;
+    let key = crate::wire::secure::Key::generate().map_err(|e| anyhow::anyhow!("no random source: {e}"))?;
+    let mut o = std::fs::OpenOptions::new();
+    o.write(true);
+    if force {
+        o.create(true).truncate(true);
+    } else {
+        o.create_new(true);
+    }
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::mode(&mut o, 0o600);
+    let mut f = o.open(path).map_err(|e| match e.kind() {
+        std::io::ErrorKind::AlreadyExists => anyhow::Error::from(UsageError::Option(format!(
+            "{} exists: keep it, or replace it with --force (nodes holding the old key then reject the new one's datagrams)",
+            path.display()
+        ))),
+        _ => anyhow::anyhow!("cannot write {}: {e}", path.display()),
+    })?;
+    f.write_all(key.to_file().as_bytes())?;
+    f.sync_all()?;
+    Ok(())
+}
+
+pub(super) fn keygen(args: &KeygenArgs) -> anyhow::Result<ExitCode> {
+    if args.file.as_os_str() == "-" {
+        let key = crate::wire::secure::Key::generate().map_err(|e| anyhow::anyhow!("no random source: {e}"))?;
+        print!("{}", key.to_file());
+    } else {
+        write_key(&args.file, args.force)?;
+        eprintln!(
+            "wrote {}: give it to every node (--key-file, SIMNET_KEY_FILE or [security] key_file)",
+            args.file.display()
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// This boot's epoch: milliseconds since 1970 in the high bits, 16 random bits below — larger than any earlier
+/// boot's as long as the clock does not step back, and two boots in one millisecond still differ.
+fn boot_epoch() -> u64 {
+    let ms = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis() as u64);
+    let mut r = [0u8; 2];
+    let _ = getrandom::getrandom(&mut r);
+    (ms << 16) | u64::from(u16::from_le_bytes(r))
 }
 
 pub(super) fn peer(s: &str) -> Result<(u32, String), String> {
@@ -77,13 +147,44 @@ pub(super) fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode>
     let peers =
         crate::net::host::neighbour_addrs(&topo, index, &args.peers).map_err(|e| UsageError::Option(e.to_string()))?;
     let own = crate::compose::node_addr(&topo, index);
-    let port = own
-        .rsplit_once(':')
+    own.rsplit_once(':')
         .and_then(|(_, p)| p.parse::<u16>().ok())
         .ok_or_else(|| UsageError::Option(format!("node {}: address `{own}` has no port", args.id)))?;
-    let bind = args
-        .bind
-        .unwrap_or_else(|| std::net::SocketAddr::from(([0, 0, 0, 0], port)));
+    match (&topo.security().key_source, args.insecure) {
+        (None, false) => {
+            return Err(UsageError::Option(
+                "simnet node authenticates every datagram: give the network's key with --key-file FILE \
+                 (`simnet keygen`), SIMNET_KEY_FILE or [security] key_file — or --insecure to run without"
+                    .into(),
+            )
+            .into())
+        }
+        (Some(s), _) if s == "seed" => {
+            return Err(UsageError::Option(
+                "[security] auth = true derives a key from the run seed, which anyone knows: give a key file".into(),
+            )
+            .into())
+        }
+        (Some(_), true) => {
+            return Err(UsageError::Option("--insecure and a key: choose one".into()).into());
+        }
+        _ => {}
+    }
+    // The node's own address from the topology (its service name in a container), never every interface unless
+    // --bind asks for it.
+    let bind = match args.bind {
+        Some(b) => b,
+        None => {
+            use std::net::ToSocketAddrs;
+            let resolved = own.to_socket_addrs().ok().and_then(|mut a| a.find(|a| a.is_ipv4()));
+            resolved.ok_or_else(|| {
+                UsageError::Option(format!(
+                    "node {}: cannot resolve its own address `{own}` to bind it; give --bind ADDR",
+                    args.id
+                ))
+            })?
+        }
+    };
     if args.run.format != Format::Csv {
         return Err(UsageError::Option(
             "a node writes its part as CSV; `simnet collect` merges the parts: drop --format".into(),
@@ -101,6 +202,7 @@ pub(super) fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode>
         progress: progress
             .clone()
             .map(|pb| -> net::Progress { Arc::new(move |d, _| pb.set_position(d)) }),
+        boot_epoch: boot_epoch(),
     };
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
@@ -170,9 +272,27 @@ pub(super) fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
 pub(super) fn compose(args: &ComposeArgs) -> anyhow::Result<ExitCode> {
     let topo = Scenario::resolve(&args.topology).map_err(UsageError::from)?;
     let builtin = builtin::get(&args.topology).is_some();
+    let secret = if args.insecure {
+        None
+    } else {
+        let path = &args.key_file;
+        if path.exists() {
+            let text = crate::input::read_text(path, crate::input::MAX_KEY)
+                .map_err(|e| UsageError::Option(format!("cannot read {}: {e}", path.display())))?;
+            crate::wire::secure::Key::parse(&text)
+                .map_err(|e| UsageError::Option(format!("{}: {e}", path.display())))?;
+        } else {
+            write_key(path, false)?;
+            eprintln!(
+                "wrote a new network key to {} (the compose file hands it to the nodes as a Docker secret)",
+                path.display()
+            );
+        }
+        Some(path.display().to_string())
+    };
     print!(
         "{}",
-        crate::compose::compose_file(&topo, &args.topology, builtin, &args.image)
+        crate::compose::compose_file(&topo, &args.topology, builtin, &args.image, secret.as_deref())
     );
     Ok(ExitCode::SUCCESS)
 }

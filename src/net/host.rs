@@ -35,6 +35,9 @@ pub struct HostConfig {
     pub handshake_timeout: Duration,
     pub record_trace: bool,
     pub progress: Option<Progress>,
+    /// This boot's epoch (its time with random low bits): larger than every earlier boot's, so that an
+    /// authenticated node never seals two datagrams under one nonce across restarts.
+    pub boot_epoch: u64,
 }
 
 pub struct HostOutput {
@@ -124,36 +127,61 @@ const GRACE: Duration = Duration::from_millis(300);
 /// Fraction of the measured phase offset corrected per step.
 const PHASE_GAIN: f64 = 0.2;
 
-/// Neighbour addresses: resolved by name (retried, since containers come up in any order) and updated from the
-/// source address of valid datagrams (a restarted container may come back with another address).
+/// Neighbour addresses: resolved by name in a task of their own ([`resolver`]: containers come up in any order, and
+/// a restarted one may come back with another address), and, in an authenticated run, learnt from the source
+/// address of a datagram that authenticated — never from one that did not.
 struct Peers {
     names: HashMap<usize, String>,
     addrs: HashMap<usize, SocketAddr>,
-    last_lookup: Option<Instant>,
+    resolved: tokio::sync::mpsc::UnboundedReceiver<(usize, SocketAddr)>,
+}
+
+/// Resolve every neighbour's name off the node's loop (a lookup can take seconds where a name is gone): a missing
+/// one every 500 ms, all of them every 5 s; only changes are sent. Ends when the node drops its end.
+fn resolver(names: HashMap<usize, String>) -> tokio::sync::mpsc::UnboundedReceiver<(usize, SocketAddr)> {
+    let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+    tokio::spawn(async move {
+        let mut known: HashMap<usize, SocketAddr> = HashMap::new();
+        let mut last_full: Option<Instant> = None;
+        loop {
+            let all = last_full.is_none_or(|t| t.elapsed() >= Duration::from_secs(5));
+            if all {
+                last_full = Some(Instant::now());
+            }
+            for (j, name) in &names {
+                if known.contains_key(j) && !all {
+                    continue;
+                }
+                let found = tokio::time::timeout(Duration::from_secs(2), tokio::net::lookup_host(name.as_str())).await;
+                match found {
+                    Ok(Ok(mut it)) => {
+                        if let Some(a) = it.find(|a| a.is_ipv4()) {
+                            if known.insert(*j, a) != Some(a) {
+                                tracing::info!(peer = j, %a, "resolved {name}");
+                                if tx.send((*j, a)).is_err() {
+                                    return;
+                                }
+                            }
+                        }
+                    }
+                    Ok(Err(e)) => tracing::debug!(peer = j, "cannot resolve {name} yet: {e}"),
+                    Err(_) => tracing::debug!(peer = j, "resolving {name} timed out"),
+                }
+            }
+            if tx.is_closed() {
+                return;
+            }
+            tokio::time::sleep(Duration::from_millis(500)).await;
+        }
+    });
+    rx
 }
 
 impl Peers {
-    async fn resolve(&mut self) {
-        if self
-            .last_lookup
-            .is_some_and(|t| t.elapsed() < Duration::from_millis(500))
-        {
-            return;
-        }
-        self.last_lookup = Some(Instant::now());
-        for (j, name) in &self.names {
-            if self.addrs.contains_key(j) {
-                continue;
-            }
-            match tokio::net::lookup_host(name.as_str()).await {
-                Ok(mut it) => {
-                    if let Some(a) = it.find(|a| a.is_ipv4()) {
-                        tracing::info!(peer = j, %a, "resolved {name}");
-                        self.addrs.insert(*j, a);
-                    }
-                }
-                Err(e) => tracing::debug!(peer = j, "cannot resolve {name} yet: {e}"),
-            }
+    /// Take the addresses the resolver found since the last call (never waits).
+    fn refresh(&mut self) {
+        while let Ok((j, a)) = self.resolved.try_recv() {
+            self.addrs.insert(j, a);
         }
     }
 
@@ -170,13 +198,18 @@ impl Peers {
     }
 }
 
-/// Hand a datagram to the node; learn the sender's address from what the node accepted (a restarted container may
-/// come back with another address). Returns (step, is a measurement) of an accepted datagram.
+/// Hand a datagram to the node. From an address that is not a neighbour's it is used only if it authenticates (a
+/// neighbour that came back with another address, which is then learnt); without authentication it is counted and
+/// dropped, so that no datagram re-points a neighbour. Returns (step, is a measurement) of an accepted datagram.
 fn deliver(node: &mut Node, peers: &mut Peers, from: SocketAddr, bytes: &[u8]) -> Option<(u64, bool)> {
     let index = peers.index_of(&from);
+    if index.is_none() && !node.authenticates() {
+        node.handle_unknown_address();
+        return None;
+    }
     let a = node.handle_datagram(index, bytes)?;
     if index != Some(a.src) && peers.names.contains_key(&a.src) {
-        tracing::info!(peer = a.src, %from, "peer address learnt from its datagram");
+        tracing::info!(peer = a.src, %from, "peer address learnt from its authenticated datagram");
         peers.addrs.insert(a.src, from);
     }
     Some((a.step, a.measurement))
@@ -198,10 +231,11 @@ pub async fn run_node(
     });
     let started = std::time::Instant::now();
     let mut node = Node::new(topo.clone(), index, cfg.record_trace);
+    node.boot(cfg.boot_epoch);
     let mut peers = Peers {
         names: cfg.peers.clone(),
         addrs: HashMap::new(),
-        last_lookup: None,
+        resolved: resolver(cfg.peers.clone()),
     };
     let mut buf = vec![0u8; MAX_DATAGRAM + 1];
     let steps = topo.sim().steps();
@@ -239,7 +273,7 @@ pub async fn run_node(
             break 0;
         }
         if Instant::now() >= next_hello {
-            peers.resolve().await;
+            peers.refresh();
             for tx in node.hello(None) {
                 peers.send(&socket, tx.to, &tx.bytes).await;
             }
@@ -311,7 +345,7 @@ pub async fn run_node(
                 peers.send(&socket, tx.to, &tx.bytes).await;
             }
             if now >= next_hello {
-                peers.resolve().await;
+                peers.refresh();
                 for tx in node.hello(Some(k)) {
                     peers.send(&socket, tx.to, &tx.bytes).await;
                 }

@@ -36,6 +36,12 @@ pub struct NodeCounters {
     /// Datagrams refused by authentication, by cause.
     #[serde(default)]
     pub rejected: super::Rejections,
+    /// Datagrams whose step lies outside the run, or further ahead of this node's own step than a neighbour can be.
+    #[serde(default)]
+    pub implausible_step: u64,
+    /// Datagrams from an address that is not a neighbour's (one process per node): counted, never used.
+    #[serde(default)]
+    pub unknown_address: u64,
 }
 
 /// Everything a node reports at the end of a run.

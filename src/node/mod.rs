@@ -108,6 +108,8 @@ pub struct Node {
     feed: Option<Feed>,
     /// The fusion center of a run that holds centralized-net: hands on what it heard.
     star_sink: bool,
+    /// The last step begun, for the plausibility of the steps datagrams claim.
+    last_step: Option<u64>,
 }
 
 impl Node {
@@ -195,6 +197,7 @@ impl Node {
             feed: None,
             star_sink: topo.estimators().sink == Some(index)
                 && topo.estimators().run.contains(&crate::estimators::Kind::CentralizedNet),
+            last_step: None,
             topo,
         };
         node.initial = node.initial_estimate(0, 0);
@@ -253,6 +256,23 @@ impl Node {
         self.wire.reboot();
     }
 
+    /// How far ahead of this node's own step a neighbour's may be: two seconds of steps, at least 32.
+    fn step_window(&self) -> u64 {
+        (2.0 * self.topo.sim().rate_hz).ceil().max(32.0) as u64
+    }
+
+    /// A datagram came from an address that is not a neighbour's and could not be authenticated (one process per
+    /// node): counted, never used.
+    pub fn handle_unknown_address(&mut self) {
+        self.counters.unknown_address += 1;
+    }
+
+    /// Whether this node authenticates its datagrams: then one from an unknown address that opens is a neighbour
+    /// that moved.
+    pub fn authenticates(&self) -> bool {
+        self.topo.security().key.is_some()
+    }
+
     /// This process booted at `epoch` (its boot time with random low bits): an authenticated node's datagrams
     /// are sealed under this boot's key, never a key an earlier boot used.
     pub fn boot(&mut self, epoch: u64) {
@@ -281,6 +301,7 @@ impl Node {
         let dt = self.topo.sim().dt();
         let t = k as f64 * dt;
         self.truth.advance_to(k);
+        self.last_step = Some(k);
         let shift = self.truth.take_shift();
         if !self.up {
             self.counters.steps_down += 1;
@@ -474,7 +495,10 @@ impl Node {
     pub fn handle_datagram(&mut self, from: Option<usize>, bytes: &[u8]) -> Option<Arrival> {
         self.counters.datagrams_in += 1;
         let (topo, session) = (&self.topo, &self.session);
-        let known = |id: u32| topo.index_of(id).is_some_and(|j| session.neighbours.contains(&j));
+        let known = |id: u32| {
+            topo.index_of(id)
+                .is_some_and(|j| session.neighbours.binary_search(&j).is_ok())
+        };
         let dg = match self.wire.decode(bytes, known) {
             Ok(d) => d,
             Err(Refused::Corrupted) if from.is_some() => {
@@ -512,6 +536,21 @@ impl Node {
             Payload::Hello { running } => *running,
             Payload::Measurement { .. } | Payload::Round { .. } => Some(dg.header.step),
         };
+        // A step is believed only inside the run and no further ahead of this node's own than a neighbour can be:
+        // one datagram must not end the run or make the node skip to its end.
+        let steps = self.topo.sim().steps();
+        let ahead = |s: u64| match self.last_step {
+            Some(k) => s > k.saturating_add(self.step_window()),
+            None => false,
+        };
+        if [Some(dg.header.step), peer_step]
+            .into_iter()
+            .flatten()
+            .any(|s| s >= steps || ahead(s))
+        {
+            self.counters.implausible_step += 1;
+            return None;
+        }
         self.session.heard_from(src, peer_step);
         let arrival = Arrival {
             src,

@@ -156,3 +156,109 @@ fn forged_round_messages_are_counted_not_used() {
     assert!(node.handle_datagram(Some(1), &dg(1, 0, Kind::Icf, info(9))).is_some());
     assert_eq!(node.counters.malformed, 4);
 }
+
+/// A step is believed only inside the run and no further ahead of the node's own than two seconds of steps: a
+/// neighbour's measurement at the run's last step, a hello running at 2⁶⁴ − 2, or one step past the window is counted
+/// and dropped; the next step's measurement and a hello a few steps ahead are taken.
+#[test]
+fn implausible_steps_are_counted_not_used() {
+    let topo = Arc::new(Scenario::resolve("ring3").unwrap());
+    let (steps, rate) = (topo.sim().steps(), topo.sim().rate_hz);
+    let window = (2.0 * rate).ceil() as u64;
+    let mut node = Node::new(topo, 0, false);
+    let measurement = |step: u64| {
+        Datagram {
+            header: Header::new(1, 0, step),
+            payload: Payload::measurement(0b111, vec![0.0; 3]),
+        }
+        .encode()
+        .unwrap()
+    };
+    let hello = |running: u64| {
+        Datagram {
+            header: Header::hello(1, 0),
+            payload: Payload::Hello { running: Some(running) },
+        }
+        .encode()
+        .unwrap()
+    };
+    // Before the first step: nothing outside the run moves the node's start.
+    assert!(node.handle_datagram(Some(1), &hello(u64::MAX - 1)).is_none());
+    assert!(node.handle_datagram(Some(1), &hello(steps)).is_none());
+    assert_eq!(node.counters.implausible_step, 2);
+    let k = 10;
+    node.handle_step(k);
+    for (bytes, what) in [
+        (measurement(steps - 1), "the run's last step"),
+        (measurement(steps + 2990), "a step past the run"),
+        (measurement(k + window + 1), "one step past the window"),
+        (hello(u64::MAX - 1), "a hello at 2^64 - 2"),
+    ] {
+        assert!(node.handle_datagram(Some(1), &bytes).is_none(), "{what} was taken");
+    }
+    assert_eq!(node.counters.implausible_step, 6);
+    assert!(node.handle_datagram(Some(1), &measurement(k + 1)).is_some());
+    assert!(node.handle_datagram(Some(1), &measurement(k + window)).is_some());
+    assert!(node.handle_datagram(Some(1), &hello(k + 3)).is_some());
+    assert_eq!(node.counters.implausible_step, 6);
+    assert_eq!(node.counters.malformed, 0);
+}
+
+/// A node crashed and restarted twice never seals two different datagrams under one nonce: every datagram it sends
+/// (measurements and consensus rounds) carries a (source, epoch, counter) of its own, each restart a later epoch
+/// from counter 0, and a neighbour opens them all.
+#[test]
+fn restarts_never_reuse_a_nonce() {
+    use crate::estimators::Kind;
+    use crate::wire::secure::{claimed_nonce, Opener};
+    let topo = Scenario::resolve("ring3")
+        .unwrap()
+        .with(&crate::scenario::Overrides {
+            auth: Some(true),
+            estimators: Some(vec![Kind::Icf]),
+            rounds: Some(2),
+            duplicate: Some(0.3),
+            ..Default::default()
+        })
+        .unwrap();
+    let key = topo.security().key.clone().unwrap();
+    let topo = Arc::new(topo);
+    let mut node = Node::new(topo.clone(), 0, false);
+    node.boot(7);
+    let mut seen: std::collections::HashMap<(u32, u64, u64), bytes::Bytes> = Default::default();
+    let mut epochs = Vec::new();
+    let mut opener = Opener::new(&key);
+    let (mut sent, mut opened) = (0, 0);
+    let dt = topo.sim().dt();
+    for k in 0..400u64 {
+        match k {
+            100 | 250 => node.handle_crash(),
+            150 | 300 => node.handle_restart(),
+            _ => {}
+        }
+        node.handle_step(k);
+        for r in 0..2 {
+            node.handle_round(k, r);
+        }
+        let _ = node.handle_deadline(k);
+        while let Some(t) = node.poll_transmit((k + 1) as f64 * dt + 1.0) {
+            let n = claimed_nonce(&t.bytes).expect("every datagram is sealed");
+            if let Some(before) = seen.insert(n, t.bytes.clone()) {
+                // The link layer's duplicate: the same bytes again, never another datagram under the nonce.
+                assert_eq!(before, t.bytes, "nonce {n:?} sealed two datagrams");
+            } else {
+                sent += 1;
+                opened += usize::from(opener.open(&t.bytes, |_| true).is_ok());
+            }
+            if epochs.last() != Some(&n.1) {
+                epochs.push(n.1);
+            }
+        }
+    }
+    assert_eq!(epochs, vec![7, 8, 9], "each boot one later epoch");
+    for e in [8, 9] {
+        assert!(seen.contains_key(&(0, e, 0)), "epoch {e} does not start at counter 0");
+    }
+    assert!(sent > 600, "{sent} datagrams");
+    assert_eq!(opened, sent, "a neighbour opens every datagram");
+}

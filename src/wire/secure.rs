@@ -65,6 +65,13 @@ impl Key {
         Key(b)
     }
 
+    /// A fresh key from the operating system's random source (`simnet keygen`).
+    pub fn generate() -> Result<Key, getrandom::Error> {
+        let mut k = [0u8; 16];
+        getrandom::getrandom(&mut k)?;
+        Ok(Key(k))
+    }
+
     /// A key file's text: `simnet-key-v1 <32 hex digits>` (comments after `#`).
     pub fn parse(text: &str) -> Result<Key, KeyError> {
         let line = text
@@ -313,6 +320,24 @@ impl Opener {
         Replay::accept(self.windows.entry(header.src).or_default(), epoch, counter);
         Ok((d, epoch, counter))
     }
+}
+
+/// The (source, epoch, counter) a sealed datagram's clear part claims, unauthenticated: what a capture of the
+/// wire shows of its nonce.
+pub fn claimed_nonce(bytes: &[u8]) -> Result<(u32, u64, u64), WireError> {
+    let body = super::checked_body(bytes)?;
+    let (header, rest): (Header, &[u8]) =
+        postcard::take_from_bytes(body).map_err(|e| WireError::Malformed(e.to_string()))?;
+    header.validate(SEALED)?;
+    if rest.len() < SEQ_LEN + TAG_LEN {
+        return Err(WireError::TooShort(bytes.len()));
+    }
+    let word = |i: usize| {
+        let mut w = [0u8; 8];
+        w.copy_from_slice(&rest[i..i + 8]);
+        u64::from_le_bytes(w)
+    };
+    Ok((header.src, word(0), word(8)))
 }
 
 /// What sealing adds to a datagram's length.

@@ -42,8 +42,17 @@ dc() { "${COMPOSE[@]}" -p "$PROJECT" -f docker-compose.yml "$@"; }
 # The engine is left as found: the image compose builds goes too, unless it was there before.
 HAD_IMAGE=0
 docker image inspect simnet:latest >/dev/null 2>&1 && HAD_IMAGE=1
+# The compose file hands ./simnet.key to the nodes as a Docker secret: a key made here goes at the end.
+HAD_KEY=1
+if [ ! -e simnet.key ]; then
+  HAD_KEY=0
+  "$BIN" keygen simnet.key 2>/dev/null
+fi
 cleanup() {
   dc down -v --remove-orphans >/dev/null 2>&1 || true
+  if [ "$HAD_KEY" = 0 ]; then
+    rm -f simnet.key
+  fi
   if [ "$HAD_IMAGE" = 0 ]; then
     docker image rm simnet:latest >/dev/null 2>&1 || true
   fi
@@ -81,6 +90,9 @@ echo "== 0. compose up: a whole experiment"
 fresh
 SIMNET_DURATION=5 dc up --build > "$WORK/up.log" 2>&1 || { cat "$WORK/up.log"; echo "FAIL: compose up exited non-zero" >&2; exit 1; }
 grep -q "fused (3 nodes" "$WORK/up.log" || { cat "$WORK/up.log"; echo "FAIL: no merged table printed" >&2; exit 1; }
+# Authenticated by default: every node held the secret, and no datagram between them was refused.
+grep -aq "authenticated (AES-128-CCM, 8-byte tag, key: /run/secrets/simnet_key): 0 datagrams refused" "$WORK/up.log" || {
+  cat "$WORK/up.log"; echo "FAIL: the compose run is not authenticated with the secret" >&2; exit 1; }
 grep -a "collect" "$WORK/up.log" | grep -a "→" | head -6
 echo "ok: compose up ran ring3 and printed the merged table"
 

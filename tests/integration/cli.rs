@@ -393,11 +393,23 @@ fn run_prints_the_table_and_writes_files() {
     assert_eq!(v["topology"], "pair2-paper");
 }
 
-/// The committed docker-compose.yml is what `simnet compose --topology ring3` prints.
+/// The committed docker-compose.yml is what `simnet compose --topology ring3` prints: it writes a network key
+/// readable by its owner alone when there is none, keeps the one it finds, and hands it to every node as a Docker
+/// secret; `--insecure` gives nodes without one.
 #[test]
 fn committed_compose_file_is_generated() {
-    let out = simnet().args(["compose", "--topology", "ring3"]).output().unwrap();
-    assert!(out.status.success());
+    let d = tmp("compose");
+    let compose = |extra: &[&str]| {
+        simnet()
+            .current_dir(&d)
+            .arg("compose")
+            .args(["--topology", "ring3"])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let out = compose(&[]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let committed =
         std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docker-compose.yml")).unwrap();
     assert_eq!(
@@ -405,6 +417,34 @@ fn committed_compose_file_is_generated() {
         committed,
         "regenerate: simnet compose --topology ring3 > docker-compose.yml"
     );
+    let key = std::fs::read_to_string(d.join("simnet.key")).unwrap();
+    assert!(key.contains("simnet-key-v1 "));
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(d.join("simnet.key")).unwrap().permissions().mode();
+        assert_eq!(mode & 0o077, 0, "the key is readable by others: {mode:o}");
+    }
+    assert_eq!(
+        committed.matches("\"--key-file\", \"/run/secrets/simnet_key\"").count(),
+        3
+    );
+    assert!(committed.contains("secrets:\n  simnet_key:\n    file: ./simnet.key"));
+    assert!(compose(&[]).status.success());
+    assert_eq!(
+        std::fs::read_to_string(d.join("simnet.key")).unwrap(),
+        key,
+        "compose replaced the key"
+    );
+    // A key file that is not one is refused, not replaced.
+    std::fs::write(d.join("bad.key"), "hunter2\n").unwrap();
+    let bad = compose(&["--key-file", "bad.key"]);
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("bad.key: not a simnet key file"));
+    assert!(!String::from_utf8_lossy(&bad.stderr).contains("hunter2"));
+    let open = String::from_utf8(compose(&["--insecure"]).stdout).unwrap();
+    assert_eq!(open.matches("\"--insecure\"").count(), 3);
+    assert!(!open.contains("secrets"));
 }
 
 /// Free loopback ports: bind ephemeral sockets, note the ports, release them.
@@ -434,6 +474,7 @@ fn peers(ports: &[u16], me: usize) -> Vec<String> {
 #[test]
 fn node_processes_run_a_network_and_collect_merges_it() {
     let d = tmp("hosts");
+    let key = super::common::network_key(&d);
     let ports = free_ports(3);
     let mut children: Vec<std::process::Child> = Vec::new();
     for i in 0..3usize {
@@ -449,7 +490,9 @@ fn node_processes_run_a_network_and_collect_merges_it() {
             "--out",
         ])
         .arg(&d)
-        .args(["--bind", &format!("127.0.0.1:{}", ports[i])]);
+        .args(["--bind", &format!("127.0.0.1:{}", ports[i])])
+        .arg("--key-file")
+        .arg(&key);
         // Node 0 logs at info level: the test waits for the line that says it has started stepping.
         if i > 0 {
             c.arg("-q");
@@ -515,6 +558,7 @@ fn node_processes_run_a_network_and_collect_merges_it() {
 #[test]
 fn node_processes_run_the_distributed_estimators() {
     let d = tmp("hosts-estimators");
+    let key = super::common::network_key(&d);
     let ports = free_ports(3);
     let children: Vec<std::process::Child> = (0..3usize)
         .map(|i| {
@@ -522,7 +566,9 @@ fn node_processes_run_the_distributed_estimators() {
             c.args(["node", "-q", "--topology", "ring3", "--id", &i.to_string()])
                 .args(["--duration", "2", "--estimators", "icf,kcf", "--rounds", "2", "--out"])
                 .arg(&d)
-                .args(["--bind", &format!("127.0.0.1:{}", ports[i])]);
+                .args(["--bind", &format!("127.0.0.1:{}", ports[i])])
+                .arg("--key-file")
+                .arg(&key);
             c.args(peers(&ports, i));
             c.stdout(std::process::Stdio::null()).spawn().unwrap()
         })
@@ -641,6 +687,7 @@ fn node_stops_cleanly_on_sigterm() {
             "-vvv",
             "--handshake-timeout",
             "0.2",
+            "--insecure",
         ])
         .args([
             "--bind",

@@ -60,3 +60,16 @@ pub fn bernoulli(p: f64, s: u64) -> Overrides {
         ..Default::default()
     }
 }
+
+/// A fresh network key file in `dir`, written by `simnet keygen`: multi-host nodes authenticate by default.
+pub fn network_key(dir: &std::path::Path) -> std::path::PathBuf {
+    let path = dir.join("simnet.key");
+    let _ = std::fs::remove_file(&path);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_simnet"))
+        .arg("keygen")
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    path
+}

@@ -39,12 +39,15 @@ fn two_parts(dir: &Path) -> (PathBuf, PathBuf) {
         ),
     )
     .unwrap();
+    let key = super::common::network_key(dir);
     let dirs = [dir.join("a"), dir.join("b")];
     let children: Vec<_> = (0..2)
         .map(|i| {
             simnet()
                 .args(["node", "-q", "--id", &i.to_string(), "--handshake-timeout", "20", "-t"])
                 .arg(&topo)
+                .arg("--key-file")
+                .arg(&key)
                 .arg("--out")
                 .arg(&dirs[i])
                 .stdout(std::process::Stdio::null())
@@ -164,6 +167,29 @@ fn every_bad_input_exits_2_naming_it() {
         (vec!["collect".into(), s(&a), s(&b), s(&stale)], "node 0 has two parts"),
         (vec!["collect".into(), s(&a), s(&wide)], "node 1's estimates"),
     ];
+    let key = d.join("simnet.key");
+    let node = |extra: &[&str]| -> Vec<String> {
+        ["node", "-t", "ring3", "--id", "0"]
+            .iter()
+            .chain(extra)
+            .map(|a| a.to_string())
+            .collect()
+    };
+    cases.extend([
+        (
+            node(&[]),
+            "authenticates every datagram: give the network's key with --key-file",
+        ),
+        (
+            node(&["--insecure", "--key-file", &s(&key)]),
+            "--insecure and a key: choose one",
+        ),
+        (node(&["--auth"]), "derives a key from the run seed, which anyone knows"),
+        (
+            vec!["keygen".into(), s(&key)],
+            "exists: keep it, or replace it with --force",
+        ),
+    ]);
     if made_fifo {
         cases.push((vec!["validate".into(), s(&fifo)], "not a regular file (a fifo)"));
     }
@@ -189,4 +215,158 @@ fn every_bad_input_exits_2_naming_it() {
         .unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let _ = std::fs::remove_dir_all(d);
+}
+
+/// One datagram must not end or freeze a multi-host run. The test holds node 1's address of an unauthenticated
+/// node 0 and, once node 0 is stepping, sends it measurements claiming the run's last step and a step past the run,
+/// and hellos running at 2⁶⁴ − 2: node 0 runs every step of its 5 s in real time and counts each as implausible.
+/// The same node's datagrams from another address are counted as from an unknown address.
+#[test]
+fn a_step_jump_or_a_huge_handshake_cannot_end_a_multi_host_run() {
+    use simnet::wire::{Datagram, Header, Payload};
+    use std::io::BufRead;
+    let d = tmp("step-jump");
+    let fake = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let p1 = fake.local_addr().unwrap().port();
+    let free = || {
+        std::net::UdpSocket::bind("127.0.0.1:0")
+            .unwrap()
+            .local_addr()
+            .unwrap()
+            .port()
+    };
+    let (p0, p2) = (free(), free());
+    let mut child = simnet()
+        .args([
+            "node",
+            "-v",
+            "-t",
+            "ring3",
+            "--id",
+            "0",
+            "--insecure",
+            "--duration",
+            "5",
+        ])
+        .args(["--handshake-timeout", "0.3", "--bind", &format!("127.0.0.1:{p0}")])
+        .args([
+            "--peer",
+            &format!("1=127.0.0.1:{p1}"),
+            "--peer",
+            &format!("2=127.0.0.1:{p2}"),
+        ])
+        .arg("--out")
+        .arg(&d)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = std::io::BufReader::new(child.stderr.take().unwrap()).lines();
+    assert!(
+        lines.by_ref().map_while(Result::ok).any(|l| l.contains("stepping")),
+        "node 0 never started stepping"
+    );
+    let started = std::time::Instant::now();
+    // Keep reading its log so that the pipe never fills.
+    let drain = std::thread::spawn(move || lines.count());
+    let steps = 500;
+    let to = format!("127.0.0.1:{p0}");
+    let mut sent = 0;
+    for i in 0..20u32 {
+        for (header, payload) in [
+            (Header::new(1, i, steps - 1), Payload::measurement(0b111, vec![0.0; 3])),
+            (Header::new(1, i, 2990), Payload::measurement(0b111, vec![0.0; 3])),
+            (
+                Header::hello(1, i),
+                Payload::Hello {
+                    running: Some(u64::MAX - 1),
+                },
+            ),
+        ] {
+            let bytes = Datagram { header, payload }.encode().unwrap();
+            fake.send_to(&bytes, &to).unwrap();
+            sent += 1;
+        }
+    }
+    // Well-formed and plausible, claiming to be node 1, from an address that is not node 1's: never re-points it.
+    let stranger = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    for i in 0..10u32 {
+        let bytes = Datagram {
+            header: Header::new(1, 100 + i, 1),
+            payload: Payload::measurement(0b111, vec![0.0; 3]),
+        }
+        .encode()
+        .unwrap();
+        stranger.send_to(&bytes, &to).unwrap();
+    }
+    assert!(child.wait().unwrap().success());
+    let ran = started.elapsed();
+    drain.join().unwrap();
+    let part: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("node-0.json")).unwrap()).unwrap();
+    assert_eq!(part["part"]["steps_done"], steps, "node 0 did not run every step");
+    assert!(!part["interrupted"].as_bool().unwrap());
+    // Stepping began before the clock started: the rest of the 5 s took real time, with slack for the start.
+    assert!(ran.as_secs_f64() > 4.0, "the run ended after {ran:?}");
+    assert_eq!(part["nodes"][0]["implausible_step"], sent, "{}", part["nodes"][0]);
+    assert_eq!(part["nodes"][0]["unknown_address"], 10);
+    assert_eq!(part["nodes"][0]["malformed"], 0);
+    let _ = std::fs::remove_dir_all(d);
+}
+
+/// Sealing changes no fate: ring3 with loss, delay, jitter, duplication and corruption, the nodes running ICF over
+/// two rounds, gives the same nodes, links, fused estimate and estimators with `--auth` as without, in memory and
+/// over UDP — and over UDP it counts no datagram between the nodes as refused.
+#[test]
+fn authentication_leaves_every_figure_unchanged() {
+    use simnet::estimators::Kind;
+    use simnet::link::LossModel;
+    use simnet::{Overrides, Scenario};
+    let faulty = |auth: bool| {
+        Scenario::resolve("ring3")
+            .unwrap()
+            .with(&Overrides {
+                loss: Some(LossModel::Bernoulli { p: 0.2 }),
+                delay_ms: Some(2.0),
+                jitter_ms: Some(3.0),
+                duplicate: Some(0.1),
+                corrupt: Some(0.05),
+                duration_s: Some(4.0),
+                estimators: Some(vec![Kind::Icf, Kind::Kcf]),
+                rounds: Some(2),
+                auth: auth.then_some(true),
+                ..Default::default()
+            })
+            .unwrap()
+    };
+    // Every figure but the bytes a scheme sent, which grow by the seal's overhead on each message.
+    let figures = |s: &simnet::Summary| {
+        let mut v = serde_json::to_value(s).unwrap();
+        for n in v["nodes"].as_array_mut().unwrap() {
+            n.as_object_mut().unwrap().remove("rejected");
+        }
+        for e in v["estimators"].as_object_mut().unwrap().values_mut() {
+            e.as_object_mut().unwrap().remove("bytes");
+        }
+        ["nodes", "links", "fused", "estimators", "socket_losses"].map(|k| v[k].clone())
+    };
+    let clean = super::common::simulate(faulty(false));
+    let sealed = super::common::simulate(faulty(true));
+    assert_eq!(figures(&sealed), figures(&clean), "in memory");
+    for (name, e) in &clean.estimators {
+        let overhead = e.messages * simnet::wire::secure::OVERHEAD as u64;
+        assert_eq!(sealed.estimators[name].bytes, e.bytes + overhead, "{name}");
+    }
+    assert!(clean.security.is_none());
+    assert!(
+        clean.links.iter().map(|l| l.duplicated).sum::<u64>() > 0,
+        "no duplicate to tell apart"
+    );
+    let udp = super::common::run(faulty(true));
+    assert_eq!(figures(&udp), figures(&clean), "over UDP");
+    let sec = udp.security.expect("the summary says the run was authenticated");
+    assert_eq!(
+        sec.rejected.bad_tag + sec.rejected.too_old + sec.rejected.unknown_source,
+        0,
+        "{sec:?}"
+    );
 }

@@ -99,6 +99,8 @@ impl Summary {
                     restarts: r.counters.restarts,
                     steps_down: r.counters.steps_down,
                     rejected: r.counters.rejected,
+                    implausible_step: r.counters.implausible_step,
+                    unknown_address: r.counters.unknown_address,
                 }
             })
             .collect();

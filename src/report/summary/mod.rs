@@ -30,6 +30,12 @@ pub struct NodeSummary {
     /// Datagrams refused by authentication, by cause.
     #[serde(default)]
     pub rejected: crate::node::Rejections,
+    /// Datagrams claiming a step outside the run, or further ahead of this node's than a neighbour can be.
+    #[serde(default)]
+    pub implausible_step: u64,
+    /// Datagrams from an address that is no neighbour's, not authenticated (one process per node).
+    #[serde(default)]
+    pub unknown_address: u64,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]

@@ -140,6 +140,15 @@ impl Summary {
                 r.unknown_source
             )?;
         }
+        let implausible: u64 = self.nodes.iter().map(|n| n.implausible_step).sum();
+        let unknown: u64 = self.nodes.iter().map(|n| n.unknown_address).sum();
+        if implausible + unknown > 0 {
+            writeln!(
+                w,
+                "untrusted datagrams, counted and never used: {implausible} claimed a step outside the run or too far \
+                 ahead, {unknown} came from an address that is no neighbour's"
+            )?;
+        }
         if let Some(s) = &self.schedule {
             writeln!(
                 w,
