@@ -638,7 +638,7 @@ fn auth_ratios() {
         i += 1;
     });
     println!(
-        "| seal / open a {} B measurement datagram (AES-128-CCM, {} B sealed) | {seal:.0} ns / {open:.0} ns = {:.1}× / {:.1}× encode / decode |",
+        "| seal / open a {} B measurement datagram (AES-128-CCM, {} B sealed) | {seal:.0} ns / {open:.0} ns ({:.1}× encode, {:.1}× decode) |",
         plain.len(),
         sealed[0].len(),
         seal / enc,
@@ -649,7 +649,7 @@ fn auth_ratios() {
             let topo = Scenario::resolve(name)
                 .unwrap()
                 .with(&Overrides {
-                    duration_s: Some(if name == "rgg50" { 5.0 } else { 30.0 }),
+                    duration_s: Some(if name == "rgg50" { 10.0 } else { 30.0 }),
                     auth: auth.then_some(true),
                     ..Default::default()
                 })
@@ -658,6 +658,7 @@ fn auth_ratios() {
                 (0..3)
                     .map(|_| {
                         let t = Instant::now();
+                        // Whole runs: the kernels, the link layer and (over UDP) the sockets, sealed or not.
                         if udp {
                             let rt = tokio::runtime::Builder::new_multi_thread()
                                 .enable_all()

@@ -262,6 +262,7 @@ pub(super) fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
     rec.fused(fused.collect());
     let (rows, fused) = d.finish_trace(Some(rec))?;
     let wrote = write_files(&d.dir, &s, dt, &rows, &fused, Vec::new())?;
+    d.remove_stale(&wrote)?;
     print_summary(&s, args.json, None)?;
     if !args.json {
         println!("\nwrote {}/{{{}}}", d.dir.display(), wrote.join(", "));

@@ -19,7 +19,46 @@ pub(crate) fn check_out(dir: &Path) -> Result<(), UsageError> {
     OutDir::prepare(dir).map(|_| ())
 }
 
+/// The files a whole run (`simnet run`, `simnet collect`) writes, whatever its options: with `imu-ID.csv` and the
+/// Parquet copies of the CSVs, the kinds [`OutDir::remove_stale`] may remove.
+const RUN_FILES: [&str; 10] = [
+    "summary.json",
+    "trace.csv",
+    "links.csv",
+    "trajectory.svg",
+    "error.svg",
+    "trace_p.svg",
+    "estimators.svg",
+    "report.html",
+    MEASUREMENTS,
+    ESTIMATORS,
+];
+
+/// Whether `name` is a file a whole run writes.
+fn run_file(name: &str) -> bool {
+    let csv = name.strip_suffix(".parquet").map(|b| format!("{b}.csv"));
+    let name = csv.as_deref().unwrap_or(name);
+    RUN_FILES.contains(&name)
+        || name
+            .strip_prefix("imu-")
+            .and_then(|r| r.strip_suffix(".csv"))
+            .is_some_and(|id| !id.is_empty() && id.bytes().all(|b| b.is_ascii_digit()))
+}
+
 impl OutDir {
+    /// After a run wrote `wrote`: remove the files of a run's kinds it did not write (an earlier run's
+    /// `estimators.csv` beside a run without estimators), so that the directory holds one run's files as a set.
+    /// Done last, so that a run that fails leaves the earlier run's files whole.
+    pub(super) fn remove_stale(&self, wrote: &[String]) -> anyhow::Result<()> {
+        for e in std::fs::read_dir(&self.dir)?.flatten() {
+            let name = e.file_name().to_string_lossy().into_owned();
+            if run_file(&name) && !wrote.contains(&name) && e.file_type().is_ok_and(|t| t.is_file()) {
+                std::fs::remove_file(e.path())?;
+            }
+        }
+        Ok(())
+    }
+
     pub(super) fn prepare(dir: &Path) -> Result<OutDir, UsageError> {
         let bad = |what: String| UsageError::Option(format!("--out {}: {what}", dir.display()));
         if dir.exists() && !dir.is_dir() {

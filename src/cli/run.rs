@@ -70,6 +70,7 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             let copies = parquet_copies(&d.dir, &wrote)?;
             wrote.extend(copies);
         }
+        d.remove_stale(&wrote)?;
     }
     print_summary(&s, args.json, None)?;
     if let (Some(d), false) = (&out_dir, args.json) {

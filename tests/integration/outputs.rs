@@ -407,3 +407,53 @@ fn measurements_csv_recomputes_the_independent_filter() {
     assert_eq!(checked, 2 * 199);
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// An output directory holds one run's files as a set: a run without estimators into the directory of a run with
+/// them leaves no `estimators.csv` behind, nor an IMU file of a node it does not have; files of other kinds stay, and
+/// a run refused for bad input changes nothing.
+#[test]
+fn a_rerun_leaves_no_stale_file_of_its_kinds() {
+    let d = tmp("stale");
+    let run = |extra: &[&str]| {
+        simnet()
+            .args(["-q", "-t", "ring3", "--duration", "1", "--out"])
+            .arg(&d)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    assert!(run(&["--estimators", "icf"]).status.success());
+    for f in ["estimators.csv", "estimators.svg", "imu-0.csv"] {
+        assert!(d.join(f).exists(), "{f}");
+    }
+    std::fs::write(d.join("imu-99.csv"), "an earlier, larger network's node\n").unwrap();
+    std::fs::write(d.join("notes.txt"), "mine\n").unwrap();
+    let before: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name())
+        .collect();
+    let refused = run(&["--loss", "2"]);
+    assert_eq!(refused.status.code(), Some(2));
+    let after: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name())
+        .collect();
+    assert_eq!(before.len(), after.len(), "a refused run changed the directory");
+    assert!(run(&[]).status.success());
+    for gone in ["estimators.csv", "estimators.svg", "imu-99.csv"] {
+        assert!(!d.join(gone).exists(), "{gone} was left behind");
+    }
+    for kept in [
+        "notes.txt",
+        "imu-0.csv",
+        "summary.json",
+        "trace.csv",
+        "measurements.csv",
+        "report.html",
+    ] {
+        assert!(d.join(kept).exists(), "{kept} is missing");
+    }
+    let _ = std::fs::remove_dir_all(d);
+}
