@@ -49,6 +49,8 @@ pub struct HostOutput {
     pub wall_s: f64,
     /// How far the steps run on this host's clock fell behind their schedule.
     pub schedule: crate::report::summary::Schedule,
+    /// The run the node ended on ([`Node::run_id`]).
+    pub run: u64,
 }
 
 /// A `--peer ID=HOST:PORT` that names no neighbour.
@@ -113,6 +115,7 @@ impl HostOutput {
                 .map(|l| (id_of(l.from), self.report.rx.get(l.from)))
                 .collect(),
             fusion: topo.model().get().fusion(),
+            run: Some(self.run),
         });
         s.links.clear();
         s.schedule = Some(self.schedule);
@@ -415,6 +418,7 @@ fn finish(
     schedule: crate::report::summary::Schedule,
 ) -> HostOutput {
     HostOutput {
+        run: node.run_id(),
         report: node.report(),
         estimates,
         steps_done: done,

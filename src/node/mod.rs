@@ -110,6 +110,9 @@ pub struct Node {
     star_sink: bool,
     /// The last step begun, for the plausibility of the steps datagrams claim.
     last_step: Option<u64>,
+    /// The run this node takes part in (one node per process): its boot epoch, then the smallest one a neighbour's
+    /// hello carried, so that the parts of one run share it and `simnet collect` refuses to mix runs.
+    run: u64,
 }
 
 impl Node {
@@ -198,6 +201,7 @@ impl Node {
             star_sink: topo.estimators().sink == Some(index)
                 && topo.estimators().run.contains(&crate::estimators::Kind::CentralizedNet),
             last_step: None,
+            run: u64::MAX,
             topo,
         };
         node.initial = node.initial_estimate(0, 0);
@@ -277,6 +281,12 @@ impl Node {
     /// are sealed under this boot's key, never a key an earlier boot used.
     pub fn boot(&mut self, epoch: u64) {
         self.wire.boot(epoch);
+        self.run = self.run.min(epoch);
+    }
+
+    /// The run this node takes part in (see the field).
+    pub fn run_id(&self) -> u64 {
+        self.run
     }
 
     /// The (epoch, counter) of the next sealed datagram (none unauthenticated): every nonce this node uses.
@@ -533,7 +543,7 @@ impl Node {
             return None;
         }
         let peer_step = match &dg.payload {
-            Payload::Hello { running } => *running,
+            Payload::Hello { running, .. } => *running,
             Payload::Measurement { .. } | Payload::Round { .. } => Some(dg.header.step),
         };
         // A step is believed only inside the run and no further ahead of this node's own than a neighbour can be:
@@ -552,6 +562,10 @@ impl Node {
             return None;
         }
         self.session.heard_from(src, peer_step);
+        if let Payload::Hello { run, .. } = dg.payload {
+            // Min-consensus over every hello, also while running: one hop per hello period.
+            self.run = self.run.min(run);
+        }
         let arrival = Arrival {
             src,
             step: dg.header.step,
@@ -763,7 +777,7 @@ impl Node {
         let id = self.id;
         match self
             .wire
-            .encode(|seq| Header::hello(id, seq), Payload::Hello { running })
+            .encode(|seq| Header::hello(id, seq), Payload::Hello { running, run: self.run })
         {
             Ok(bytes) => self
                 .session

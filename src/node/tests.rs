@@ -177,7 +177,10 @@ fn implausible_steps_are_counted_not_used() {
     let hello = |running: u64| {
         Datagram {
             header: Header::hello(1, 0),
-            payload: Payload::Hello { running: Some(running) },
+            payload: Payload::Hello {
+                running: Some(running),
+                run: 1,
+            },
         }
         .encode()
         .unwrap()

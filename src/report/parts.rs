@@ -236,6 +236,17 @@ pub fn merge(
             )));
         }
     }
+    // One run's parts: the nodes agreed on its id in their hellos.
+    if let Some(i) = infos.iter().find(|i| i.run != infos[0].run) {
+        let show = |r: Option<u64>| r.map_or("none".to_string(), |r| format!("{r:016x}"));
+        return Err(PartError::Mismatch(format!(
+            "the parts come from different runs: node {}'s is run {}, node {}'s is run {} (an earlier run's part?)",
+            infos[0].node,
+            show(infos[0].run),
+            i.node,
+            show(i.run)
+        )));
+    }
     let mut seen = std::collections::BTreeSet::new();
     if let Some(twice) = infos.iter().find(|i| !seen.insert(i.node)) {
         return Err(PartError::Mismatch(format!(

@@ -27,7 +27,7 @@ pub mod secure;
 pub use frame::{Frame, FrameView, FrameWriter, MAX_FRAME};
 
 pub const MAGIC: u16 = 0x534E; // "SN"
-pub const VERSION: u8 = 1;
+pub const VERSION: u8 = 2;
 /// Fits any MTU.
 pub const MAX_DATAGRAM: usize = 1200;
 /// Rows of one measurement (the `rows` bitmask is 64 bits wide).
@@ -109,8 +109,9 @@ pub const MAX_STATES: usize = 15;
 pub enum Payload {
     /// Some rows of one measurement vector: bit i of `rows` set means row i is present; `values` in row order.
     Measurement { rows: u64, values: Vec<f64> },
-    /// Start handshake of separate processes: "I am here", and the step I am running, if any (`header.step` is 0).
-    Hello { running: Option<u64> },
+    /// Start handshake of separate processes: "I am here", the step I am running, if any (`header.step` is 0), and
+    /// the run I take part in (the smallest boot epoch heard: every node of one run ends on the same one).
+    Hello { running: Option<u64>, run: u64 },
     /// One estimator's message of consensus round `round` of `header.step`; `scheme` is its index in
     /// `simnet estimators`.
     Round { round: u8, scheme: u8, body: Body },
@@ -283,6 +284,83 @@ fn checked_body(bytes: &[u8]) -> Result<&[u8], WireError> {
 
 #[cfg(test)]
 mod tests {
+    /// The fuzz target's seed corpus (`fuzz/seeds/datagram/`): datagrams of every kind, a sealed one and frames
+    /// holding them, in the current format (`SIMNET_BLESS=1 cargo test fuzz_seeds` rewrites them after a change).
+    #[test]
+    fn fuzz_seeds_are_current_datagrams() {
+        use super::secure::{Key, Sealer};
+        let measurement = Datagram {
+            header: Header::new(3, 17, 12345),
+            payload: Payload::measurement(0b101101, vec![0.1, -0.2, 9.8, 0.25]),
+        };
+        let datagrams = [
+            measurement.clone(),
+            Datagram {
+                header: Header::hello(1, 2),
+                payload: Payload::Hello {
+                    running: Some(40),
+                    run: 7,
+                },
+            },
+            Datagram {
+                header: Header::round(2, 5, 9),
+                payload: Payload::Round {
+                    round: 1,
+                    scheme: 4,
+                    body: Body::Information {
+                        n: 2,
+                        sym: vec![1.0, 0.5, 2.0],
+                        vec: vec![0.25, -1.0],
+                    },
+                },
+            },
+            Datagram {
+                header: Header::round(2, 6, 9),
+                payload: Payload::Round {
+                    round: 0,
+                    scheme: 6,
+                    body: Body::Estimate {
+                        n: 2,
+                        x: vec![1.0, 2.0],
+                        sym: vec![1.0, 0.0, 1.0],
+                    },
+                },
+            },
+        ];
+        let mut seeds: Vec<(String, Vec<u8>)> = datagrams
+            .iter()
+            .enumerate()
+            .map(|(i, d)| (format!("datagram-{i}"), d.encode().unwrap().to_vec()))
+            .collect();
+        // Sealed under the fuzz target's key.
+        let sealed = Sealer::new(&Key::from_bytes([7; 16]), 3, 1).seal(&measurement).unwrap();
+        seeds.push(("sealed-0".into(), sealed.to_vec()));
+        let bytes: Vec<Bytes> = datagrams.iter().map(|d| d.encode().unwrap()).collect();
+        seeds.push(("frame-0".into(), Frame::pack(4, bytes)[0].to_vec()));
+        seeds.push(("empty-frame-0".into(), Frame::pack(5, Vec::new())[0].to_vec()));
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds/datagram");
+        if std::env::var_os("SIMNET_BLESS").is_some() {
+            for e in std::fs::read_dir(&dir).unwrap().flatten() {
+                std::fs::remove_file(e.path()).unwrap();
+            }
+            for (name, b) in &seeds {
+                std::fs::write(dir.join(name), b).unwrap();
+            }
+        }
+        for (name, b) in &seeds {
+            let committed = std::fs::read(dir.join(name)).unwrap_or_default();
+            assert_eq!(
+                &committed, b,
+                "fuzz/seeds/datagram/{name} is stale: SIMNET_BLESS=1 cargo test fuzz_seeds"
+            );
+        }
+        assert_eq!(
+            std::fs::read_dir(&dir).unwrap().count(),
+            seeds.len(),
+            "a seed not made here"
+        );
+    }
+
     use super::*;
 
     fn sample() -> Datagram {
@@ -346,12 +424,15 @@ mod tests {
     fn hello_round_trips_and_kind_must_match() {
         let h = Datagram {
             header: Header::hello(4, 1),
-            payload: Payload::Hello { running: Some(77) },
+            payload: Payload::Hello {
+                running: Some(77),
+                run: 5,
+            },
         };
         assert_eq!(Datagram::decode(&h.encode().unwrap()).unwrap(), h);
         let bad = Datagram {
             header: Header::new(4, 1, 0),
-            payload: Payload::Hello { running: None },
+            payload: Payload::Hello { running: None, run: 5 },
         };
         assert!(bad.encode().is_err());
     }

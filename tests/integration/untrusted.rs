@@ -82,8 +82,19 @@ fn every_bad_input_exits_2_naming_it() {
     let fifo = d.join("fifo.toml");
     let made_fifo = Command::new("mkfifo").arg(&fifo).status().is_ok_and(|s| s.success());
 
-    // The parts of a real run, then crafted copies.
+    // The parts of a real run, then crafted copies; and node 1's part of a second run of the same scenario.
     let (a, b) = two_parts(&d);
+    let again = d.join("again");
+    std::fs::create_dir_all(&again).unwrap();
+    let (_, b_again) = two_parts(&again);
+    let run_of = |dir: &Path, id: u32| -> serde_json::Value {
+        let v: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join(format!("node-{id}.json"))).unwrap()).unwrap();
+        v["part"]["run"].clone()
+    };
+    assert!(run_of(&a, 0).is_u64(), "a part carries its run");
+    assert_eq!(run_of(&a, 0), run_of(&b, 1), "the nodes of one run agree on its id");
+    assert_ne!(run_of(&b, 1), run_of(&b_again, 1), "two runs share an id");
     let slow = d.join("slow");
     let zero = d.join("zero");
     let wide = d.join("wide");
@@ -165,6 +176,10 @@ fn every_bad_input_exits_2_naming_it() {
         (vec!["collect".into(), s(&zero), s(&b)], "not a regular file (a device)"),
         (vec!["collect".into(), s(&a)], "have no part: node-1.json"),
         (vec!["collect".into(), s(&a), s(&b), s(&stale)], "node 0 has two parts"),
+        (
+            vec!["collect".into(), s(&a), s(&b_again)],
+            "the parts come from different runs",
+        ),
         (vec!["collect".into(), s(&a), s(&wide)], "node 1's estimates"),
     ];
     let key = d.join("simnet.key");
@@ -279,6 +294,7 @@ fn a_step_jump_or_a_huge_handshake_cannot_end_a_multi_host_run() {
             (
                 Header::hello(1, i),
                 Payload::Hello {
+                    run: 0,
                     running: Some(u64::MAX - 1),
                 },
             ),

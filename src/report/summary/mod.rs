@@ -198,6 +198,9 @@ pub struct PartInfo {
     pub rx: Vec<(u32, crate::observe::metrics::RxCounters)>,
     /// How the observer fuses this run's estimates.
     pub fusion: crate::model::FusionLayout,
+    /// The run the node took part in (the smallest boot epoch its neighbours agreed on): parts of one run share it.
+    #[serde(default)]
+    pub run: Option<u64>,
 }
 
 /// How a run's steps were clocked.
