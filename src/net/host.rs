@@ -226,6 +226,7 @@ pub async fn run_node(
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<HostOutput, NetError> {
     let socket = UdpSocket::bind(cfg.bind).await.map_err(NetError::Bind)?;
+    super::socket::size_buffers(&socket);
     tracing::info!(node = topo.nodes()[index].id, bind = %cfg.bind, "listening");
     let (stop_tx, mut stop) = watch::channel(false);
     tokio::spawn(async move {
@@ -405,6 +406,17 @@ pub async fn run_node(
         if interrupted {
             break;
         }
+    }
+    // What is still queued is read (as much as the buffer holds: a flood that goes on cannot keep the node here), so
+    // that every datagram that reached the socket is counted; then what the kernel dropped.
+    for _ in 0..super::socket::RECV_BUFFER / 32 {
+        let Ok((len, from)) = socket.try_recv_from(&mut buf) else {
+            break;
+        };
+        deliver(&mut node, &mut peers, from, &buf[..len]);
+    }
+    if let Some(n) = super::socket::kernel_drops(&socket) {
+        node.handle_kernel_drops(n);
     }
     Ok(finish(node, estimates, done, interrupted, started, schedule))
 }

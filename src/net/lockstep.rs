@@ -245,6 +245,11 @@ async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::Unbo
             slot.receive(from, &buf[..len], done * sh.rounds as u64);
         }
     }
+    for slot in &mut slots {
+        if let Some(n) = super::socket::kernel_drops(&slot.socket) {
+            slot.node.handle_kernel_drops(n);
+        }
+    }
     WorkerEnd {
         reports: slots.iter_mut().map(|s| s.node.report()).collect(),
         done,

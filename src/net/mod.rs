@@ -7,6 +7,7 @@
 //! | `realtime.rs` | the wall clock: every worker paces its nodes from a common start; delay and jitter are real waits |
 //! | `collect.rs` | what the workers hand in per step, and the task that fuses the steps in order |
 //! | `host.rs` | one node per process (`simnet node`): the handshake, catching up, the part it writes |
+//! | `socket.rs` | the kernel's side of a socket: its receive buffer, and the datagrams it dropped |
 
 use std::future::Future;
 use std::net::SocketAddr;
@@ -24,6 +25,7 @@ mod collect;
 pub mod host;
 mod lockstep;
 mod realtime;
+pub mod socket;
 
 #[derive(Debug, thiserror::Error)]
 pub enum NetError {
@@ -72,7 +74,9 @@ pub async fn run(
     let n = topo.nodes().len();
     let mut sockets = Vec::with_capacity(n);
     for _ in 0..n {
-        sockets.push(UdpSocket::bind("127.0.0.1:0").await.map_err(NetError::Bind)?);
+        let s = UdpSocket::bind("127.0.0.1:0").await.map_err(NetError::Bind)?;
+        socket::size_buffers(&s);
+        sockets.push(s);
     }
     let addrs: Vec<SocketAddr> = sockets
         .iter()

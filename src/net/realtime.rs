@@ -196,6 +196,11 @@ fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedS
         }
         done = k + 1;
     }
+    for s in &mut slots {
+        if let Some(n) = super::socket::kernel_drops(&s.socket) {
+            s.node.handle_kernel_drops(n);
+        }
+    }
     WorkerEnd {
         reports: slots.iter_mut().map(|s| s.node.report()).collect(),
         done,

@@ -42,6 +42,10 @@ pub struct NodeCounters {
     /// Datagrams from an address that is not a neighbour's (one process per node): counted, never used.
     #[serde(default)]
     pub unknown_address: u64,
+    /// Datagrams the kernel dropped on this node's socket, its receive buffer full: lost before any rule of the
+    /// link layer could decide their fate.
+    #[serde(default)]
+    pub kernel_drops: u64,
 }
 
 /// Everything a node reports at the end of a run.

@@ -271,6 +271,11 @@ impl Node {
         self.counters.unknown_address += 1;
     }
 
+    /// The kernel dropped `n` datagrams on this node's socket in all (its receive buffer was full).
+    pub fn handle_kernel_drops(&mut self, n: u64) {
+        self.counters.kernel_drops = n;
+    }
+
     /// Whether this node authenticates its datagrams: then one from an unknown address that opens is a neighbour
     /// that moved.
     pub fn authenticates(&self) -> bool {

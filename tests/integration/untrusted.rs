@@ -386,3 +386,106 @@ fn authentication_leaves_every_figure_unchanged() {
         "{sec:?}"
     );
 }
+
+/// The resident memory of process `pid`, in KiB (Linux).
+fn rss_kib(pid: u32) -> Option<u64> {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+/// A node flooded with 1,000,000 garbage datagrams keeps stepping with bounded memory, and the counts add up: every
+/// datagram the test sent was either read and counted as malformed, or dropped by the kernel on the full receive
+/// buffer and counted as such — none vanishes, and none is charged to a link.
+#[test]
+fn a_garbage_flood_is_counted_and_the_node_keeps_stepping() {
+    use std::io::BufRead;
+    let d = tmp("flood");
+    let key = super::common::network_key(&d);
+    let port = std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let mut child = simnet()
+        .args(["node", "-v", "-t", "ring3", "--id", "0", "--duration", "600"])
+        .args(["--handshake-timeout", "0.2", "--bind", &format!("127.0.0.1:{port}")])
+        .args(["--peer", "1=127.0.0.1:9", "--peer", "2=127.0.0.1:9", "--key-file"])
+        .arg(&key)
+        .arg("--out")
+        .arg(&d)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = std::io::BufReader::new(child.stderr.take().unwrap()).lines();
+    // Stepping, however slow the machine.
+    assert!(
+        lines.by_ref().map_while(Result::ok).any(|l| l.contains("stepping")),
+        "node 0 never started stepping"
+    );
+    let drain = std::thread::spawn(move || lines.count());
+    let started = std::time::Instant::now();
+    let rss_before = rss_kib(child.id()).unwrap_or(0);
+    let flood = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let to = format!("127.0.0.1:{port}");
+    let sent: u64 = 1_000_000;
+    let mut rss_max = rss_before;
+    let mut garbage = [0u8; 64];
+    for i in 0..sent {
+        garbage[..8].copy_from_slice(&i.to_le_bytes());
+        // A full socket buffer on the sending side: wait for room, the datagram still counts once.
+        while flood.send_to(&garbage, &to).is_err() {
+            std::thread::yield_now();
+        }
+        if i % 100_000 == 0 {
+            rss_max = rss_max.max(rss_kib(child.id()).unwrap_or(0));
+        }
+    }
+    let flooded = started.elapsed();
+    // SIGTERM: the node stops, reads what is still queued, and writes its part.
+    Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert_eq!(child.wait().unwrap().code(), Some(143));
+    drain.join().unwrap();
+    let part: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("node-0.json")).unwrap()).unwrap();
+    let node = &part["nodes"][0];
+    let (malformed, dropped) = (
+        node["malformed"].as_u64().unwrap(),
+        node["kernel_drops"].as_u64().unwrap(),
+    );
+    eprintln!(
+        "flood of {sent} in {flooded:?}: {malformed} read as malformed, {dropped} dropped by the kernel; \
+         {} steps; RSS {rss_before} → at most {rss_max} KiB",
+        part["part"]["steps_done"]
+    );
+    assert_eq!(malformed + dropped, sent, "{node}");
+    assert_eq!(
+        node["rejected"]["bad_tag"], 0,
+        "garbage fails the checksum before any tag"
+    );
+    // Every link is untouched by the flood: nothing is charged to one.
+    for (_, rx) in part["part"]["rx"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| (p[0].clone(), p[1].clone()))
+    {
+        assert_eq!(rx["corrupted"], 0);
+        assert_eq!(rx["delivered"], 0);
+    }
+    // Memory does not grow with the flood (the kernel's buffer is not the process's).
+    assert!(
+        rss_max < rss_before + 32 * 1024,
+        "RSS grew from {rss_before} to {rss_max} KiB"
+    );
+    // Stepping went on through the flood: at least half the steps its wall clock allowed.
+    let steps = part["part"]["steps_done"].as_u64().unwrap();
+    assert!(
+        steps as f64 >= 0.5 * 100.0 * flooded.as_secs_f64(),
+        "{steps} steps in {flooded:?} of flood"
+    );
+    let _ = std::fs::remove_dir_all(d);
+}

@@ -101,6 +101,7 @@ impl Summary {
                     rejected: r.counters.rejected,
                     implausible_step: r.counters.implausible_step,
                     unknown_address: r.counters.unknown_address,
+                    kernel_drops: r.counters.kernel_drops,
                 }
             })
             .collect();

@@ -36,6 +36,9 @@ pub struct NodeSummary {
     /// Datagrams from an address that is no neighbour's, not authenticated (one process per node).
     #[serde(default)]
     pub unknown_address: u64,
+    /// Datagrams the kernel dropped on the node's socket (its receive buffer full), apart from the link layer's.
+    #[serde(default)]
+    pub kernel_drops: u64,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]

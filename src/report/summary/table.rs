@@ -156,6 +156,14 @@ impl Summary {
                 s.max_lag_ms, s.late_steps, s.steps
             )?;
         }
+        let kernel: u64 = self.nodes.iter().map(|n| n.kernel_drops).sum();
+        if kernel > 0 {
+            writeln!(
+                w,
+                "note: the kernel dropped {kernel} datagrams on full receive buffers (socket losses, apart from the link \
+                 layer's)"
+            )?;
+        }
         if self.socket_losses > 0 {
             writeln!(
                 w,
