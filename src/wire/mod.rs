@@ -283,7 +283,24 @@ fn checked_body(bytes: &[u8]) -> Result<&[u8], WireError> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
+    /// A consensus round's message carrying a 2-state information pair (node 2, step 9).
+    pub(crate) fn information_round() -> super::Datagram {
+        use super::*;
+        Datagram {
+            header: Header::round(2, 5, 9),
+            payload: Payload::Round {
+                round: 1,
+                scheme: 4,
+                body: Body::Information {
+                    n: 2,
+                    sym: vec![1.0, 0.5, 2.0],
+                    vec: vec![0.25, -1.0],
+                },
+            },
+        }
+    }
+
     /// The fuzz target's seed corpus (`fuzz/seeds/datagram/`): datagrams of every kind, a sealed one and frames
     /// holding them, in the current format (`SIMNET_BLESS=1 cargo test fuzz_seeds` rewrites them after a change).
     #[test]
@@ -302,18 +319,7 @@ mod tests {
                     run: 7,
                 },
             },
-            Datagram {
-                header: Header::round(2, 5, 9),
-                payload: Payload::Round {
-                    round: 1,
-                    scheme: 4,
-                    body: Body::Information {
-                        n: 2,
-                        sym: vec![1.0, 0.5, 2.0],
-                        vec: vec![0.25, -1.0],
-                    },
-                },
-            },
+            information_round(),
             Datagram {
                 header: Header::round(2, 6, 9),
                 payload: Payload::Round {
@@ -372,19 +378,7 @@ mod tests {
 
     #[test]
     fn every_single_bit_flip_is_caught() {
-        let round = Datagram {
-            header: Header::round(2, 5, 9),
-            payload: Payload::Round {
-                round: 1,
-                scheme: 4,
-                body: Body::Information {
-                    n: 2,
-                    sym: vec![1.0, 0.5, 2.0],
-                    vec: vec![0.25, -1.0],
-                },
-            },
-        };
-        for d in [sample(), round] {
+        for d in [sample(), information_round()] {
             let bytes = d.encode().unwrap();
             for bit in 0..bytes.len() * 8 {
                 let mut b = bytes.to_vec();

@@ -346,7 +346,7 @@ pub const OVERHEAD: usize = SEQ_LEN + TAG_LEN;
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::wire::{Body, CRC_LEN};
+    use crate::wire::CRC_LEN;
 
     fn key() -> Key {
         Key::from_bytes([7; 16])
@@ -388,18 +388,7 @@ mod tests {
     /// Every bit flip is caught: by the checksum, or by the tag once the checksum is made to match (tampering).
     #[test]
     fn every_flip_is_corruption_and_every_tampering_a_bad_tag() {
-        let round = Datagram {
-            header: Header::round(2, 5, 9),
-            payload: Payload::Round {
-                round: 1,
-                scheme: 4,
-                body: Body::Information {
-                    n: 2,
-                    sym: vec![1.0, 0.5, 2.0],
-                    vec: vec![0.25, -1.0],
-                },
-            },
-        };
+        let round = crate::wire::tests::information_round();
         let mut s = Sealer::new(&key(), 2, 1);
         let bytes = s.seal(&round).unwrap();
         let n = bytes.len();

@@ -675,42 +675,32 @@ fn bounds_of_the_scalar_example() {
 fn node_stops_cleanly_on_sigterm() {
     let d = tmp("sigterm");
     let port = free_ports(1)[0];
-    let mut child = simnet()
-        .args([
-            "node",
-            "--topology",
-            "ring3",
-            "--id",
-            "0",
-            "--duration",
-            "60",
-            "-vvv",
-            "--handshake-timeout",
-            "0.2",
-            "--insecure",
-        ])
-        .args([
-            "--bind",
-            &format!("127.0.0.1:{port}"),
-            "--peer",
-            "1=127.0.0.1:9",
-            "--peer",
-            "2=127.0.0.1:9",
-            "--out",
-        ])
-        .arg(&d)
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut node = simnet();
+    node.args([
+        "node",
+        "--topology",
+        "ring3",
+        "--id",
+        "0",
+        "--duration",
+        "60",
+        "-vvv",
+        "--handshake-timeout",
+        "0.2",
+        "--insecure",
+    ])
+    .args([
+        "--bind",
+        &format!("127.0.0.1:{port}"),
+        "--peer",
+        "1=127.0.0.1:9",
+        "--peer",
+        "2=127.0.0.1:9",
+        "--out",
+    ])
+    .arg(&d);
     // Stop it once it has closed a step (its trace log says so), however slow the machine.
-    use std::io::BufRead;
-    let mut lines = std::io::BufReader::new(child.stderr.take().unwrap()).lines();
-    assert!(
-        lines.by_ref().map_while(Result::ok).any(|l| l.contains("step closed")),
-        "the node never closed a step"
-    );
-    let drain = std::thread::spawn(move || lines.for_each(drop));
+    let (mut child, drain) = super::common::spawn_until(&mut node, "step closed");
     let status = Command::new("kill")
         .args(["-TERM", &child.id().to_string()])
         .status()

@@ -73,3 +73,21 @@ pub fn network_key(dir: &std::path::Path) -> std::path::PathBuf {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     path
 }
+
+/// Start `cmd` with its log piped and wait for the line that contains `line` (an event, not a time, so that a
+/// loaded machine cannot reorder the test); its log is then read to the end in a thread, so that the pipe never
+/// fills. Panics if the process ends without logging the line.
+pub fn spawn_until(cmd: &mut std::process::Command, line: &str) -> (std::process::Child, std::thread::JoinHandle<()>) {
+    use std::io::BufRead;
+    let mut child = cmd
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = std::io::BufReader::new(child.stderr.take().unwrap()).lines();
+    assert!(
+        lines.by_ref().map_while(Result::ok).any(|l| l.contains(line)),
+        "the process ended without logging `{line}`"
+    );
+    (child, std::thread::spawn(move || lines.for_each(drop)))
+}

@@ -239,7 +239,6 @@ fn every_bad_input_exits_2_naming_it() {
 #[test]
 fn a_step_jump_or_a_huge_handshake_cannot_end_a_multi_host_run() {
     use simnet::wire::{Datagram, Header, Payload};
-    use std::io::BufRead;
     let d = tmp("step-jump");
     let fake = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     let p1 = fake.local_addr().unwrap().port();
@@ -251,39 +250,29 @@ fn a_step_jump_or_a_huge_handshake_cannot_end_a_multi_host_run() {
             .port()
     };
     let (p0, p2) = (free(), free());
-    let mut child = simnet()
-        .args([
-            "node",
-            "-v",
-            "-t",
-            "ring3",
-            "--id",
-            "0",
-            "--insecure",
-            "--duration",
-            "5",
-        ])
-        .args(["--handshake-timeout", "0.3", "--bind", &format!("127.0.0.1:{p0}")])
-        .args([
-            "--peer",
-            &format!("1=127.0.0.1:{p1}"),
-            "--peer",
-            &format!("2=127.0.0.1:{p2}"),
-        ])
-        .arg("--out")
-        .arg(&d)
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut lines = std::io::BufReader::new(child.stderr.take().unwrap()).lines();
-    assert!(
-        lines.by_ref().map_while(Result::ok).any(|l| l.contains("stepping")),
-        "node 0 never started stepping"
-    );
+    let mut node = simnet();
+    node.args([
+        "node",
+        "-v",
+        "-t",
+        "ring3",
+        "--id",
+        "0",
+        "--insecure",
+        "--duration",
+        "5",
+    ])
+    .args(["--handshake-timeout", "0.3", "--bind", &format!("127.0.0.1:{p0}")])
+    .args([
+        "--peer",
+        &format!("1=127.0.0.1:{p1}"),
+        "--peer",
+        &format!("2=127.0.0.1:{p2}"),
+    ])
+    .arg("--out")
+    .arg(&d);
+    let (mut child, drain) = super::common::spawn_until(&mut node, "stepping");
     let started = std::time::Instant::now();
-    // Keep reading its log so that the pipe never fills.
-    let drain = std::thread::spawn(move || lines.count());
     let steps = 500;
     let to = format!("127.0.0.1:{p0}");
     let mut sent = 0;
@@ -399,7 +388,6 @@ fn rss_kib(pid: u32) -> Option<u64> {
 /// buffer and counted as such — none vanishes, and none is charged to a link.
 #[test]
 fn a_garbage_flood_is_counted_and_the_node_keeps_stepping() {
-    use std::io::BufRead;
     let d = tmp("flood");
     let key = super::common::network_key(&d);
     let port = std::net::UdpSocket::bind("127.0.0.1:0")
@@ -407,24 +395,14 @@ fn a_garbage_flood_is_counted_and_the_node_keeps_stepping() {
         .local_addr()
         .unwrap()
         .port();
-    let mut child = simnet()
-        .args(["node", "-v", "-t", "ring3", "--id", "0", "--duration", "600"])
+    let mut node = simnet();
+    node.args(["node", "-v", "-t", "ring3", "--id", "0", "--duration", "600"])
         .args(["--handshake-timeout", "0.2", "--bind", &format!("127.0.0.1:{port}")])
         .args(["--peer", "1=127.0.0.1:9", "--peer", "2=127.0.0.1:9", "--key-file"])
         .arg(&key)
         .arg("--out")
-        .arg(&d)
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut lines = std::io::BufReader::new(child.stderr.take().unwrap()).lines();
-    // Stepping, however slow the machine.
-    assert!(
-        lines.by_ref().map_while(Result::ok).any(|l| l.contains("stepping")),
-        "node 0 never started stepping"
-    );
-    let drain = std::thread::spawn(move || lines.count());
+        .arg(&d);
+    let (mut child, drain) = super::common::spawn_until(&mut node, "stepping");
     let started = std::time::Instant::now();
     let rss_before = rss_kib(child.id()).unwrap_or(0);
     let flood = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
