@@ -17,6 +17,7 @@
 //! | [`estimators`] | the distributed schemes behind one [`estimators::Estimator`] trait — independent, centralized, KCF, ICF, HCMCI, diffusion, CI — pure, per node, one message per round; the node runs them over L consensus rounds |
 //! | [`wire`] | the datagram format: postcard + CRC-32, checked decode |
 //! | [`link`] | per-datagram rules (outage, Bernoulli / Gilbert–Elliott loss, duplication, delay and jitter, corruption), the egress queue, fault schedules |
+//! | [`attack`] | the adversary model of `[[attack]]`: forge, tamper, replay, flood on the air in front of a node, false data from a compromised one; what became of each injected datagram |
 //! | [`node`] | one node's sans-IO state machine: `handle_crash`/`handle_restart`, `handle_step`, `handle_datagram`, `handle_round`, `handle_deadline`, `poll_transmit`, over any [`model::Model`]; simulated or recorded IMU |
 //! | [`observe`] | what is measured as a run goes: the [`observe::Probe`]s a node feeds (the scorer, the trace, IMU and LMI recorders, your own), per-filter metrics, the fusion observer, the estimators' agreement and the two fusion centers (centralized, and centralized-net over lossy links) |
 //! | [`sim`] | whole runs in memory: [`Sim`] steps every node in lockstep and returns [`RunResults`], the same as over UDP |
@@ -39,6 +40,7 @@
 //! run it with [`Sim`] (in memory) or [`net::run`] (over UDP), read [`RunResults::summary`].
 
 pub mod analysis;
+pub mod attack;
 pub mod campaign;
 pub mod checks;
 mod cli;

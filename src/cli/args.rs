@@ -59,6 +59,10 @@ pub struct RunArgs {
     /// Authenticate every datagram with a key of the run's own (from its seed): an in-process run measures the cost.
     #[arg(long)]
     pub auth: bool,
+    /// Any key of the scenario, as in its file (`consensus.gate=0.999`, `attack[0].bias=[20]`), after the options
+    /// above; repeatable.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     /// Write summary.json, trace.csv, links.csv and SVG plots here.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -228,7 +232,13 @@ impl RunArgs {
             .topology
             .as_deref()
             .ok_or_else(|| UsageError::Option("--topology NAME|PATH is required (see `simnet topologies`)".into()))?;
-        let t = Scenario::resolve(name)?.with(&self.overrides()?)?;
+        let mut t = Scenario::resolve(name)?.with(&self.overrides()?)?;
+        for kv in &self.set {
+            let (k, v) = kv.split_once('=').ok_or_else(|| {
+                UsageError::Option(format!("--set `{kv}`: write KEY=VALUE, e.g. consensus.gate=0.999"))
+            })?;
+            t = t.set(k.trim(), crate::scenario::parse_value(v))?;
+        }
         for w in t.warnings() {
             tracing::warn!("{}: {w}", t.name());
         }

@@ -46,6 +46,9 @@ pub struct NodeCounters {
     /// link layer could decide their fate.
     #[serde(default)]
     pub kernel_drops: u64,
+    /// Neighbours' measurements left out of the networked update by the innovation gate.
+    #[serde(default)]
+    pub gated: u64,
 }
 
 /// Everything a node reports at the end of a run.
@@ -70,4 +73,7 @@ pub struct NodeReport {
     pub trace: Vec<TraceRow>,
     /// The IMU samples with the true pose, when traces are recorded (pose model, sensing nodes).
     pub imu: Vec<ImuRow>,
+    /// What became of the datagrams of each attack (by index in the scenario) this node was the target or the
+    /// compromised source of.
+    pub attacks: Vec<(usize, crate::attack::Tally)>,
 }

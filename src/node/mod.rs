@@ -33,6 +33,7 @@
 //! | `schemes.rs` | the distributed estimators beside them: each round's messages, what arrived, their traffic |
 //! | `session.rs` | neighbours heard from and the highest step they reported (the multi-host handshake) |
 //! | `events.rs` | what a node reports: trace rows, step estimates, counters |
+//! | `trust.rs` | what it believes: plausible steps, the innovation gate, the attacks on it and their tallies |
 #![allow(non_snake_case)]
 
 mod events;
@@ -40,6 +41,7 @@ mod filters;
 mod inbox;
 mod schemes;
 mod session;
+mod trust;
 mod wire;
 
 use std::sync::Arc;
@@ -113,6 +115,8 @@ pub struct Node {
     /// The run this node takes part in (one node per process): its boot epoch, then the smallest one a neighbour's
     /// hello carried, so that the parts of one run share it and `simnet collect` refuses to mix runs.
     run: u64,
+    /// The attacks around this node and its innovation gate.
+    trust: trust::Trust,
 }
 
 impl Node {
@@ -160,6 +164,7 @@ impl Node {
             .map(|r| Arc::new(r.data.at_steps(dt, topo.sim().steps())));
         let truth = model.truth(topo.sim().trajectory, dt, seed, recorded);
         let obs_dim = obs.dim();
+        let trust = trust::Trust::new(&topo, index, obs_dim);
         let mut node = Node {
             index,
             id: cfg.id,
@@ -202,6 +207,7 @@ impl Node {
                 && topo.estimators().run.contains(&crate::estimators::Kind::CentralizedNet),
             last_step: None,
             run: u64::MAX,
+            trust,
             topo,
         };
         node.initial = node.initial_estimate(0, 0);
@@ -258,11 +264,6 @@ impl Node {
         self.up = true;
         self.restarting = true;
         self.wire.reboot();
-    }
-
-    /// How far ahead of this node's own step a neighbour's may be: two seconds of steps, at least 32.
-    fn step_window(&self) -> u64 {
-        (2.0 * self.topo.sim().rate_hz).ceil().max(32.0) as u64
     }
 
     /// A datagram came from an address that is not a neighbour's and could not be authenticated (one process per
@@ -322,6 +323,7 @@ impl Node {
             self.counters.steps_down += 1;
             self.inbox.close_down();
             self.schemes.close_down();
+            self.air_on_step(k);
             return;
         }
         let joining = !self.started && k > 0;
@@ -409,6 +411,7 @@ impl Node {
         };
         self.send(k, t, own.as_ref(), &round0);
         self.inbox.open(k, own);
+        self.air_on_step(k);
     }
 
     /// The sub-deadline of round `r` of step k, t_k + D(r+1)/L, for r < L − 1 (the last round closes at
@@ -453,6 +456,9 @@ impl Node {
             }
             return;
         };
+        // A compromised node sends its measurement moved by the false-data attacks under way.
+        let tainted = self.trust.tainted(own, t);
+        let own = tainted.as_ref().map_or(own, |(m, _)| m);
         let (z, m) = (&own.z, own.z.len());
         let have = (0..m).filter(|&r| own.present[r]).fold(0u64, |acc, r| acc | 1 << r);
         let groups: Vec<u64> = if self.topo.sim().split_channels {
@@ -494,6 +500,9 @@ impl Node {
                     .push_group(li, t, round0, self.topo.faults(), Stream::Round(0));
             }
         }
+        for i in tainted.map(|(_, attacks)| attacks).unwrap_or_default() {
+            self.trust.count_sent(i, (self.egress.len() * groups.len()) as u64);
+        }
     }
 
     /// The next datagram due at or before `now` (simulated seconds), in delivery order.
@@ -508,6 +517,12 @@ impl Node {
 
     /// Bytes arrived; `from` is the sender's node index when the shell knows it by address.
     pub fn handle_datagram(&mut self, from: Option<usize>, bytes: &[u8]) -> Option<Arrival> {
+        self.air_on_arrival(from, bytes);
+        self.receive(from, bytes)
+    }
+
+    /// Bytes through the whole receive path: checked, authenticated, plausible, collected.
+    fn receive(&mut self, from: Option<usize>, bytes: &[u8]) -> Option<Arrival> {
         self.counters.datagrams_in += 1;
         let (topo, session) = (&self.topo, &self.session);
         let known = |id: u32| {
@@ -551,17 +566,10 @@ impl Node {
             Payload::Hello { running, .. } => *running,
             Payload::Measurement { .. } | Payload::Round { .. } => Some(dg.header.step),
         };
-        // A step is believed only inside the run and no further ahead of this node's own than a neighbour can be:
-        // one datagram must not end the run or make the node skip to its end.
-        let steps = self.topo.sim().steps();
-        let ahead = |s: u64| match self.last_step {
-            Some(k) => s > k.saturating_add(self.step_window()),
-            None => false,
-        };
         if [Some(dg.header.step), peer_step]
             .into_iter()
             .flatten()
-            .any(|s| s >= steps || ahead(s))
+            .any(|s| !self.plausible_step(s))
         {
             self.counters.implausible_step += 1;
             return None;
@@ -623,12 +631,22 @@ impl Node {
         let beta = c.beta.row(self.index);
         let priors = filters.clone();
 
+        // A neighbour's measurement too far from what this node predicts is left out (the innovation gate).
+        let gated: Vec<usize> = inbox
+            .iter()
+            .filter(|(_, p)| self.trust.gates(&*self.model, &self.obs, &priors.networked, p))
+            .map(|(s, _)| *s)
+            .collect();
+        for s in &gated {
+            self.counters.gated += 1;
+            self.inbox.rx.get_mut(*s).gated += 1;
+        }
         // Networked: consensus over own + received, in source order (deterministic sums).
         let mut used: Vec<(usize, &Measurement)> = Vec::new();
         if let Some(own) = self.inbox.own() {
             used.push((self.index, own));
         }
-        used.extend(inbox.iter().map(|(s, p)| (*s, p)));
+        used.extend(inbox.iter().filter(|(s, _)| !gated.contains(s)).map(|(s, p)| (*s, p)));
         used.sort_by_key(|(s, _)| *s);
         let updated = filters::update(
             &filters::Inputs {
@@ -839,6 +857,7 @@ impl Node {
             },
             trace: self.take_trace(),
             imu: self.take_imu(),
+            attacks: self.trust.tallies(),
         }
     }
 }

@@ -154,6 +154,9 @@ pub struct RxCounters {
     /// Steps this node closed with this source as a neighbour (the denominator of the arrival rate).
     #[serde(default)]
     pub steps: u64,
+    /// Measurements left out of the networked update by the innovation gate.
+    #[serde(default)]
+    pub gated: u64,
 }
 
 /// Receive counters by source node index, held only for the sources heard from or expected (a node's memory grows

@@ -311,7 +311,11 @@ pub fn merge(
             a.rejected.add(&b.rejected);
             a
         }),
+        attacks: Vec::new(),
+        attack_effect: Vec::new(),
     };
+    let mut merged = merged;
+    merged.attacks = crate::report::summary::AttackSummary::merge(parts, &merged.links);
     Ok((merged, observer))
 }
 

@@ -13,6 +13,7 @@ pub const ALL: &[(&str, &str)] = &[
     ("ring100", include_str!("../../topologies/ring100.toml")),
     ("attitude3", include_str!("../../topologies/attitude3.toml")),
     ("rgg50", include_str!("../../topologies/rgg50.toml")),
+    ("ring3-attacked", include_str!("../../topologies/ring3-attacked.toml")),
 ];
 
 pub fn get(name: &str) -> Option<&'static str> {

@@ -189,6 +189,9 @@ pub struct ConsensusConfig {
     pub lmi: LmiConfig,
     /// λ of the per-channel inflation R̄ᵢᵢ = λ² Rᵢᵢ for a channel no source delivered.
     pub inflation: f64,
+    /// The innovation gate's probability: a neighbour's measurement whose normalised innovation squared exceeds the
+    /// χ² quantile of it (degrees of freedom: its rows) is left out of the networked update. None: no gate.
+    pub gate: Option<f64>,
 }
 
 /// The distributed estimators a run holds beside the node's two filters, and their consensus rounds.
@@ -276,6 +279,8 @@ pub struct Scenario {
     /// Node index by file id.
     by_id: std::collections::HashMap<u32, usize>,
     faults: FaultSchedule,
+    /// The adversaries (`[[attack]]`).
+    attacks: Vec<crate::attack::Attack>,
     /// The overrides applied since the file was read (the last value of each wins).
     applied: Overrides,
     /// The file as written, with every change since: what a change validates again.
@@ -317,6 +322,16 @@ impl Scenario {
     }
     pub fn faults(&self) -> &FaultSchedule {
         &self.faults
+    }
+    pub fn attacks(&self) -> &[crate::attack::Attack] {
+        &self.attacks
+    }
+    /// The same scenario without its attacks: the clean run an attacked run is compared with.
+    pub fn without_attacks(&self) -> Scenario {
+        let mut s = self.clone();
+        s.attacks.clear();
+        s.raw.attack.clear();
+        s
     }
     /// The overrides applied since the file was read (the last value of each wins).
     pub fn applied(&self) -> &Overrides {
@@ -360,6 +375,16 @@ impl Scenario {
                     format!("{} faults start", late.len())
                 },
                 late.iter().map(|t| format!("{t} s")).collect::<Vec<_>>().join(", ")
+            ));
+        }
+        let late: Vec<usize> = (0..self.attacks.len())
+            .filter(|&i| self.attacks[i].start_s >= d)
+            .collect();
+        if !late.is_empty() {
+            let which: Vec<String> = late.iter().map(|i| format!("attack[{i}]")).collect();
+            w.push(format!(
+                "{} after the run ends at {d} s: never under way",
+                which.join(", ") + " start"
             ));
         }
         w

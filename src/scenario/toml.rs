@@ -25,6 +25,8 @@ pub struct RawTopology {
     pub edge: Vec<RawEdge>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub fault: Vec<RawFault>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub attack: Vec<RawAttack>,
 }
 
 #[derive(Debug, Serialize, Deserialize, Default, Clone)]
@@ -52,6 +54,9 @@ pub struct RawConsensus {
     pub weights: Option<String>,
     pub lmi: Option<RawLmi>,
     pub inflation: Option<f64>,
+    /// The innovation gate: a neighbour's measurement whose normalised innovation squared exceeds the χ² quantile of
+    /// this probability is left out of the update.
+    pub gate: Option<f64>,
 }
 
 /// `[estimators]`: the distributed schemes run beside the node's two filters.
@@ -175,6 +180,23 @@ pub struct RawFault {
     pub end_s: Option<f64>,
     pub at_s: Option<f64>,
     pub restart_s: Option<f64>,
+}
+
+/// `[[attack]]`: one adversary (see [`crate::attack`]).
+#[derive(Debug, Serialize, Deserialize, Clone, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RawAttack {
+    /// forge | tamper | replay | flood | false-data
+    pub kind: String,
+    pub target: Option<i64>,
+    pub claim: Option<i64>,
+    pub node: Option<i64>,
+    pub start_s: Option<f64>,
+    pub end_s: Option<f64>,
+    pub bias: Option<Vec<f64>>,
+    pub ramp: Option<Vec<f64>>,
+    pub delay_s: Option<f64>,
+    pub rate_hz: Option<f64>,
 }
 
 impl From<crate::link::LossModel> for RawLoss {

@@ -32,7 +32,8 @@ pub const VERSION: u8 = 2;
 pub const MAX_DATAGRAM: usize = 1200;
 /// Rows of one measurement (the `rows` bitmask is 64 bits wide).
 pub const MAX_ROWS: usize = 64;
-const CRC_LEN: usize = 4;
+/// The CRC-32 that ends every datagram.
+pub const CRC_LEN: usize = 4;
 
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum WireError {
@@ -268,6 +269,15 @@ impl Header {
 }
 
 /// The bytes before the checksum, if the length is possible and the checksum holds.
+/// The clear header of a datagram whose checksum holds, sealed or not, unauthenticated: what anyone who hears it
+/// can read.
+pub fn peek_header(bytes: &[u8]) -> Result<Header, WireError> {
+    let body = checked_body(bytes)?;
+    let (header, _): (Header, &[u8]) =
+        postcard::take_from_bytes(body).map_err(|e| WireError::Malformed(e.to_string()))?;
+    Ok(header)
+}
+
 fn checked_body(bytes: &[u8]) -> Result<&[u8], WireError> {
     if bytes.len() > MAX_DATAGRAM {
         return Err(WireError::TooLong(bytes.len()));

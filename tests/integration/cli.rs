@@ -726,3 +726,14 @@ fn node_stops_cleanly_on_sigterm() {
         .unwrap()
         .any(|e| e.unwrap().path().extension().is_some_and(|x| x == "tmp")));
 }
+
+/// The annotated topology file of README's "Topology files" is a valid topology.
+#[test]
+fn the_readme_topology_example_validates() {
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let at = readme.find("## Topology files").unwrap();
+    let start = readme[at..].find("```toml").unwrap() + at + "```toml".len();
+    let end = readme[start..].find("```").unwrap() + start;
+    let t = simnet::Scenario::from_toml(&readme[start..end], "README.md").unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(t.attacks().len(), 1);
+}

@@ -87,7 +87,12 @@ fn in_memory(topology: &Path, faulty: bool) -> Value {
         ..o
     };
     let scenario = Scenario::from_path(topology).and_then(|s| s.with(&o)).unwrap();
-    let summary = Sim::new(&scenario).unwrap().run().unwrap().summary();
+    let mut summary = Sim::new(&scenario).unwrap().run().unwrap().summary();
+    if !scenario.attacks().is_empty() {
+        // As `simnet run` does: beside the same seed's clean run.
+        let clean = Sim::new(&scenario.without_attacks()).unwrap().run().unwrap().summary();
+        summary.compare_clean(&clean);
+    }
     normalised(serde_json::from_str(&summary.to_json()).unwrap())
 }
 

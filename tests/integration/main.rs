@@ -1,5 +1,6 @@
 //! simnet's integration tests, one binary (keeps builds lean). Fixed seeds throughout.
 
+mod attacks;
 mod attitude;
 mod campaign;
 mod cli;

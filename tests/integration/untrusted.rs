@@ -79,6 +79,25 @@ fn every_bad_input_exits_2_naming_it() {
         format!("[[node]]\nid = 0\nimu_csv = \"{}\"\n", passwd.display()),
     )
     .unwrap();
+    // ring3 with a forger on node 0 claiming node 2, whose datagrams node 0 hears.
+    let attacked = d.join("attacked.toml");
+    std::fs::write(
+        &attacked,
+        format!(
+            "{}\n[[attack]]\nkind = \"forge\"\ntarget = 0\nclaim = 2\nbias = [1.0]\n",
+            simnet::Scenario::resolve("ring3").unwrap().to_toml()
+        ),
+    )
+    .unwrap();
+    let flooded = d.join("flooded.toml");
+    std::fs::write(
+        &flooded,
+        format!(
+            "{}\n[[attack]]\nkind = \"flood\"\ntarget = 0\n",
+            simnet::Scenario::resolve("ring3").unwrap().to_toml()
+        ),
+    )
+    .unwrap();
     let fifo = d.join("fifo.toml");
     let made_fifo = Command::new("mkfifo").arg(&fifo).status().is_ok_and(|s| s.success());
 
@@ -204,6 +223,40 @@ fn every_bad_input_exits_2_naming_it() {
             vec!["keygen".into(), s(&key)],
             "exists: keep it, or replace it with --force",
         ),
+    ]);
+    // `[[attack]]` entries, each wrong in one way.
+    let set = |kv: &[&str]| -> Vec<String> {
+        let mut v: Vec<String> = vec!["-t".into(), s(&attacked)];
+        for x in kv {
+            v.extend(["--set".to_string(), x.to_string()]);
+        }
+        v
+    };
+    cases.extend([
+        (set(&["attack[0].kind=jam"]), "`attack[0].kind`: unknown attack `jam`"),
+        (set(&["attack[0].claim=9"]), "`attack[0].claim`: no [[node]] has id 9"),
+        (
+            set(&["attack[0].bias=[1,2,3,4,5,6,7]"]),
+            "a measurement has 6 rows, got 7 values",
+        ),
+        (
+            set(&["attack[0].delay_s=1"]),
+            "`attack[0].delay_s`: delay_s is for replay only",
+        ),
+        (
+            set(&["attack[0].end_s=-1"]),
+            "`attack[0].end_s`: must be a finite time after start_s = 0",
+        ),
+        (
+            set(&["attack[0].rate_hz=10"]),
+            "`attack[0].rate_hz`: rate_hz is for flood only",
+        ),
+        (
+            vec!["-t".into(), s(&flooded), "--set".into(), "attack[0].rate_hz=1e9".into()],
+            "`attack[0].rate_hz`: must be at most 1000000 Hz",
+        ),
+        (set(&["consensus.gate=1"]), "`consensus.gate`: is the probability"),
+        (set(&["nonsense"]), "--set `nonsense`: write KEY=VALUE"),
     ]);
     if made_fifo {
         cases.push((vec!["validate".into(), s(&fifo)], "not a regular file (a fifo)"));

@@ -33,6 +33,7 @@ impl LinkSummary {
             arrival_rate: (rx.steps > 0).then(|| 1.0 - rx.missing_steps as f64 / rx.steps as f64),
             mean_loss_run: tx.mean_loss_run(),
             longest_loss_run: tx.longest_loss_run.max(tx.current_run),
+            gated: rx.gated,
         }
     }
 }
@@ -102,6 +103,7 @@ impl Summary {
                     implausible_step: r.counters.implausible_step,
                     unknown_address: r.counters.unknown_address,
                     kernel_drops: r.counters.kernel_drops,
+                    gated: r.counters.gated,
                 }
             })
             .collect();
@@ -116,6 +118,7 @@ impl Summary {
                 links.push(LinkSummary::join(r.id, topo.nodes()[*to].id, tx, &rx));
             }
         }
+        let attacks = AttackSummary::of(topo, reports, &links);
         Summary {
             simnet_version: env!("CARGO_PKG_VERSION").to_string(),
             topology: topo.name().to_string(),
@@ -144,6 +147,8 @@ impl Summary {
                     a
                 }),
             }),
+            attacks,
+            attack_effect: Vec::new(),
         }
     }
 }

@@ -1,11 +1,13 @@
 //! The `summary.json` schema. `build.rs` makes a summary from a run, `table.rs` prints it, `csv.rs` writes
 //! `links.csv`.
 
+mod attacks;
 mod build;
 mod csv;
 mod estimators;
 mod table;
 
+pub use attacks::{AttackEffect, AttackSummary};
 pub use csv::write_links;
 pub use estimators::{EstimatorNode, EstimatorSummary};
 pub(crate) use table::figure;
@@ -39,6 +41,9 @@ pub struct NodeSummary {
     /// Datagrams the kernel dropped on the node's socket (its receive buffer full), apart from the link layer's.
     #[serde(default)]
     pub kernel_drops: u64,
+    /// Neighbours' measurements the innovation gate left out of the networked update.
+    #[serde(default)]
+    pub gated: u64,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
@@ -61,6 +66,9 @@ pub struct LinkSummary {
     pub arrival_rate: Option<f64>,
     pub mean_loss_run: f64,
     pub longest_loss_run: u64,
+    /// The sender's measurements the receiver's innovation gate left out.
+    #[serde(default)]
+    pub gated: u64,
 }
 
 /// How a run was set up, so that a result file says how it was made.
@@ -132,6 +140,12 @@ pub struct Summary {
     /// Authenticated datagrams: where the key came from and what was refused; absent from unauthenticated runs.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub security: Option<SecuritySummary>,
+    /// What each `[[attack]]` did; absent from runs without one.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub attacks: Vec<AttackSummary>,
+    /// Each estimating node's error beside the same seed's clean run (set by [`Summary::compare_clean`]).
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub attack_effect: Vec<AttackEffect>,
 }
 
 /// How a run's datagrams were authenticated.

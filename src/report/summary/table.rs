@@ -140,6 +140,14 @@ impl Summary {
                 r.unknown_source
             )?;
         }
+        self.write_attacks(w)?;
+        let gated: u64 = self.nodes.iter().map(|n| n.gated).sum();
+        if gated > 0 {
+            writeln!(
+                w,
+                "innovation gate: {gated} neighbours' measurements left out of the networked update"
+            )?;
+        }
         let implausible: u64 = self.nodes.iter().map(|n| n.implausible_step).sum();
         let unknown: u64 = self.nodes.iter().map(|n| n.unknown_address).sum();
         if implausible + unknown > 0 {
@@ -260,6 +268,62 @@ impl Summary {
                 "centralized-net: {got} of {sent} measurements ({:.1} %) reached the center (node {}) over lossy links by the deadline",
                 100.0 * got as f64 / sent.max(1) as f64,
                 e.nodes.first().map_or("—".to_string(), |n| n.id.to_string())
+            )?;
+        }
+        Ok(())
+    }
+}
+
+impl Summary {
+    /// One line per attack, then each node's error beside the same seed's clean run.
+    fn write_attacks(&self, w: &mut impl Write) -> io::Result<()> {
+        for (i, a) in self.attacks.iter().enumerate() {
+            let who = match (a.target, a.claim, a.node) {
+                (Some(t), Some(c), _) => format!("on node {t} claiming node {c}"),
+                (Some(t), None, _) => format!("on node {t}"),
+                (_, _, Some(n)) => format!("by compromised node {n}"),
+                _ => String::new(),
+            };
+            let until = a
+                .end_s
+                .map_or("the end".to_string(), |e| format!("{} s", crate::checks::num(e)));
+            let d = &a.datagrams;
+            let causes: Vec<String> = d.rejected.causes().iter().map(|(c, n)| format!("{c} {n}")).collect();
+            let rejected = if causes.is_empty() {
+                "0 rejected".to_string()
+            } else {
+                format!("{} rejected ({})", d.rejected.total(), causes.join(", "))
+            };
+            let what = if a.kind == crate::attack::AttackKind::FalseData {
+                format!("{} measurements sent", d.sent)
+            } else {
+                format!("{} sent, {} used, {} ignored, {rejected}", d.sent, d.used, d.ignored)
+            };
+            let gate = match a.gated_clean {
+                Some(c) if a.gated + c > 0 => format!("; gate left out {} on its links (clean run {c})", a.gated),
+                None if a.gated > 0 => format!("; gate left out {} on its links", a.gated),
+                _ => String::new(),
+            };
+            writeln!(
+                w,
+                "attack {i}: {} {who}, from {} s to {until}: {what}{gate}",
+                a.kind.as_str(),
+                crate::checks::num(a.start_s)
+            )?;
+        }
+        if self.attack_effect.is_empty() {
+            return Ok(());
+        }
+        let unit = self.model.error_text().legend;
+        writeln!(w, "under attack against the same seed's clean run ({unit}):")?;
+        for n in &self.attack_effect {
+            writeln!(
+                w,
+                "{:>5}  net err {:>10}  clean {:>10}  change {:>10}",
+                n.id,
+                figure(n.mean_error),
+                figure(n.clean_mean_error),
+                n.shift().map_or("—".to_string(), |s| format!("{s:+.4}"))
             )?;
         }
         Ok(())

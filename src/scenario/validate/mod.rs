@@ -1,6 +1,7 @@
 //! Raw → typed: the file as written ([`super::toml`]) becomes a [`Scenario`], every problem recorded in
 //! [`Checks`] with its key.
 
+mod attack;
 mod link;
 
 use std::collections::HashMap;
@@ -216,6 +217,8 @@ impl Checks {
         }
         let faults = self.faults(&raw.fault, &ids, n);
         let security = self.security(raw.security.as_ref(), file, sim.seed);
+        let rows = model.get().observation().dim();
+        let attacks = self.attacks(&raw.attack, &ids, &linked, rows, sim.duration_s);
 
         if sim.split_channels && model.get().observation().channels() < 2 {
             self.bad(
@@ -241,6 +244,7 @@ impl Checks {
             outs,
             by_id,
             faults,
+            attacks,
         })
     }
 
@@ -511,11 +515,22 @@ impl Checks {
                 format!("λ inflates a missing channel and must be ≥ 1, got {inflation}"),
             );
         }
+        let gate = match c.gate {
+            Some(p) if !(p > 0.0 && p < 1.0) => {
+                self.bad(
+                    "consensus.gate",
+                    format!("is the probability of the χ² quantile an innovation must stay under, in (0, 1), got {p}"),
+                );
+                None
+            }
+            g => g,
+        };
         ConsensusConfig {
             beta0,
             beta,
             lmi,
             inflation,
+            gate,
         }
     }
 }

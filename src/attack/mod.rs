@@ -1,0 +1,364 @@
+//! The adversary model of `[[attack]]`: pure, seeded, per node — no socket, no clock.
+//!
+//! | kind | who | what |
+//! |---|---|---|
+//! | `forge` | an outsider in radio range of `target` | on each measurement `claim` sends, a datagram of its own claiming `claim`, with the values it could read (none when sealed) plus `bias`, ahead of the original |
+//! | `tamper` | an outsider on the path `claim` → `target` | a copy of each datagram with its values moved by `bias` (ciphertext bytes flipped when sealed) and the checksum recomputed, ahead of the original |
+//! | `replay` | an outsider on the same path | every datagram captured, sent again `delay_s` later |
+//! | `flood` | anyone who can reach `target` | random bytes at `rate_hz` |
+//! | `false-data` | `node` itself, compromised (it holds the key) | `bias + ramp·(t − start_s)` added to every measurement it sends |
+//!
+//! The outsiders act on the air in front of their target ([`Air`]): what they inject goes through the target's
+//! whole receive path (checksum, authentication, plausibility, the inbox) exactly as a datagram from a socket does,
+//! with the claimed source as its address, as a spoofed source address would give it. They cannot silence the
+//! original, so an attack that a key defeats leaves a run as it was. Each injection's fate is counted in a [`Tally`].
+
+use std::collections::VecDeque;
+
+use bytes::Bytes;
+use nalgebra::DVector;
+use rand::Rng as _;
+use serde::{Deserialize, Serialize};
+
+use crate::wire::{Datagram, Header, Payload, KIND_MEASUREMENT};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum AttackKind {
+    Forge,
+    Tamper,
+    Replay,
+    Flood,
+    FalseData,
+}
+
+impl AttackKind {
+    pub const ALL: [AttackKind; 5] = [
+        AttackKind::Forge,
+        AttackKind::Tamper,
+        AttackKind::Replay,
+        AttackKind::Flood,
+        AttackKind::FalseData,
+    ];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            AttackKind::Forge => "forge",
+            AttackKind::Tamper => "tamper",
+            AttackKind::Replay => "replay",
+            AttackKind::Flood => "flood",
+            AttackKind::FalseData => "false-data",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<AttackKind> {
+        AttackKind::ALL.into_iter().find(|k| k.as_str() == s)
+    }
+
+    /// An outsider on the air in front of a target, rather than a compromised node.
+    pub fn outsider(self) -> bool {
+        self != AttackKind::FalseData
+    }
+}
+
+/// One `[[attack]]`, validated; nodes by index.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Attack {
+    pub kind: AttackKind,
+    /// The node attacked (outsiders).
+    pub target: Option<usize>,
+    /// The node whose datagrams are forged, tampered with or replayed: an in-neighbour of `target`.
+    pub claim: Option<usize>,
+    /// The compromised node (false-data).
+    pub node: Option<usize>,
+    pub start_s: f64,
+    pub end_s: f64,
+    /// Added to each measurement row (forge, tamper, false-data).
+    pub bias: Vec<f64>,
+    /// Per second since `start_s`, on top of `bias` (false-data).
+    pub ramp: Vec<f64>,
+    pub delay_s: f64,
+    pub rate_hz: f64,
+}
+
+impl Attack {
+    pub fn active(&self, t: f64) -> bool {
+        t >= self.start_s && t < self.end_s
+    }
+
+    /// What row `r` is moved by at `t`.
+    pub fn offset(&self, r: usize, t: f64) -> f64 {
+        let at = |v: &[f64]| v.get(r).copied().unwrap_or(0.0);
+        at(&self.bias) + at(&self.ramp) * (t - self.start_s).max(0.0)
+    }
+
+    /// A compromised node's measurement as it sends it (false-data).
+    pub fn taint(&self, z: &mut DVector<f64>, t: f64) {
+        for (r, v) in z.iter_mut().enumerate() {
+            *v += self.offset(r, t);
+        }
+    }
+}
+
+/// Why an injected datagram was refused.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Refusals {
+    pub bad_tag: u64,
+    pub replay: u64,
+    pub too_old: u64,
+    pub unknown_source: u64,
+    /// Not a datagram (garbage), or a datagram naming the wrong source.
+    pub malformed: u64,
+    /// The checksum failed.
+    pub corrupted: u64,
+    pub implausible_step: u64,
+    pub unknown_address: u64,
+}
+
+impl Refusals {
+    pub fn total(&self) -> u64 {
+        self.bad_tag
+            + self.replay
+            + self.too_old
+            + self.unknown_source
+            + self.malformed
+            + self.corrupted
+            + self.implausible_step
+            + self.unknown_address
+    }
+
+    pub fn add(&mut self, o: &Refusals) {
+        self.bad_tag = self.bad_tag.saturating_add(o.bad_tag);
+        self.replay = self.replay.saturating_add(o.replay);
+        self.too_old = self.too_old.saturating_add(o.too_old);
+        self.unknown_source = self.unknown_source.saturating_add(o.unknown_source);
+        self.malformed = self.malformed.saturating_add(o.malformed);
+        self.corrupted = self.corrupted.saturating_add(o.corrupted);
+        self.implausible_step = self.implausible_step.saturating_add(o.implausible_step);
+        self.unknown_address = self.unknown_address.saturating_add(o.unknown_address);
+    }
+
+    /// The causes with a count, for a table.
+    pub fn causes(&self) -> Vec<(&'static str, u64)> {
+        [
+            ("bad tag", self.bad_tag),
+            ("replay", self.replay),
+            ("too old", self.too_old),
+            ("unknown source", self.unknown_source),
+            ("malformed", self.malformed),
+            ("checksum", self.corrupted),
+            ("implausible step", self.implausible_step),
+            ("unknown address", self.unknown_address),
+        ]
+        .into_iter()
+        .filter(|(_, n)| *n > 0)
+        .collect()
+    }
+}
+
+/// What became of one attack's datagrams.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Tally {
+    pub sent: u64,
+    /// Accepted and taken as a step's data (a measurement nothing had delivered yet).
+    pub used: u64,
+    /// Accepted, but nothing new: a duplicate, a closed step, or a node that was down.
+    pub ignored: u64,
+    pub rejected: Refusals,
+}
+
+impl Tally {
+    pub fn accepted(&self) -> u64 {
+        self.used + self.ignored
+    }
+
+    pub fn add(&mut self, o: &Tally) {
+        self.sent = self.sent.saturating_add(o.sent);
+        self.used = self.used.saturating_add(o.used);
+        self.ignored = self.ignored.saturating_add(o.ignored);
+        self.rejected.add(&o.rejected);
+    }
+}
+
+/// A datagram an outsider puts on the air: `from` is the address it arrives with (the claimed source's, or none).
+#[derive(Debug, Clone)]
+pub struct Injection {
+    /// Index of the attack in the scenario.
+    pub attack: usize,
+    pub from: Option<usize>,
+    pub bytes: Bytes,
+}
+
+/// Captures a replayer holds at most (a bounded recorder).
+const MAX_CAPTURES: usize = 4096;
+
+/// The outsiders attacking one node: what they inject, from what they hear of its traffic.
+pub struct Air {
+    /// (attack index, attack, claimed node's id) of the attacks on this node.
+    attacks: Vec<(usize, Attack, u32)>,
+    /// (due time, attack index, bytes) captured by replayers.
+    captured: VecDeque<(f64, usize, Bytes)>,
+    /// Flood credit per attack (fractional datagrams carried between steps).
+    credit: Vec<f64>,
+    rng: crate::rng::Rng,
+    /// The forger's own sequence numbers.
+    seq: u32,
+}
+
+impl Air {
+    /// The attacks of `all` (with their indices) aimed at node `index`; `id_of` gives a node's id.
+    pub fn new(all: &[Attack], index: usize, id_of: impl Fn(usize) -> u32, seed: u64) -> Air {
+        let attacks: Vec<(usize, Attack, u32)> = all
+            .iter()
+            .enumerate()
+            .filter(|(_, a)| a.kind.outsider() && a.target == Some(index))
+            .map(|(i, a)| (i, a.clone(), a.claim.map(&id_of).unwrap_or(u32::MAX)))
+            .collect();
+        Air {
+            credit: vec![0.0; attacks.len()],
+            attacks,
+            captured: VecDeque::new(),
+            rng: crate::rng::stream(seed, "attack", index as u64, 0),
+            seq: 0,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.attacks.is_empty()
+    }
+
+    /// The target begins a step at `t` (length `dt`): the flood of the step, and the replays now due.
+    pub fn on_step(&mut self, t: f64, dt: f64) -> Vec<Injection> {
+        let mut out = Vec::new();
+        while self.captured.front().is_some_and(|(due, _, _)| *due <= t) {
+            let (_, attack, bytes) = self.captured.pop_front().expect("front exists");
+            let from = self
+                .attacks
+                .iter()
+                .find(|(i, _, _)| *i == attack)
+                .and_then(|(_, a, _)| a.claim);
+            out.push(Injection { attack, from, bytes });
+        }
+        for (slot, (i, a, _)) in self.attacks.iter().enumerate() {
+            if a.kind != AttackKind::Flood || !a.active(t) {
+                continue;
+            }
+            self.credit[slot] += a.rate_hz * dt;
+            let n = self.credit[slot].floor();
+            self.credit[slot] -= n;
+            for _ in 0..n as u64 {
+                let len = self.rng.gen_range(1..=crate::wire::MAX_DATAGRAM);
+                let mut b = vec![0u8; len];
+                self.rng.fill(&mut b[..]);
+                out.push(Injection {
+                    attack: *i,
+                    from: None,
+                    bytes: Bytes::from(b),
+                });
+            }
+        }
+        out
+    }
+
+    /// A datagram reaches the target at `t` from `from`: what the outsiders send ahead of it, and what they
+    /// capture of it.
+    pub fn on_arrival(&mut self, t: f64, from: Option<usize>, bytes: &[u8]) -> Vec<Injection> {
+        let mut out = Vec::new();
+        let Some(from) = from else { return out };
+        let Ok(header) = crate::wire::peek_header(bytes) else {
+            return out;
+        };
+        // What an outsider can read: the clear header always, the values only when the datagram is not sealed.
+        let clear = Datagram::decode(bytes).ok();
+        for (i, a, claim_id) in &self.attacks {
+            if a.claim != Some(from) || header.src != *claim_id || !a.active(t) {
+                continue;
+            }
+            match a.kind {
+                AttackKind::Replay if self.captured.len() < MAX_CAPTURES => {
+                    self.captured
+                        .push_back((t + a.delay_s, *i, Bytes::copy_from_slice(bytes)));
+                }
+                AttackKind::Forge if header.kind == KIND_MEASUREMENT => {
+                    let (rows, values) = match &clear {
+                        Some(Datagram {
+                            payload: Payload::Measurement { rows, values },
+                            ..
+                        }) => (*rows, moved(a, *rows, values, t)),
+                        // Sealed: the forger cannot read the values and sends its bias over every row it moves.
+                        _ => {
+                            let m = a.bias.len().min(64);
+                            let rows = if m == 64 { u64::MAX } else { (1u64 << m) - 1 };
+                            (rows, moved(a, rows, &vec![0.0; m], t))
+                        }
+                    };
+                    let d = Datagram {
+                        header: Header::new(*claim_id, self.seq, header.step),
+                        payload: Payload::measurement(rows, values),
+                    };
+                    self.seq = self.seq.wrapping_add(1);
+                    if let Ok(bytes) = d.encode() {
+                        out.push(Injection {
+                            attack: *i,
+                            from: Some(from),
+                            bytes,
+                        });
+                    }
+                }
+                AttackKind::Tamper if header.kind == KIND_MEASUREMENT => {
+                    let bytes = match &clear {
+                        Some(Datagram {
+                            header,
+                            payload: Payload::Measurement { rows, values },
+                        }) => Datagram {
+                            header: *header,
+                            payload: Payload::measurement(*rows, moved(a, *rows, values, t)),
+                        }
+                        .encode()
+                        .ok(),
+                        _ => Some(flip_sealed(bytes)),
+                    };
+                    if let Some(bytes) = bytes {
+                        out.push(Injection {
+                            attack: *i,
+                            from: Some(from),
+                            bytes,
+                        });
+                    }
+                }
+                _ => {}
+            }
+        }
+        out
+    }
+}
+
+/// `values` of the rows in `rows` (in row order), each moved by the attack's offset at `t`.
+fn moved(a: &Attack, rows: u64, values: &[f64], t: f64) -> Vec<f64> {
+    (0..64)
+        .filter(|r| rows & (1 << r) != 0)
+        .zip(values)
+        .map(|(r, v)| v + a.offset(r, t))
+        .collect()
+}
+
+/// A sealed datagram with one ciphertext byte flipped (CCM's counter mode is malleable: without the tag, this
+/// would move the value under it) and its checksum recomputed.
+fn flip_sealed(bytes: &[u8]) -> Bytes {
+    let crc = crate::wire::CRC_LEN;
+    let mut b = bytes.to_vec();
+    if b.len() < crc {
+        return Bytes::from(b);
+    }
+    if b.len() > crc + crate::wire::secure::TAG_LEN + 1 {
+        let at = b.len() - crc - crate::wire::secure::TAG_LEN - 1;
+        b[at] ^= 0x40;
+    }
+    let n = b.len().saturating_sub(crc);
+    let sum = crc32fast::hash(&b[..n]);
+    b[n..].copy_from_slice(&sum.to_le_bytes());
+    Bytes::from(b)
+}
+
+#[cfg(test)]
+mod tests;

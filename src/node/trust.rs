@@ -1,0 +1,188 @@
+//! What a node believes of what arrives: a claimed step only inside a window of its own clock, a neighbour's
+//! measurement only through the innovation gate, and — when the scenario attacks the node — the air in front of it
+//! ([`crate::attack::Air`]) with the fate of every datagram an attack injects ([`Tally`]).
+
+use std::collections::BTreeMap;
+
+use nalgebra::DVector;
+
+use super::Node;
+use crate::attack::{Air, Attack, AttackKind, Injection, Tally};
+use crate::estimate::{Gaussian, Observation};
+use crate::model::{Measurement, Model};
+use crate::scenario::Scenario;
+
+/// The adversaries around one node and its innovation gate.
+pub(super) struct Trust {
+    air: Air,
+    /// The false-data attacks this node carries out (it is compromised), by index in the scenario.
+    false_data: Vec<(usize, Attack)>,
+    tallies: BTreeMap<usize, Tally>,
+    /// The gate's χ² quantile by degrees of freedom (index: rows present), when the run gates.
+    gate: Option<Vec<f64>>,
+}
+
+impl Trust {
+    pub fn new(topo: &Scenario, index: usize, rows: usize) -> Trust {
+        let attacks = topo.attacks();
+        Trust {
+            air: Air::new(attacks, index, |j| topo.nodes()[j].id, topo.sim().seed),
+            false_data: attacks
+                .iter()
+                .enumerate()
+                .filter(|(_, a)| a.kind == AttackKind::FalseData && a.node == Some(index))
+                .map(|(i, a)| (i, a.clone()))
+                .collect(),
+            tallies: BTreeMap::new(),
+            gate: topo
+                .consensus()
+                .gate
+                .map(|p| (0..=rows).map(|k| crate::stats::chi2_quantile(p, k as f64)).collect()),
+        }
+    }
+
+    /// The measurement a compromised node sends at `t`: its own moved by every false-data attack under way, and
+    /// those attacks (to count what they send).
+    pub fn tainted(&self, own: &Measurement, t: f64) -> Option<(Measurement, Vec<usize>)> {
+        let active: Vec<&(usize, Attack)> = self.false_data.iter().filter(|(_, a)| a.active(t)).collect();
+        if active.is_empty() {
+            return None;
+        }
+        let mut m = own.clone();
+        for (_, a) in &active {
+            a.taint(&mut m.z, t);
+        }
+        Some((m, active.iter().map(|(i, _)| *i).collect()))
+    }
+
+    pub fn count_sent(&mut self, attack: usize, n: u64) {
+        self.tallies.entry(attack).or_default().sent += n;
+    }
+
+    pub fn tallies(&self) -> Vec<(usize, Tally)> {
+        self.tallies.iter().map(|(i, t)| (*i, *t)).collect()
+    }
+
+    /// Whether the gate leaves `m` out of an update from `prior`: its normalised innovation squared
+    /// νᵀS⁻¹ν, S = HPHᵀ + R over the rows present, exceeds the χ² quantile of as many degrees of freedom.
+    pub fn gates(&self, model: &dyn Model, obs: &Observation, prior: &Gaussian, m: &Measurement) -> bool {
+        let Some(q) = &self.gate else { return false };
+        match nis(model, obs, prior, m) {
+            Some((d2, dof)) => q.get(dof).is_some_and(|q| d2 > *q),
+            None => false,
+        }
+    }
+}
+
+/// The normalised innovation squared of `m` against `prior`, and its degrees of freedom (none when no row is
+/// present or S is not positive definite).
+pub(super) fn nis(model: &dyn Model, obs: &Observation, prior: &Gaussian, m: &Measurement) -> Option<(f64, usize)> {
+    let (o, z) = model.linearize_at(obs, prior, &[&m.z]);
+    let rows: Vec<usize> = (0..o.dim()).filter(|&r| m.present[r]).collect();
+    if rows.is_empty() {
+        return None;
+    }
+    let full = o.innovation(&z[0], &prior.x);
+    let nu = DVector::from_iterator(rows.len(), rows.iter().map(|&r| full[r]));
+    let H = o.H.select_rows(rows.iter());
+    let R = o.R.select_rows(rows.iter()).select_columns(rows.iter());
+    let S = &H * &prior.P * H.transpose() + R;
+    let w = S.cholesky()?.solve(&nu);
+    Some((nu.dot(&w), rows.len()))
+}
+
+/// The counters an injected datagram can move, before and after the node took it.
+#[derive(Clone, Copy)]
+struct Seen {
+    rejected: super::Rejections,
+    malformed: u64,
+    corrupted: u64,
+    implausible_step: u64,
+    unknown_address: u64,
+    delivered: u64,
+    early: u64,
+}
+
+impl Node {
+    /// A step is believed only inside the run and no further ahead of this node's own than a neighbour can be —
+    /// two seconds of steps, at least 32: one datagram must not end the run or make the node skip to its end.
+    pub(super) fn plausible_step(&self, s: u64) -> bool {
+        let window = (2.0 * self.topo.sim().rate_hz).ceil().max(32.0) as u64;
+        s < self.topo.sim().steps() && self.last_step.is_none_or(|k| s <= k.saturating_add(window))
+    }
+
+    fn seen(&self, from: Option<usize>) -> Seen {
+        let c = &self.counters;
+        Seen {
+            rejected: self.wire.rejected,
+            malformed: c.malformed,
+            corrupted: c.corrupted,
+            implausible_step: c.implausible_step,
+            unknown_address: c.unknown_address,
+            delivered: from.map_or(0, |f| self.inbox.rx.get(f).delivered),
+            early: c.early,
+        }
+    }
+
+    /// Simulated time now: the start of the last step begun.
+    fn now(&self) -> f64 {
+        self.last_step.unwrap_or(0) as f64 * self.topo.sim().dt()
+    }
+
+    /// What the outsiders send ahead of a datagram that reaches this node, taken first.
+    pub(super) fn air_on_arrival(&mut self, from: Option<usize>, bytes: &[u8]) {
+        if self.trust.air.is_empty() {
+            return;
+        }
+        let t = self.now();
+        for inj in self.trust.air.on_arrival(t, from, bytes) {
+            self.inject(inj);
+        }
+    }
+
+    /// What the outsiders send as step `k` begins: floods and the replays due.
+    pub(super) fn air_on_step(&mut self, k: u64) {
+        if self.trust.air.is_empty() {
+            return;
+        }
+        let dt = self.topo.sim().dt();
+        for inj in self.trust.air.on_step(k as f64 * dt, dt) {
+            self.inject(inj);
+        }
+    }
+
+    /// One injected datagram through the whole receive path, its fate counted.
+    fn inject(&mut self, inj: Injection) {
+        let before = self.seen(inj.from);
+        let arrival = self.receive(inj.from, &inj.bytes);
+        let after = self.seen(inj.from);
+        let t = self.trust.tallies.entry(inj.attack).or_default();
+        t.sent += 1;
+        let r = &mut t.rejected;
+        let d = |a: u64, b: u64| b.saturating_sub(a);
+        r.bad_tag += d(before.rejected.bad_tag, after.rejected.bad_tag);
+        r.replay += d(before.rejected.replay, after.rejected.replay);
+        r.too_old += d(before.rejected.too_old, after.rejected.too_old);
+        r.unknown_source += d(before.rejected.unknown_source, after.rejected.unknown_source);
+        r.malformed += d(before.malformed, after.malformed);
+        r.corrupted += d(before.corrupted, after.corrupted);
+        r.implausible_step += d(before.implausible_step, after.implausible_step);
+        r.unknown_address += d(before.unknown_address, after.unknown_address);
+        let refused = after.rejected.total() > before.rejected.total()
+            || [
+                (before.malformed, after.malformed),
+                (before.corrupted, after.corrupted),
+                (before.implausible_step, after.implausible_step),
+                (before.unknown_address, after.unknown_address),
+            ]
+            .iter()
+            .any(|(a, b)| b > a);
+        if !refused {
+            if arrival.is_some() && (after.delivered > before.delivered || after.early > before.early) {
+                t.used += 1;
+            } else {
+                t.ignored += 1;
+            }
+        }
+    }
+}
