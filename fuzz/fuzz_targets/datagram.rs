@@ -4,7 +4,7 @@
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use simnet::wire::secure::{Key, Opener, Sealer};
-use simnet::wire::{Datagram, FrameView};
+use simnet::wire::{Datagram, FrameView, Nack};
 
 fuzz_target!(|data: &[u8]| {
     let key = Key::from_bytes([7; 16]);
@@ -30,5 +30,8 @@ fuzz_target!(|data: &[u8]| {
         for inner in f.datagrams() {
             let _ = Datagram::decode(inner);
         }
+    }
+    if let Some(n) = Nack::parse(data) {
+        assert_eq!(Nack::parse(&n.encode()), Some(n), "a NACK round-trips");
     }
 });

@@ -226,7 +226,7 @@ pub async fn run_node(
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<HostOutput, NetError> {
     let socket = UdpSocket::bind(cfg.bind).await.map_err(NetError::Bind)?;
-    super::socket::size_buffers(&socket);
+    super::socket::size_buffers(&socket, super::socket::RECV_BUFFER);
     tracing::info!(node = topo.nodes()[index].id, bind = %cfg.bind, "listening");
     let (stop_tx, mut stop) = watch::channel(false);
     tokio::spawn(async move {

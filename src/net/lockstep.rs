@@ -7,12 +7,22 @@
 //! With L consensus rounds a step has L windows, k·L + r closing round r at t_k + D(r+1)/L.
 //!
 //! Workers may run ahead of each other, and of the observer that fuses each step, by at most [`LEAD`] steps: that
-//! bounds the socket buffers and the estimates in flight. A frame that does not arrive within the receive timeout
-//! (a real socket loss) is counted and the step closes without it.
+//! bounds the socket buffers and the estimates in flight.
+//!
+//! A frame the kernel drops (a receive buffer full) is asked for again: a node that has heard nothing for
+//! [`NACK_AFTER`] while a frame is missing sends a [`Nack`] for the window to the control socket of its sender's
+//! worker, and the sender resends, from its own socket, the frames it kept of that window on that link (each
+//! out-link keeps its last (LEAD + 2)·L windows, all a receiver can still be waiting for). A part that comes twice
+//! is taken once, so a resend changes nothing: same seed, same results, socket losses or not. A worker reads its
+//! control socket while it waits in a window, at the pace barrier and after its last step until every worker is
+//! done, so that a NACK is always answered. Only a frame that no resend brought within the receive timeout is
+//! counted as a socket loss, and the step closes without it.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::future::Future;
 use std::net::SocketAddr;
 use std::sync::Arc;
+use std::task::Poll;
 use std::time::Duration;
 
 use bytes::Bytes;
@@ -25,10 +35,15 @@ use super::{NetError, RunOptions};
 use crate::node::{Node, NodeReport};
 use crate::scenario::Scenario;
 use crate::sim::{begin_step, Clock, RunResults};
-use crate::wire::{Frame, FrameView, FrameWriter, MAX_FRAME};
+use crate::wire::{Frame, FrameView, FrameWriter, Nack, MAX_FRAME};
 
 /// How many steps a worker may run ahead of the slowest worker and of the observer.
 pub const LEAD: u64 = 16;
+
+/// How long a node waits with nothing to read before it asks for a missing frame again (doubling to
+/// [`NACK_MAX`]).
+pub const NACK_AFTER: Duration = Duration::from_millis(20);
+const NACK_MAX: Duration = Duration::from_millis(320);
 
 /// Where every worker and the observer are: the steps each has closed, and the step at which a shutdown stops them.
 #[derive(Debug, Clone)]
@@ -37,6 +52,8 @@ struct Pace {
     next: Vec<u64>,
     /// No worker starts this step or a later one.
     stop_at: u64,
+    /// Workers past their last step (they go on answering NACKs until every one is).
+    finished: Vec<bool>,
 }
 
 impl Pace {
@@ -45,10 +62,20 @@ impl Pace {
     }
 }
 
+/// Marks its worker finished when dropped, also when the worker panics: no other worker waits for it forever.
+struct Finished<'a>(&'a watch::Sender<Pace>, usize);
+
+impl Drop for Finished<'_> {
+    fn drop(&mut self) {
+        self.0.send_modify(|s| s.finished[self.1] = true);
+    }
+}
+
 /// One node a worker owns, with its socket and what it expects each step.
 struct Slot {
     node: Node,
-    socket: UdpSocket,
+    /// Shared with the worker's list of sockets it waits on.
+    socket: Arc<UdpSocket>,
     /// In-neighbours (node indices, sorted): one frame each per window.
     ins: Vec<usize>,
     /// Out-neighbours (node indices, sorted).
@@ -56,8 +83,18 @@ struct Slot {
     /// Parts received, and parts announced, from each in-neighbour in the open window.
     got: Vec<u16>,
     want: Vec<Option<u16>>,
+    /// Which parts came, so that a resent one is taken once: parts 0–63 by bit, any later part in `seen_more`.
+    seen: Vec<u64>,
+    seen_more: std::collections::BTreeSet<(usize, u16)>,
     /// Frames of windows not open yet, by window.
     later: BTreeMap<u64, Vec<(usize, Frame)>>,
+    /// Windows closed by the receive timeout, by (window, in-neighbour): the parts that had come. A part still to
+    /// come is late; one that comes again is a resend.
+    gave_up: BTreeMap<(u64, usize), Vec<u16>>,
+    /// Per out-link (as `outs`): the frames of its last windows, for a resend.
+    kept: Vec<VecDeque<(u64, Vec<Bytes>)>>,
+    /// Frames resent on a NACK.
+    resent: u64,
 }
 
 impl Slot {
@@ -65,32 +102,66 @@ impl Slot {
         self.got.iter().zip(&self.want).all(|(g, w)| w.is_some_and(|w| *g >= w))
     }
 
-    /// A frame of the open window from in-neighbour `src`: its datagrams go to the node.
-    fn take<'a>(&mut self, src: usize, parts: u16, datagrams: impl Iterator<Item = &'a [u8]>) {
-        for d in datagrams {
-            self.node.handle_datagram(Some(src), d);
-        }
-        // A peer that is not an in-neighbour closes nothing.
-        if let Ok(pos) = self.ins.binary_search(&src) {
-            self.got[pos] = self.got[pos].saturating_add(1);
-            self.want[pos] = Some(parts);
+    /// Whether part `part` from in-neighbour `pos` came already in the open window; marks it as come.
+    fn seen_before(&mut self, pos: usize, part: u16) -> bool {
+        if part < 64 {
+            let bit = 1u64 << part;
+            let before = self.seen[pos] & bit != 0;
+            self.seen[pos] |= bit;
+            before
+        } else {
+            !self.seen_more.insert((pos, part))
         }
     }
 
-    /// Bytes read from `from` while window `k` is open.
-    fn receive(&mut self, from: Option<usize>, bytes: &[u8], k: u64) {
+    /// The parts from in-neighbour `pos` that came in the open window.
+    fn parts_seen(&self, pos: usize) -> Vec<u16> {
+        (0..64u16)
+            .filter(|p| self.seen[pos] & (1 << p) != 0)
+            .chain(self.seen_more.iter().filter(|(q, _)| *q == pos).map(|(_, p)| *p))
+            .collect()
+    }
+
+    /// A part of the open window from `src`: its datagrams go to the node, once.
+    fn take<'a>(&mut self, src: usize, part: u16, parts: u16, datagrams: impl Iterator<Item = &'a [u8]>) {
+        if let Ok(pos) = self.ins.binary_search(&src) {
+            if self.seen_before(pos, part) {
+                return;
+            }
+            self.got[pos] = self.got[pos].saturating_add(1);
+            self.want[pos] = Some(parts);
+        }
+        // A peer that is not an in-neighbour closes nothing.
+        for d in datagrams {
+            self.node.handle_datagram(Some(src), d);
+        }
+    }
+
+    /// Bytes read from `from`: `k` is the open window, or the next to open when `open` is false.
+    fn receive(&mut self, from: Option<usize>, bytes: &[u8], k: u64, open: bool) {
         let Some(src) = from else {
             // Not from a peer's socket: the node counts it.
             self.node.handle_datagram(None, bytes);
             return;
         };
         match FrameView::parse(bytes) {
-            Ok(f) if f.window == k => self.take(src, f.parts, f.datagrams()),
-            Ok(f) if f.window > k => self.later.entry(f.window).or_default().push((src, f.to_owned())),
-            // A window closed by a timeout: its datagrams arrive after their step, late.
+            Ok(f) if open && f.window == k => self.take(src, f.part, f.parts, f.datagrams()),
+            Ok(f) if f.window >= k => {
+                let held = self.later.entry(f.window).or_default();
+                if !held.iter().any(|(s, h)| *s == src && h.part == f.part) {
+                    held.push((src, f.to_owned()));
+                }
+            }
+            // A window closed by a timeout: what had not come arrives after its step, late; what had come, or a
+            // whole window's resend, is dropped.
             Ok(f) => {
-                for d in f.datagrams() {
-                    self.node.handle_datagram(Some(src), d);
+                if let Some(seen) = self.gave_up.get_mut(&(f.window, src)) {
+                    if !seen.contains(&f.part) {
+                        seen.push(f.part);
+                        for d in f.datagrams() {
+                            self.node.handle_datagram(Some(src), d);
+                        }
+                    }
                 }
             }
             Err(_) => {
@@ -99,25 +170,119 @@ impl Slot {
         }
     }
 
-    /// Open window `k`: nothing received yet but the frames that came early.
-    fn open(&mut self, k: u64) {
-        self.got.iter_mut().for_each(|g| *g = 0);
-        self.want.iter_mut().for_each(|w| *w = None);
-        for (src, f) in self.later.remove(&k).unwrap_or_default() {
-            self.take(src, f.parts, f.datagrams.iter().map(|d| &d[..]));
+    /// Read what is queued on the socket — all of it, or, with `until_complete`, until the open window is whole
+    /// (later windows' frames wait in the socket rather than being copied); whether anything was read.
+    fn drain(&mut self, buf: &mut [u8], sh: &Shared, k: u64, open: bool, until_complete: bool) -> bool {
+        let mut any = false;
+        while !(until_complete && self.complete()) {
+            let Ok((len, from)) = self.socket.try_recv_from(buf) else {
+                break;
+            };
+            any = true;
+            let from = sh.index_of.get(&from).copied();
+            self.receive(from, &buf[..len], k, open);
+        }
+        any
+    }
+
+    /// The frames kept of `window` on the link to `to`, again (none when it has not been sent yet: it will be).
+    fn resend(&mut self, to: usize, window: u64, addr: SocketAddr) {
+        let Ok(j) = self.outs.binary_search(&to) else { return };
+        let Some((_, parts)) = self.kept[j].iter().find(|(w, _)| *w == window) else {
+            return;
+        };
+        for p in parts {
+            // Best effort: a full send buffer loses this resend, and the receiver asks again.
+            if self.socket.try_send_to(p, addr).is_ok() {
+                self.resent += 1;
+            }
         }
     }
 
-    /// Close the open window without what did not come: the parts missing, counted as socket losses.
-    fn give_up(&mut self) -> u64 {
+    /// Ask every in-neighbour whose frames of window `k` are not all in for them again, at its worker's control
+    /// socket.
+    fn nack(&self, k: u64, control: &UdpSocket, sh: &Shared) {
+        let me = self.node.index() as u32;
+        for (pos, &src) in self.ins.iter().enumerate() {
+            if self.want[pos].is_none_or(|w| self.got[pos] < w) {
+                let n = Nack {
+                    window: k,
+                    from: me,
+                    to: src as u32,
+                };
+                let _ = control.try_send_to(&n.encode(), sh.controls[sh.worker_of[src]]);
+            }
+        }
+    }
+
+    /// Open window `k`: nothing received yet but the frames that came early.
+    fn open(&mut self, k: u64, keep: u64) {
+        self.got.iter_mut().for_each(|g| *g = 0);
+        self.want.iter_mut().for_each(|w| *w = None);
+        self.seen.iter_mut().for_each(|s| *s = 0);
+        self.seen_more.clear();
+        for (src, f) in self.later.remove(&k).unwrap_or_default() {
+            self.take(src, f.part, f.parts, f.datagrams.iter().map(|d| &d[..]));
+        }
+        // What a resend of a window this old could still bring is no longer waited for.
+        let oldest = k.saturating_sub(keep);
+        while self.gave_up.first_key_value().is_some_and(|((w, _), _)| *w < oldest) {
+            self.gave_up.pop_first();
+        }
+    }
+
+    /// Close the open window `k` without what did not come: the parts missing, counted as socket losses.
+    fn give_up(&mut self, k: u64) -> u64 {
         let mut missing = 0;
-        for (g, w) in self.got.iter_mut().zip(self.want.iter_mut()) {
-            let want = w.unwrap_or(g.saturating_add(1));
-            missing += u64::from(want.saturating_sub(*g));
-            *w = Some(*g);
+        for pos in 0..self.ins.len() {
+            let g = self.got[pos];
+            let want = self.want[pos].unwrap_or(g.saturating_add(1));
+            if g < want {
+                missing += u64::from(want - g);
+                let seen = self.parts_seen(pos);
+                self.gave_up.insert((k, self.ins[pos]), seen);
+            }
+            self.want[pos] = Some(g);
         }
         missing
     }
+
+    /// Window `window`'s frames to `outs[j]`, kept for a resend.
+    fn keep(&mut self, j: usize, window: u64, parts: Vec<Bytes>, keep: u64) {
+        let q = &mut self.kept[j];
+        q.push_back((window, parts));
+        while q.len() as u64 > keep {
+            q.pop_front();
+        }
+    }
+}
+
+/// Answer the NACKs queued on a worker's control socket: each names a receiver and one of the worker's nodes.
+fn serve(control: &UdpSocket, slots: &mut [Slot], sh: &Shared) {
+    let mut b = [0u8; 64];
+    while let Ok((len, _)) = control.try_recv_from(&mut b) {
+        let Some(n) = Nack::parse(&b[..len]) else { continue };
+        let (from, to) = (n.from as usize, n.to as usize);
+        if let (Some(slot), Some(addr)) = (slots.iter_mut().find(|s| s.node.index() == to), sh.addrs.get(from)) {
+            slot.resend(from, n.window, *addr);
+        }
+    }
+}
+
+/// Ready when any of `sockets` has something to read.
+fn any_readable(sockets: &[Arc<UdpSocket>]) -> impl Future<Output = ()> + Send + '_ {
+    std::future::poll_fn(move |cx| {
+        // Each socket registers the waker, so that the first one readable wakes the worker.
+        let mut ready = false;
+        for s in sockets {
+            ready |= s.poll_recv_ready(cx).is_ready();
+        }
+        if ready {
+            Poll::Ready(())
+        } else {
+            Poll::Pending
+        }
+    })
 }
 
 /// What a worker returns at the end.
@@ -125,10 +290,14 @@ struct WorkerEnd {
     reports: Vec<NodeReport>,
     done: u64,
     socket_losses: u64,
+    resent: u64,
 }
 
 struct Shared {
     addrs: Vec<SocketAddr>,
+    /// Each worker's control socket, where NACKs go; the worker of each node.
+    controls: Vec<SocketAddr>,
+    worker_of: Vec<usize>,
     index_of: HashMap<SocketAddr, usize>,
     steps: u64,
     /// Consensus rounds per step: windows per step.
@@ -138,18 +307,41 @@ struct Shared {
     sync: watch::Sender<Pace>,
 }
 
-async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedSender<StepOut>) -> WorkerEnd {
+impl Shared {
+    /// Windows each out-link keeps for a resend: every window a receiver can still be waiting for.
+    fn keep(&self) -> u64 {
+        (LEAD + 2) * self.rounds as u64
+    }
+}
+
+async fn worker(
+    w: usize,
+    mut slots: Vec<Slot>,
+    control: UdpSocket,
+    sh: Arc<Shared>,
+    out: mpsc::UnboundedSender<StepOut>,
+) -> WorkerEnd {
+    let finished = Finished(&sh.sync, w);
+    let control = Arc::new(control);
     let mut buf = vec![0u8; MAX_FRAME + 1];
     let mut sync = sh.sync.subscribe();
     let mut socket_losses = 0;
     let mut done = 0;
+    let keep = sh.keep();
     // Per out-link of a slot: the datagrams of this window; the frames they go out in.
     let mut bundles: Vec<Vec<Bytes>> = Vec::new();
     let mut writer = FrameWriter::default();
-    for k in 0..sh.steps {
-        let stop_at = match sync.wait_for(|s| s.stop_at <= k || k <= s.slowest() + LEAD).await {
-            Ok(s) => s.stop_at,
-            Err(_) => break,
+    'steps: for k in 0..sh.steps {
+        // The pace barrier, answering NACKs meanwhile.
+        let stop_at = loop {
+            tokio::select! {
+                biased;
+                s = sync.wait_for(|s| s.stop_at <= k || k <= s.slowest() + LEAD) => match s {
+                    Ok(s) => break s.stop_at,
+                    Err(_) => break 'steps,
+                },
+                _ = control.readable() => serve(&control, &mut slots, &sh),
+            }
         };
         if stop_at <= k {
             break;
@@ -174,54 +366,70 @@ async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::Unbo
                         bundles[j].push(tx.bytes);
                     }
                 }
-                for (j, &to) in slot.outs.iter().enumerate() {
-                    let parts = writer.pack(window, bundles[j].iter().map(|b| &b[..]));
-                    bundles[j].clear();
-                    for i in 0..parts {
-                        if let Err(e) = slot.socket.send_to(writer.part(i), sh.addrs[to]).await {
+                for (j, bundle) in bundles.iter_mut().enumerate().take(slot.outs.len()) {
+                    let n = writer.pack(window, bundle.iter().map(|b| &b[..]));
+                    bundle.clear();
+                    let parts: Vec<Bytes> = (0..n).map(|i| Bytes::copy_from_slice(writer.part(i))).collect();
+                    for p in &parts {
+                        if let Err(e) = slot.socket.send_to(p, sh.addrs[slot.outs[j]]).await {
                             tracing::warn!(node = slot.node.id(), "send_to failed: {e}");
                         }
                     }
+                    slot.keep(j, window, parts, keep);
                 }
             }
             for slot in &mut slots {
-                slot.open(window);
+                slot.open(window, keep);
             }
-            // Read every owned socket until each node has its in-neighbours' frames of window k.
-            let mut waited_since = Instant::now();
+            // Read the sockets of the nodes still waiting until each has its in-neighbours' frames of window k,
+            // answering NACKs; when nothing has come for a while, ask again.
+            let mut progress_at = Instant::now();
+            let mut backoff = NACK_AFTER;
+            let mut nack_at = progress_at + backoff;
             loop {
                 let mut progressed = false;
                 for slot in slots.iter_mut().filter(|s| !s.complete()) {
-                    while let Ok((len, from)) = slot.socket.try_recv_from(&mut buf) {
-                        progressed = true;
-                        let from = sh.index_of.get(&from).copied();
-                        slot.receive(from, &buf[..len], window);
-                        if slot.complete() {
-                            break;
-                        }
-                    }
+                    progressed |= slot.drain(&mut buf, &sh, window, true, true);
                 }
-                let Some(slot) = slots.iter_mut().find(|s| !s.complete()) else {
+                serve(&control, &mut slots, &sh);
+                // One waiting node's socket is enough to wake on: each pass reads them all.
+                let Some(first) = slots.iter().find(|s| !s.complete()).map(|s| s.socket.clone()) else {
                     break;
                 };
+                let now = Instant::now();
                 if progressed {
-                    waited_since = Instant::now();
+                    (progress_at, backoff) = (now, NACK_AFTER);
+                    nack_at = now + backoff;
                 }
-                match tokio::time::timeout_at(waited_since + sh.recv_timeout, slot.socket.readable()).await {
-                    Ok(Ok(())) => {}
-                    Ok(Err(e)) => tracing::warn!(node = slot.node.id(), "socket not readable: {e}"),
-                    Err(_) => {
-                        let missing: u64 = slots.iter_mut().filter(|s| !s.complete()).map(Slot::give_up).sum();
-                        tracing::warn!(
-                            step = k,
-                            round = r,
-                            "{} did not arrive within {:?}",
-                            crate::scenario::count(missing as usize, "frame"),
-                            sh.recv_timeout
-                        );
-                        socket_losses += missing;
-                    }
+                let give_up_at = progress_at + sh.recv_timeout;
+                let woken = [first, control.clone()];
+                if tokio::time::timeout_at(give_up_at.min(nack_at), any_readable(&woken))
+                    .await
+                    .is_ok()
+                {
+                    continue;
                 }
+                if Instant::now() >= give_up_at {
+                    let missing: u64 = slots
+                        .iter_mut()
+                        .filter(|s| !s.complete())
+                        .map(|s| s.give_up(window))
+                        .sum();
+                    tracing::warn!(
+                        step = k,
+                        round = r,
+                        "{} did not arrive within {:?}",
+                        crate::scenario::count(missing as usize, "frame"),
+                        sh.recv_timeout
+                    );
+                    socket_losses += missing;
+                    break;
+                }
+                for slot in slots.iter().filter(|s| !s.complete()) {
+                    slot.nack(window, &control, &sh);
+                }
+                backoff = (backoff * 2).min(NACK_MAX);
+                nack_at = Instant::now() + backoff;
             }
             if !last {
                 for slot in &mut slots {
@@ -238,12 +446,19 @@ async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::Unbo
         done = k + 1;
         sh.sync.send_modify(|s| s.next[w] = done);
     }
-    // What is still queued (foreign datagrams sent late in the run) is read, so that it is counted.
-    for slot in &mut slots {
-        while let Ok((len, from)) = slot.socket.try_recv_from(&mut buf) {
-            let from = sh.index_of.get(&from).copied();
-            slot.receive(from, &buf[..len], done * sh.rounds as u64);
+    // Answer NACKs until every worker is past its last step; what is still queued (foreign datagrams sent late in
+    // the run) is read, so that it is counted.
+    let end = done * sh.rounds as u64;
+    drop(finished);
+    loop {
+        tokio::select! {
+            biased;
+            _ = sync.wait_for(|s| s.finished.iter().all(|f| *f)) => break,
+            _ = control.readable() => serve(&control, &mut slots, &sh),
         }
+    }
+    for slot in &mut slots {
+        slot.drain(&mut buf, &sh, end, false, false);
     }
     for slot in &mut slots {
         if let Some(n) = super::socket::kernel_drops(&slot.socket) {
@@ -254,6 +469,7 @@ async fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::Unbo
         reports: slots.iter_mut().map(|s| s.node.report()).collect(),
         done,
         socket_losses,
+        resent: slots.iter().map(|s| s.resent).sum(),
     }
 }
 
@@ -271,9 +487,26 @@ pub(super) async fn run(
     let (sync, _) = watch::channel(Pace {
         next: vec![0; workers + 1],
         stop_at: u64::MAX,
+        finished: vec![false; workers],
     });
+    // One control socket per worker, where the NACKs for its nodes' frames go.
+    let mut controls = Vec::with_capacity(workers);
+    for _ in 0..workers {
+        controls.push(UdpSocket::bind("127.0.0.1:0").await.map_err(NetError::Bind)?);
+    }
+    let mut worker_of = vec![0; n];
+    for (w, block) in blocks.clone().into_iter().enumerate() {
+        for i in block {
+            worker_of[i] = w;
+        }
+    }
     let sh = Arc::new(Shared {
         index_of: addrs.iter().enumerate().map(|(i, a)| (*a, i)).collect(),
+        controls: controls
+            .iter()
+            .map(|c| c.local_addr().map_err(NetError::Bind))
+            .collect::<Result<_, _>>()?,
+        worker_of,
         addrs,
         steps,
         rounds: topo.estimators().rounds,
@@ -312,7 +545,7 @@ pub(super) async fn run(
     ));
     let mut sockets = sockets.into_iter();
     let mut handles = Vec::with_capacity(workers);
-    for (w, block) in blocks.into_iter().enumerate() {
+    for ((w, block), control) in blocks.into_iter().enumerate().zip(controls) {
         let slots: Vec<Slot> = block
             .filter_map(|i| {
                 let socket = sockets.next()?;
@@ -325,25 +558,31 @@ pub(super) async fn run(
                 Some(Slot {
                     got: vec![0; ins.len()],
                     want: vec![None; ins.len()],
+                    seen: vec![0; ins.len()],
+                    seen_more: Default::default(),
+                    gave_up: BTreeMap::new(),
+                    kept: vec![VecDeque::new(); outs.len()],
+                    resent: 0,
                     node,
-                    socket,
+                    socket: Arc::new(socket),
                     ins,
                     outs,
                     later: BTreeMap::new(),
                 })
             })
             .collect();
-        handles.push(tokio::spawn(worker(w, slots, sh.clone(), out_tx.clone())));
+        handles.push(tokio::spawn(worker(w, slots, control, sh.clone(), out_tx.clone())));
     }
     drop(out_tx);
     let mut reports = Vec::with_capacity(n);
     let mut done = u64::MAX;
-    let mut socket_losses = 0;
+    let (mut socket_losses, mut resent) = (0, 0);
     for (w, h) in handles.into_iter().enumerate() {
         let end = h.await.map_err(|_| NetError::WorkerLost(w))?;
         reports.extend(end.reports);
         done = done.min(end.done);
         socket_losses += end.socket_losses;
+        resent += end.resent;
     }
     stopper.abort();
     reports.sort_by_key(|r| r.index);
@@ -358,6 +597,7 @@ pub(super) async fn run(
         interrupted: done < steps,
         wall_s: 0.0,
         socket_losses,
+        frames_resent: resent,
         trace,
         lmi: Vec::new(),
         schedule: None,

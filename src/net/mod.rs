@@ -45,8 +45,12 @@ pub struct RunOptions {
     pub clock: Clock,
     /// Takes the per-step rows for `trace.csv` and the plots as the run goes (none: no rows are made).
     pub trace: Option<TraceWriter>,
-    /// How long a virtual step waits for datagrams the link layer delivered before counting them as socket losses.
+    /// How long a virtual step waits, asking again, for a frame the link layer delivered before counting it as a
+    /// socket loss.
     pub recv_timeout: Duration,
+    /// The receive buffer each node's socket asks for ([`socket::RECV_BUFFER`]; the kernel caps it at
+    /// `net.core.rmem_max`). A small one makes the kernel drop frames, which the virtual clock asks for again.
+    pub recv_buffer: usize,
     pub progress: Option<Progress>,
     /// Receives the nodes' socket addresses once bound (tests use it to send foreign datagrams).
     pub on_bound: Option<oneshot::Sender<Vec<SocketAddr>>>,
@@ -58,6 +62,7 @@ impl Default for RunOptions {
             clock: Clock::Virtual,
             trace: None,
             recv_timeout: Duration::from_secs(2),
+            recv_buffer: socket::RECV_BUFFER,
             progress: None,
             on_bound: None,
         }
@@ -75,7 +80,7 @@ pub async fn run(
     let mut sockets = Vec::with_capacity(n);
     for _ in 0..n {
         let s = UdpSocket::bind("127.0.0.1:0").await.map_err(NetError::Bind)?;
-        socket::size_buffers(&s);
+        socket::size_buffers(&s, opts.recv_buffer);
         sockets.push(s);
     }
     let addrs: Vec<SocketAddr> = sockets

@@ -289,6 +289,7 @@ pub(super) async fn run(
         interrupted: done < steps,
         wall_s: 0.0,
         socket_losses: 0,
+        frames_resent: 0,
         trace,
         lmi: Vec::new(),
         schedule: Some(schedule),

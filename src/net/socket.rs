@@ -8,10 +8,10 @@ use std::os::fd::AsRawFd;
 /// `net.core.rmem_max`).
 pub const RECV_BUFFER: usize = 4 << 20;
 
-/// Ask for [`RECV_BUFFER`]; the size the kernel granted (twice what it counts as payload on Linux).
-pub fn size_buffers(socket: &impl std::os::fd::AsFd) -> Option<usize> {
+/// Ask for a receive buffer of `bytes`; the size the kernel granted (twice what it counts as payload on Linux).
+pub fn size_buffers(socket: &impl std::os::fd::AsFd, bytes: usize) -> Option<usize> {
     let s = socket2::SockRef::from(socket);
-    let _ = s.set_recv_buffer_size(RECV_BUFFER);
+    let _ = s.set_recv_buffer_size(bytes);
     s.recv_buffer_size().ok()
 }
 

@@ -297,6 +297,7 @@ pub fn merge(
         interrupted: parts.iter().any(|p| p.interrupted),
         wall_s: parts.iter().map(|p| p.wall_s).fold(0.0, f64::max),
         socket_losses: 0,
+        frames_resent: 0,
         nodes,
         links,
         fused: observer.summary(),

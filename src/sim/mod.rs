@@ -192,6 +192,7 @@ impl Sim {
             // Sim reads no clock: a caller that times the run sets it.
             wall_s: 0.0,
             socket_losses: 0,
+            frames_resent: 0,
             trace: self.trace,
             lmi,
             schedule: None,

@@ -23,6 +23,8 @@ pub struct RunResults {
     /// Frames of the virtual clock over sockets that never came out of a socket in time (each carries what one link
     /// delivered in one step).
     pub socket_losses: u64,
+    /// Frames of the virtual clock sent again because a receiver asked for them (the kernel had dropped them).
+    pub frames_resent: u64,
     /// The recorder the run was given, handed back with every row given to it.
     pub trace: Option<TraceWriter>,
     /// Each node's per-step LMI terms, when they were asked for.
@@ -45,6 +47,7 @@ impl RunResults {
             self.socket_losses,
         );
         s.schedule = self.schedule;
+        s.frames_resent = self.frames_resent;
         s.estimators = crate::report::summary::EstimatorSummary::of_run(
             &self.scenario,
             &self.reports,

@@ -177,6 +177,55 @@ impl FrameWriter {
     }
 }
 
+/// A receiver's request for the frames of one window it has not had from one sender (the kernel dropped them on a
+/// full receive buffer), sent to the control socket of the sender's worker: the sender resends what it kept of that
+/// window on that link. Nodes by index.
+///
+/// ```text
+/// | magic "SK" u16 | version u8 | window u64 | from u32 (the receiver) | to u32 (the sender) | crc32 |   (little endian)
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Nack {
+    pub window: u64,
+    pub from: u32,
+    pub to: u32,
+}
+
+pub const NACK_MAGIC: u16 = 0x4B53; // "SK"
+const NACK_LEN: usize = 2 + 1 + 8 + 4 + 4 + CRC;
+
+impl Nack {
+    pub fn encode(&self) -> [u8; NACK_LEN] {
+        let mut b = [0u8; NACK_LEN];
+        b[..2].copy_from_slice(&NACK_MAGIC.to_le_bytes());
+        b[2] = FRAME_VERSION;
+        b[3..11].copy_from_slice(&self.window.to_le_bytes());
+        b[11..15].copy_from_slice(&self.from.to_le_bytes());
+        b[15..19].copy_from_slice(&self.to.to_le_bytes());
+        let crc = crc32fast::hash(&b[..19]);
+        b[19..].copy_from_slice(&crc.to_le_bytes());
+        b
+    }
+
+    /// Checked parse of untrusted bytes: `None` unless they are exactly a NACK.
+    pub fn parse(bytes: &[u8]) -> Option<Nack> {
+        if bytes.len() != NACK_LEN || bytes[..2] != NACK_MAGIC.to_le_bytes() || bytes[2] != FRAME_VERSION {
+            return None;
+        }
+        let word = |i: usize| u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]]);
+        if crc32fast::hash(&bytes[..19]) != word(19) {
+            return None;
+        }
+        let mut w = [0u8; 8];
+        w.copy_from_slice(&bytes[3..11]);
+        Some(Nack {
+            window: u64::from_le_bytes(w),
+            from: word(11),
+            to: word(15),
+        })
+    }
+}
+
 /// One part of one window's delivery on one link.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Frame {
@@ -218,6 +267,25 @@ impl Frame {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A NACK round-trips, and any change to its bytes is refused.
+    #[test]
+    fn a_nack_round_trips_and_refuses_damage() {
+        let n = Nack {
+            window: 123_456_789,
+            from: 7,
+            to: u32::MAX,
+        };
+        let b = n.encode();
+        assert_eq!(Nack::parse(&b), Some(n));
+        for i in 0..b.len() {
+            let mut d = b;
+            d[i] ^= 1;
+            assert_eq!(Nack::parse(&d), None, "byte {i}");
+        }
+        assert_eq!(Nack::parse(&b[..b.len() - 1]), None);
+        assert!(FrameView::parse(&b).is_err(), "a NACK is not a frame");
+    }
 
     #[test]
     fn frames_round_trip_split_and_reject_damage() {

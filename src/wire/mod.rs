@@ -24,7 +24,7 @@ use serde::{Deserialize, Serialize};
 
 mod frame;
 pub mod secure;
-pub use frame::{Frame, FrameView, FrameWriter, MAX_FRAME};
+pub use frame::{Frame, FrameView, FrameWriter, Nack, MAX_FRAME};
 
 pub const MAGIC: u16 = 0x534E; // "SN"
 pub const VERSION: u8 = 2;

@@ -306,3 +306,39 @@ fn a_stopped_realtime_run_ends_every_node_after_the_same_step() {
         "every node-step run was measured against the schedule"
     );
 }
+
+/// Receive buffers so small that the kernel drops frames: each is asked for again (a NACK) and resent, so the run
+/// loses no frame to the socket layer and its figures are those of the same run in memory.
+#[test]
+fn a_frame_the_kernel_drops_is_asked_for_again_and_changes_nothing() {
+    use simnet::net::RunOptions;
+    let topo = common::topology("rgg50", common::bernoulli(0.1, 3)).with(&simnet::Overrides {
+        duration_s: Some(3.0),
+        ..Default::default()
+    });
+    let topo = topo.unwrap();
+    let memory = common::simulate(topo.clone());
+    let (udp, _) = common::run_with(
+        topo,
+        RunOptions {
+            recv_buffer: 6144,
+            ..Default::default()
+        },
+    );
+    let drops: u64 = udp.nodes.iter().map(|n| n.kernel_drops).sum();
+    println!(
+        "kernel drops {drops}, frames resent {}, socket losses {}",
+        udp.frames_resent, udp.socket_losses
+    );
+    assert!(drops > 0, "no frame was dropped: the test shows nothing");
+    assert!(udp.frames_resent > 0);
+    assert_eq!(udp.socket_losses, 0);
+    let figures = |s: &simnet::Summary| {
+        let mut v = serde_json::to_value(s).unwrap();
+        for n in v["nodes"].as_array_mut().unwrap() {
+            n.as_object_mut().unwrap().remove("kernel_drops");
+        }
+        ["nodes", "links", "fused"].map(|k| v[k].clone())
+    };
+    assert_eq!(figures(&udp), figures(&memory));
+}

@@ -132,6 +132,7 @@ impl Summary {
             interrupted,
             wall_s,
             socket_losses,
+            frames_resent: 0,
             nodes,
             links,
             fused,

@@ -17,6 +17,10 @@ use serde::{Deserialize, Serialize};
 use crate::observe::fusion::FusedSummary;
 use crate::observe::metrics::FilterSummary;
 
+fn is_zero(v: &u64) -> bool {
+    *v == 0
+}
+
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct NodeSummary {
     pub id: u32,
@@ -123,6 +127,10 @@ pub struct Summary {
     pub wall_s: f64,
     /// Frames of the virtual clock lost in the socket layer (each carries one step's datagrams on one link).
     pub socket_losses: u64,
+    /// Frames of the virtual clock sent again because a receiver asked for them (the kernel had dropped them on a
+    /// full receive buffer); absent when none was.
+    #[serde(skip_serializing_if = "is_zero", default)]
+    pub frames_resent: u64,
     pub nodes: Vec<NodeSummary>,
     pub links: Vec<LinkSummary>,
     pub fused: Option<FusedSummary>,
