@@ -415,9 +415,7 @@ pub async fn run_node(
         };
         deliver(&mut node, &mut peers, from, &buf[..len]);
     }
-    if let Some(n) = super::socket::kernel_drops(&socket) {
-        node.handle_kernel_drops(n);
-    }
+    super::socket::record_drops(&mut node, &socket);
     Ok(finish(node, estimates, done, interrupted, started, schedule))
 }
 

@@ -461,9 +461,7 @@ async fn worker(
         slot.drain(&mut buf, &sh, end, false, false);
     }
     for slot in &mut slots {
-        if let Some(n) = super::socket::kernel_drops(&slot.socket) {
-            slot.node.handle_kernel_drops(n);
-        }
+        super::socket::record_drops(&mut slot.node, &*slot.socket);
     }
     WorkerEnd {
         reports: slots.iter_mut().map(|s| s.node.report()).collect(),

@@ -197,9 +197,7 @@ fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedS
         done = k + 1;
     }
     for s in &mut slots {
-        if let Some(n) = super::socket::kernel_drops(&s.socket) {
-            s.node.handle_kernel_drops(n);
-        }
+        super::socket::record_drops(&mut s.node, &s.socket);
     }
     WorkerEnd {
         reports: slots.iter_mut().map(|s| s.node.report()).collect(),

@@ -26,6 +26,13 @@ pub fn kernel_drops(socket: &impl AsRawFd) -> Option<u64> {
     })
 }
 
+/// Hand `node` the datagrams the kernel dropped on its `socket` (nothing where they cannot be read).
+pub fn record_drops(node: &mut crate::node::Node, socket: &impl AsRawFd) {
+    if let Some(n) = kernel_drops(socket) {
+        node.handle_kernel_drops(n);
+    }
+}
+
 /// The `drops` of the row whose inode is `inode` in a /proc/net/udp table.
 fn drops_of(table: &str, inode: &str) -> Option<u64> {
     table.lines().skip(1).find_map(|l| {
