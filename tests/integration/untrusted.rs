@@ -79,25 +79,15 @@ fn every_bad_input_exits_2_naming_it() {
         format!("[[node]]\nid = 0\nimu_csv = \"{}\"\n", passwd.display()),
     )
     .unwrap();
-    // ring3 with a forger on node 0 claiming node 2, whose datagrams node 0 hears.
-    let attacked = d.join("attacked.toml");
-    std::fs::write(
-        &attacked,
-        format!(
-            "{}\n[[attack]]\nkind = \"forge\"\ntarget = 0\nclaim = 2\nbias = [1.0]\n",
-            simnet::Scenario::resolve("ring3").unwrap().to_toml()
-        ),
-    )
-    .unwrap();
-    let flooded = d.join("flooded.toml");
-    std::fs::write(
-        &flooded,
-        format!(
-            "{}\n[[attack]]\nkind = \"flood\"\ntarget = 0\n",
-            simnet::Scenario::resolve("ring3").unwrap().to_toml()
-        ),
-    )
-    .unwrap();
+    // ring3 with one attack: a forger on node 0 claiming node 2 (whose datagrams node 0 hears), or a flood.
+    let ring3_with = |name: &str, attack: &str| {
+        let path = d.join(name);
+        let ring3 = simnet::Scenario::resolve("ring3").unwrap().to_toml();
+        std::fs::write(&path, format!("{ring3}\n[[attack]]\n{attack}\n")).unwrap();
+        path
+    };
+    let attacked = ring3_with("attacked.toml", "kind = \"forge\"\ntarget = 0\nclaim = 2\nbias = [1.0]");
+    let flooded = ring3_with("flooded.toml", "kind = \"flood\"\ntarget = 0");
     let fifo = d.join("fifo.toml");
     let made_fifo = Command::new("mkfifo").arg(&fifo).status().is_ok_and(|s| s.success());
 
