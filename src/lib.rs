@@ -37,7 +37,8 @@
 //! `simnet reconstruct` read them).
 //!
 //! The library API: build or load a [`Scenario`] ([`Scenario::builder`], [`Scenario::resolve`], [`Scenario::with`]),
-//! run it with [`Sim`] (in memory) or [`net::run`] (over UDP), read [`RunResults::summary`].
+//! run it with [`Sim`] (in memory) or [`net::run`] (over UDP), read [`RunResults::summary`]. [`scenario::Flags`] holds
+//! `simnet run`'s options as values; the Python package (`python/`, pyo3) is built on these calls alone.
 
 pub mod analysis;
 pub mod attack;

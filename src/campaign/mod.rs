@@ -175,6 +175,27 @@ impl PlanFile {
     }
 }
 
+/// The scenario a sweep's runs start from: `base` with the sweep's estimators (unset: the topology's, else
+/// independent and sequeira, the node's two filters), rounds and duration.
+pub fn sweep_base(
+    base: &Scenario,
+    estimators: Option<Vec<crate::estimators::Kind>>,
+    rounds: Option<u64>,
+    duration_s: Option<f64>,
+) -> Result<Scenario, ScenarioError> {
+    use crate::estimators::Kind;
+    let estimators = match estimators {
+        None if base.estimators().run.is_empty() => Some(vec![Kind::Independent, Kind::Sequeira]),
+        e => e,
+    };
+    base.with(&crate::Overrides {
+        estimators,
+        rounds,
+        duration_s,
+        ..Default::default()
+    })
+}
+
 /// One run in memory ([`crate::Sim`]).
 pub fn in_memory(s: &Scenario) -> Result<Summary, String> {
     crate::Sim::new(s)

@@ -2,6 +2,7 @@
 //! make and the scenario they select.
 
 use super::*;
+use crate::scenario::{parse_set, Flags};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum LossKind {
@@ -182,48 +183,33 @@ pub(super) fn at_least_one(s: &str) -> Result<f64, String> {
     }
 }
 
-/// The longest run accepted (as for `sim.duration_s` in a topology file).
-pub(super) const MAX_STEPS: f64 = 1e8;
-
 impl RunArgs {
-    pub fn overrides(&self) -> Result<Overrides, UsageError> {
-        let loss = match (self.loss, self.loss_model.unwrap_or(LossKind::Bernoulli), self.burst) {
-            (None, _, Some(_)) => {
-                return Err(UsageError::Option(
-                    "--burst needs --loss (and --loss-model gilbert-elliott)".into(),
-                ))
-            }
-            (None, _, None) => None,
-            (Some(p), LossKind::Bernoulli, None) => Some(LossModel::Bernoulli { p }),
-            (Some(_), LossKind::Bernoulli, Some(_)) => {
-                return Err(UsageError::Option(
-                    "--burst applies to --loss-model gilbert-elliott only".into(),
-                ))
-            }
-            (Some(l), LossKind::GilbertElliott, burst) => {
-                let b = burst.ok_or_else(|| {
-                    UsageError::Option("--loss-model gilbert-elliott needs --burst B (mean loss run)".into())
-                })?;
-                Some(
-                    LossModel::gilbert_elliott_from(l, b)
-                        .map_err(|e| UsageError::Option(format!("--loss/--burst: {e}")))?,
-                )
-            }
-        };
-        Ok(Overrides {
-            loss,
-            delay_ms: self.delay,
-            jitter_ms: self.jitter,
+    /// The options as the library takes them.
+    pub fn flags(&self) -> Result<Flags, UsageError> {
+        Ok(Flags {
+            loss: self.loss,
+            loss_model: self.loss_model.map(|k| match k {
+                LossKind::Bernoulli => crate::scenario::LossKind::Bernoulli,
+                LossKind::GilbertElliott => crate::scenario::LossKind::GilbertElliott,
+            }),
+            burst: self.burst,
+            delay: self.delay,
+            jitter: self.jitter,
             duplicate: self.duplicate,
             corrupt: self.corrupt,
-            duration_s: self.duration,
-            rate_hz: self.rate,
+            duration: self.duration,
+            rate: self.rate,
             seed: self.seed,
             estimators: self.estimators.as_deref().map(EstimatorChoice::kinds),
             rounds: self.rounds,
             key_file: self.key_file.as_ref().map(|p| p.display().to_string()),
-            auth: self.auth.then_some(true),
+            auth: self.auth,
+            set: self.set.iter().map(|kv| parse_set(kv)).collect::<Result<_, _>>()?,
         })
+    }
+
+    pub fn overrides(&self) -> Result<Overrides, UsageError> {
+        Ok(self.flags()?.overrides()?)
     }
 
     /// The topology with the command-line overrides applied.
@@ -232,22 +218,9 @@ impl RunArgs {
             .topology
             .as_deref()
             .ok_or_else(|| UsageError::Option("--topology NAME|PATH is required (see `simnet topologies`)".into()))?;
-        let mut t = Scenario::resolve(name)?.with(&self.overrides()?)?;
-        for kv in &self.set {
-            let (k, v) = kv.split_once('=').ok_or_else(|| {
-                UsageError::Option(format!("--set `{kv}`: write KEY=VALUE, e.g. consensus.gate=0.999"))
-            })?;
-            t = t.set(k.trim(), crate::scenario::parse_value(v))?;
-        }
+        let t = self.flags()?.apply(&Scenario::resolve(name)?)?;
         for w in t.warnings() {
             tracing::warn!("{}: {w}", t.name());
-        }
-        if t.sim().duration_s * t.sim().rate_hz > MAX_STEPS {
-            return Err(UsageError::Option(format!(
-                "--duration/--rate: {} s at {} Hz is more than {MAX_STEPS:e} steps",
-                t.sim().duration_s,
-                t.sim().rate_hz
-            )));
         }
         Ok(t)
     }

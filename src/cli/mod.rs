@@ -102,6 +102,15 @@ pub enum UsageError {
     Option(String),
 }
 
+impl From<crate::scenario::FlagError> for UsageError {
+    fn from(e: crate::scenario::FlagError) -> Self {
+        match e {
+            crate::scenario::FlagError::Scenario(e) => UsageError::Scenario(e),
+            e => UsageError::Option(e.to_string()),
+        }
+    }
+}
+
 fn init_tracing(verbose: u8, quiet: bool) {
     use tracing_subscriber::EnvFilter;
     let level = if quiet {

@@ -120,10 +120,12 @@ pub fn reproduce(paper: &Paper, quiet: bool) -> anyhow::Result<ExitCode> {
         Paper::Nieminen(a) => return nieminen(a),
     };
     if let Some(d) = args.duration {
-        if d * 100.0 > super::MAX_STEPS {
-            return Err(
-                UsageError::Option(format!("--duration {d} s is more than {:e} steps", super::MAX_STEPS)).into(),
-            );
+        if d * 100.0 > crate::scenario::MAX_STEPS {
+            return Err(UsageError::Option(format!(
+                "--duration {d} s is more than {:e} steps",
+                crate::scenario::MAX_STEPS
+            ))
+            .into());
         }
     }
     let rt = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;

@@ -37,12 +37,7 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     if let Some(pb) = progress {
         pb.finish_and_clear();
     }
-    let mut s = out.summary();
-    if !topo.attacks().is_empty() && !s.interrupted {
-        // Beside the same seed's clean run, in memory: the virtual clock's results are the same over UDP.
-        let clean = crate::Sim::new(&topo.without_attacks())?.run()?.summary();
-        s.compare_clean(&clean);
-    }
+    let s = out.summary_beside_clean()?;
     // Files first: a reader that closes stdout early (`| head`) loses nothing.
     let mut wrote = Vec::new();
     if let Some(d) = &out_dir {

@@ -5,7 +5,6 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::*;
 use crate::campaign::{self, Axis, CampaignError, Plan, PlanFile, ShardInfo, Store};
-use crate::estimators::Kind;
 
 #[derive(Args, Debug)]
 #[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
@@ -119,20 +118,13 @@ pub(super) fn sweep(args: &SweepArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         .iter()
         .map(|s| Axis::parse(s).map_err(|e| UsageError::Option(format!("--set {e}"))))
         .collect::<Result<_, _>>()?;
-    let base = Scenario::resolve(topology).map_err(UsageError::from)?;
-    let estimators = match &args.estimators {
-        Some(e) => Some(super::args::EstimatorChoice::kinds(e)),
-        None if base.estimators().run.is_empty() => Some(vec![Kind::Independent, Kind::Sequeira]),
-        None => None,
-    };
-    let base = base
-        .with(&Overrides {
-            estimators,
-            rounds: args.rounds,
-            duration_s: args.duration,
-            ..Default::default()
-        })
-        .map_err(UsageError::from)?;
+    let base = campaign::sweep_base(
+        &Scenario::resolve(topology).map_err(UsageError::from)?,
+        args.estimators.as_deref().map(super::args::EstimatorChoice::kinds),
+        args.rounds,
+        args.duration,
+    )
+    .map_err(UsageError::from)?;
     // Every point is validated before the first run starts.
     let plan = Plan::new(base, axes, args.seeds).map_err(UsageError::from)?;
     if args.emit == Some(Emit::Stack) {
@@ -350,17 +342,7 @@ fn merge(dirs: &[PathBuf], out: Option<&Path>, format: Format, quiet: bool) -> a
 
 /// One run over UDP on loopback (the virtual clock); a stop ends it early (then it is not stored).
 fn over_udp(s: &Scenario, stop: &Arc<AtomicBool>) -> Result<crate::Summary, String> {
-    let rt = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .map_err(|e| e.to_string())?;
-    let stop = stop.clone();
-    let stopped = async move {
-        while !stop.load(Ordering::Relaxed) {
-            tokio::time::sleep(std::time::Duration::from_millis(50)).await;
-        }
-    };
-    rt.block_on(net::run(Arc::new(s.clone()), RunOptions::default(), stopped))
+    net::run_blocking(Arc::new(s.clone()), RunOptions::default(), stop.clone(), 1)
         .map(|r| r.summary())
         .map_err(|e| e.to_string())
 }

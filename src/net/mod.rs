@@ -39,6 +39,8 @@ pub enum NetError {
     WorkerLost(usize),
     #[error(transparent)]
     Scenario(#[from] crate::scenario::ScenarioError),
+    #[error("cannot start the async runtime: {0}")]
+    Runtime(std::io::Error),
 }
 
 pub struct RunOptions {
@@ -103,4 +105,29 @@ pub async fn run(
     };
     out.wall_s = started.elapsed().as_secs_f64();
     Ok(out)
+}
+
+/// [`run`] on a runtime of its own, blocking this thread until the run ends: `threads` workers (1: on this thread,
+/// as a campaign runs one run per core), and `stop`, polled every 50 ms, ends the run early.
+pub fn run_blocking(
+    topo: Arc<Scenario>,
+    opts: RunOptions,
+    stop: Arc<std::sync::atomic::AtomicBool>,
+    threads: usize,
+) -> Result<RunResults, NetError> {
+    let rt = if threads <= 1 {
+        tokio::runtime::Builder::new_current_thread().enable_all().build()
+    } else {
+        tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(threads)
+            .enable_all()
+            .build()
+    }
+    .map_err(NetError::Runtime)?;
+    let stopped = async move {
+        while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    };
+    rt.block_on(run(topo, opts, stopped))
 }

@@ -9,10 +9,12 @@
 //! | `resolve.rs` | names → paths → built-ins: the only place a topology file is read |
 //! | `load.rs` | recorded IMU files named by `imu_csv` |
 //! | `overrides.rs` | command-line overrides, applied and validated again |
+//! | `flags.rs` | `simnet run`'s options as plain values ([`Flags`]), for the command line and the Python package |
 //! | `builtin.rs` | the topologies compiled into the binary |
 
 pub mod builder;
 pub mod builtin;
+mod flags;
 pub mod graph;
 mod keys;
 mod load;
@@ -32,6 +34,7 @@ use crate::sensor::SensorProfile;
 
 pub use crate::checks::{Checks, Problem};
 pub use builder::{LinkSpec, ScenarioBuilder};
+pub use flags::{parse_set, FlagError, Flags, LossKind, MAX_STEPS};
 pub use keys::parse_value;
 pub use overrides::Overrides;
 

@@ -55,4 +55,15 @@ impl RunResults {
         );
         s
     }
+
+    /// [`RunResults::summary`], and for an attacked run each node's error beside the same seed's clean run (in
+    /// memory: the virtual clock's results are the same over UDP), as `simnet run` prints it.
+    pub fn summary_beside_clean(&self) -> Result<Summary, super::SimError> {
+        let mut s = self.summary();
+        if !self.scenario.attacks().is_empty() && !s.interrupted {
+            let clean = super::Sim::new(&self.scenario.without_attacks())?.run()?.summary();
+            s.compare_clean(&clean);
+        }
+        Ok(s)
+    }
 }

@@ -358,7 +358,7 @@ impl Checks {
             );
         }
         let divergence_trace = self.positive("sim.divergence_trace", s.divergence_trace, 1e6);
-        if duration_s * rate_hz > 1e8 {
+        if duration_s * rate_hz > super::MAX_STEPS {
             self.bad("sim.duration_s", "more than 1e8 steps");
         }
         SimConfig {

@@ -1,0 +1,318 @@
+"""The Python package against the command line it mirrors, and against independent computations."""
+
+import json
+import math
+import os
+import signal
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import simnet
+
+# summary.json fields a run measures on the wall clock: the only ones two runs of one seed may differ in.
+WALL_CLOCK = {"wall_s", "schedule"}
+
+
+def same_summary(a, b):
+    strip = lambda s: {k: v for k, v in s.items() if k not in WALL_CLOCK}
+    assert strip(a) == strip(b)
+
+
+# ---- listing -------------------------------------------------------------------------------------------------
+
+
+def test_topologies_are_the_command_lines(cli):
+    listed = [line.split()[0] for line in cli("topologies").stdout.splitlines() if line.strip()]
+    tops = simnet.topologies()
+    assert list(tops) == listed
+    assert "ring3" in tops and tops["ring3"]
+
+
+def test_estimators_carry_their_references(cli):
+    names = [e.name for e in simnet.estimators()]
+    out = cli("estimators").stdout
+    assert names and all(n in out for n in names)
+    assert all(e.reference in out for e in simnet.estimators())
+    assert {"independent", "centralized", "kcf", "icf", "sequeira"} <= set(names)
+
+
+# ---- runs: the same numbers as the CLI ----------------------------------------------------------------------
+
+CASES = [
+    ("ring3", {"loss": 0.2, "duration": 5}, ["--loss", "0.2", "--duration", "5"]),
+    (
+        "ring3",
+        {"loss": 0.3, "loss_model": "gilbert-elliott", "burst": 3, "duration": 4, "seed": 7,
+         "estimators": ["kcf", "centralized"], "rounds": 2, "consensus__gate": 0.999},
+        ["--loss", "0.3", "--loss-model", "gilbert-elliott", "--burst", "3", "--duration", "4", "--seed", "7",
+         "--estimators", "kcf,centralized", "--rounds", "2", "--set", "consensus.gate=0.999"],
+    ),
+    ("sinopoli-scalar", {"loss": 0.5, "duration": 20}, ["--loss", "0.5", "--duration", "20"]),
+    ("ring3-attacked", {"duration": 25}, ["--duration", "25"]),
+]
+
+
+@pytest.mark.parametrize("topology,opts,args", CASES, ids=[c[0] + str(i) for i, c in enumerate(CASES)])
+def test_a_run_gives_the_summary_simnet_json_gives(cli, topology, opts, args):
+    py = simnet.run(topology, **opts).summary
+    js = json.loads(cli("-q", "-t", topology, *args, "--json").stdout)
+    same_summary(py, js)
+
+
+def test_tables_are_the_files_simnet_run_writes(cli, tmp_path):
+    r = simnet.run("ring3", loss=0.2, duration=3, estimators="kcf,centralized")
+    cli("-q", "-t", "ring3", "--loss", "0.2", "--duration", "3", "--estimators", "kcf,centralized",
+        "--out", str(tmp_path))
+    for name in ("trace", "links", "measurements", "estimators"):
+        assert r.csv(name) == (tmp_path / f"{name}.csv").read_bytes(), name
+    same_summary(r.summary, json.loads((tmp_path / "summary.json").read_text()))
+
+
+def test_tables_are_typed_frames():
+    r = simnet.run("ring3", loss=0.2, duration=3, estimators="kcf")
+    t = r.trace
+    assert isinstance(t, pd.DataFrame)
+    assert list(t.columns[:4]) == ["step", "t", "node", "estimator"]
+    assert t["step"].dtype == np.int64 and t["node"].dtype == "Int64"
+    assert t["error"].dtype == np.float64 and t["feasible"].dtype == "boolean"
+    assert set(t["estimator"]) == {"networked", "independent", "fused", "fused_median"}
+    # Every step of every node, networked and independent.
+    steps = r.summary["steps"]
+    assert (t["estimator"] == "networked").sum() == 3 * steps
+    links = r.links
+    assert len(links) == 6 and links["sent"].dtype == np.int64
+    np.testing.assert_allclose(links["loss_rate"], 1 - links["delivered"] / links["sent"], atol=1e-12)
+    n = r.nodes
+    assert list(n["id"]) == [0, 1, 2]
+    assert {"networked_mean_error", "independent_mean_error", "error_ratio", "rejected_replay"} <= set(n.columns)
+    np.testing.assert_allclose(n["error_ratio"], n["networked_mean_error"] / n["independent_mean_error"])
+    assert set(r.estimators["estimator"]) == {"kcf"} and r.estimators["node"].dtype == np.int64
+    m = r.measurements
+    assert list(m.columns) == ["step", "t", "node", "channel", "rows", "values", "r"]
+
+
+def test_a_run_without_estimators_has_no_estimator_table():
+    r = simnet.run("sinopoli-scalar", duration=2)
+    assert r.scenario.estimators == [] and r.estimators is None
+
+
+# ---- scenarios and overrides --------------------------------------------------------------------------------
+
+
+def test_overrides_change_the_scenario_as_the_cli_does():
+    base = simnet.Scenario.builtin("ring3")
+    s = base.with_(duration=3, rate=50, seed=9, loss=0.1, set={"consensus.self": 0.6})
+    assert (s.duration_s, s.rate_hz, s.seed, s.steps) == (3, 50, 9, 150)
+    assert 'self = 0.6' in s.to_toml()
+    assert s != base and s == base.with_(duration=3, rate=50, seed=9, loss=0.1, consensus__self=0.6)
+    # The TOML read back is the same scenario.
+    assert simnet.Scenario.from_toml(s.to_toml()).digest == s.digest
+    # numpy values are plain values.
+    assert base.with_(loss=np.float64(0.1), seed=np.int64(9)).seed == 9
+
+
+def test_from_toml_takes_text_or_a_path(tmp_path):
+    text = simnet.Scenario.builtin("line4").to_toml()
+    f = tmp_path / "line4.toml"
+    f.write_text(text)
+    assert simnet.Scenario.from_toml(f).digest == simnet.Scenario.from_toml(text).digest
+    assert simnet.Scenario.from_toml(str(f)).nodes == 4
+
+
+# ---- errors carry the CLI's key and message ------------------------------------------------------------------
+
+
+def cli_error(cli, *args):
+    p = cli("-q", *args, check=False)
+    assert p.returncode == 2, p.stderr
+    return p.stderr.strip().removeprefix("error: ")
+
+
+def test_an_unknown_key_names_it(cli):
+    with pytest.raises(simnet.ScenarioError) as e:
+        simnet.run("ring3", set={"consensus.nope": 1})
+    assert e.value.key == "consensus.nope"
+    assert str(e.value) == cli_error(cli, "-t", "ring3", "--set", "consensus.nope=1")
+
+
+def test_a_value_out_of_range_names_its_key(cli):
+    with pytest.raises(simnet.ScenarioError) as e:
+        simnet.Scenario.builtin("ring3").with_(link__loss__p=1.5)
+    assert e.value.key == "link.loss.p"
+    assert str(e.value) == cli_error(cli, "-t", "ring3", "--set", "link.loss.p=1.5")
+    with pytest.raises(simnet.ScenarioError) as e:
+        simnet.run("ring3", delay=-1)
+    assert e.value.key == "overrides.delay_ms" and e.value.problems[0][0] == "overrides.delay_ms"
+
+
+def test_options_that_do_not_go_together_name_the_option(cli):
+    with pytest.raises(simnet.ScenarioError) as e:
+        simnet.run("ring3", burst=3)
+    assert e.value.key == "burst"
+    assert str(e.value) == cli_error(cli, "-t", "ring3", "--burst", "3")
+    with pytest.raises(simnet.ScenarioError) as e:
+        simnet.run("ring3", loss=0.2, loss_model="gilbert-elliott")
+    assert e.value.key == "loss_model"
+    with pytest.raises(simnet.ScenarioError) as e:
+        simnet.run("ring3", rounds=0)
+    assert e.value.key == "rounds"
+    with pytest.raises(simnet.ScenarioError) as e:
+        simnet.run("ring3", estimators="kcf,nope")
+    assert e.value.key == "estimators" and "unknown estimator `nope`" in str(e.value)
+
+
+def test_an_unknown_topology_says_where_it_looked(cli):
+    with pytest.raises(simnet.ScenarioError) as e:
+        simnet.run("no-such-topology")
+    assert str(e.value) == cli_error(cli, "-t", "no-such-topology")
+    with pytest.raises(simnet.ScenarioError) as e:
+        simnet.Scenario.builtin("no-such-topology")
+    assert e.value.key == "topology" and "ring3" in str(e.value)
+
+
+def test_a_malformed_file_is_an_error_not_a_crash():
+    with pytest.raises(simnet.ScenarioError) as e:
+        simnet.Scenario.from_toml("name = 'x'\n[sim\n")
+    assert "<string>" in str(e.value)
+    with pytest.raises(TypeError):
+        simnet.Scenario.builtin("ring3").with_(consensus__self=object())
+    with pytest.raises(simnet.ScenarioError):
+        simnet.run("ring3", loss="lots")
+
+
+# ---- campaigns ---------------------------------------------------------------------------------------------
+
+
+def test_a_sweep_writes_what_simnet_sweep_writes(cli, tmp_path):
+    runs, points = simnet.sweep("ring3", {"link.loss.p": [0, 0.2]}, seeds=3, duration=2,
+                                estimators="kcf,centralized", out=tmp_path / "py")
+    cli("sweep", "-q", "-t", "ring3", "--set", "link.loss.p=0,0.2", "--seeds", "3", "--duration", "2",
+        "--estimators", "kcf,centralized", "--out", str(tmp_path / "cli"))
+    for name in ("runs.csv", "points.csv"):
+        assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
+    assert len(runs) == 6 and set(runs["seed"]) == {1, 2, 3}
+    assert {"point", "estimator", "metric", "n", "mean", "sd", "ci95_low", "ci95_high"} <= set(points.columns)
+    assert runs.attrs["dir"] == str(tmp_path / "py")
+    # Where a figure was measured, the confidence interval holds the mean; where not (n = 0), all are empty.
+    m = points[points["n"] >= 2]
+    assert len(m) > 0 and ((m["ci95_low"] <= m["mean"] + 1e-12) & (m["mean"] <= m["ci95_high"] + 1e-12)).all()
+    assert points[points["n"] == 0]["mean"].isna().all()
+
+
+def test_a_sweep_takes_the_command_lines_ranges_and_resumes(tmp_path):
+    out = tmp_path / "s"
+    runs, _ = simnet.sweep("ring3", ["link.loss.p=0:0.2:0.1"], seeds=2, duration=1, out=out)
+    assert sorted(runs["link.loss.p"].unique()) == pytest.approx([0, 0.1, 0.2])
+    before = {p.name: p.stat().st_mtime_ns for p in (out / "runs").iterdir()}
+    again, _ = simnet.sweep("ring3", ["link.loss.p=0:0.2:0.1"], seeds=2, duration=1, out=out)
+    assert {p.name: p.stat().st_mtime_ns for p in (out / "runs").iterdir()} == before
+    pd.testing.assert_frame_equal(runs, again)
+
+
+def test_a_bad_sweep_names_what_is_wrong(tmp_path):
+    with pytest.raises(simnet.ScenarioError) as e:
+        simnet.sweep("ring3", {"consensus.nope": [1, 2]}, seeds=1, out=tmp_path / "a")
+    assert e.value.key and "nope" in e.value.key
+    with pytest.raises(simnet.ScenarioError) as e:
+        simnet.sweep("ring3", {"link.loss.p": [0]}, seeds=0, out=tmp_path / "b")
+    assert e.value.key == "seeds"
+    with pytest.raises(simnet.ScenarioError) as e:
+        simnet.sweep("ring3", {"link.loss.p": [0]}, transport="carrier-pigeon", out=tmp_path / "c")
+    assert e.value.key == "transport"
+
+
+# ---- Ctrl-C ------------------------------------------------------------------------------------------------
+
+
+def test_ctrl_c_stops_a_run_and_keeps_what_it_did():
+    # The signal is sent once the run has made steps: the test waits for that event, not for a time.
+    def on_progress(done, total):
+        if done > 0:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    with pytest.raises(simnet.Interrupted) as e:
+        simnet.run("ring3", duration=3600, progress=on_progress)
+    r = e.value.result
+    assert isinstance(e.value, KeyboardInterrupt)
+    assert r.interrupted and 0 < r.summary["steps"] < 360_000
+    assert (r.trace["estimator"] == "networked").sum() == 3 * r.summary["steps"]
+
+
+def test_ctrl_c_stops_a_sweep_and_a_second_call_finishes_it(tmp_path):
+    out = tmp_path / "s"
+
+    def on_progress(done, total):
+        if done >= 2:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    with pytest.raises(simnet.Interrupted) as e:
+        simnet.sweep("ring3", {"link.loss.p": [0, 0.1, 0.2, 0.3]}, seeds=100, duration=3, out=out,
+                     progress=on_progress)
+    kept = len(list((out / "runs").iterdir()))
+    assert e.value.result == str(out) and 2 <= kept < 400
+    runs, _ = simnet.sweep("ring3", {"link.loss.p": [0, 0.1, 0.2, 0.3]}, seeds=100, duration=3, out=out)
+    assert len(runs) == 400
+
+
+def test_a_progress_callback_that_raises_stops_the_run():
+    class Boom(Exception):
+        pass
+
+    def on_progress(done, total):
+        assert total == 360_000
+        if done > 0:
+            raise Boom()
+
+    with pytest.raises(Boom):
+        simnet.run("ring3", duration=3600, progress=on_progress)
+
+
+# ---- bounds ------------------------------------------------------------------------------------------------
+
+A, C, Q, R = -1.25, 1.0, 1.0, 2.5
+
+
+def independent_bounds(lam):
+    """Sinopoli et al. (2004) for a scalar system: S̄ = (1−λ)A²S̄ + Q (Thm. 5's lower bound) and the fixed point of
+    the MARE V = A²V + Q − λA²V²/(V + R) (the upper bound), solved by hand."""
+    a2 = A * A
+    s = Q / (1 - (1 - lam) * a2)
+    # (V + R)(V − A²V − Q) + λA²V² = 0 → (1 − A² + λA²)V² + (R − A²R − Q)V − QR = 0
+    qa, qb, qc = 1 - a2 + lam * a2, R - a2 * R - Q, -Q * R
+    v = (-qb + math.sqrt(qb * qb - 4 * qa * qc)) / (2 * qa)
+    return s, v
+
+
+def test_bounds_match_the_rust_crate_and_the_closed_form():
+    b = simnet.bounds(np.array([[A]]), np.array([[C]]), np.array([[Q]]), np.array([[R]]), lam=0.5)
+    assert b.lambda_min == pytest.approx(0.36) and b.lambda_bar == pytest.approx(0.36, abs=1e-6)
+    assert b.rho == pytest.approx(1.25)
+    assert round(b.trace_S, 4) == 4.5714 and round(b.trace_V, 4) == 11.9559
+    assert isinstance(b.S, np.ndarray) and b.S.shape == (1, 1)
+    df = simnet.bounds(A, C, Q, R, lam=[0.5, 0.8, 0.9])
+    assert list(df.columns) == ["lambda", "trace_S", "trace_V", "measured"]
+    assert df["trace_S"].round(4).tolist()[:2] == [4.5714, 1.4545]
+    assert df["trace_V"].round(4).tolist()[:2] == [11.9559, 4.3382]
+    for lam, s, v in zip(df["lambda"], df["trace_S"], df["trace_V"]):
+        es, ev = independent_bounds(lam)
+        assert s == pytest.approx(es, rel=1e-6) and v == pytest.approx(ev, rel=1e-6)
+    assert df.attrs["lambda_min"] == pytest.approx(0.36)
+
+
+def test_below_the_critical_rate_there_is_no_upper_bound():
+    b = simnet.bounds(A, C, Q, R, lam=0.3)
+    assert math.isinf(b.trace_V) and b.V is None
+
+
+def test_a_measured_run_lies_between_the_bounds():
+    b = simnet.bounds("sinopoli-scalar", lam=0.8, measure=True)
+    assert b.trace_S <= b.measured <= b.trace_V
+    with pytest.raises(ValueError):
+        simnet.bounds("ring3", lam=0.5)
+    with pytest.raises(simnet.ScenarioError):
+        simnet.bounds(A, C, Q, R, lam=1.5)
+    with pytest.raises(TypeError):
+        simnet.bounds(lam=0.5)
