@@ -228,6 +228,8 @@ class Result:
     - ``trace``: ``trace.csv``, per step, node and filter (networked, independent, and the fused rows);
     - ``measurements``: every sensing node's own measurements per step;
     - ``estimators``: every distributed estimator's estimate per node and step (None when the run held none).
+
+    ``trace``, ``measurements`` and ``estimators`` are None for a run made with ``tables=False``.
     """
 
     def __init__(self, raw: Mapping[str, Any], scenario: Scenario):
@@ -258,6 +260,8 @@ class Result:
     def csv(self, name: str) -> bytes:
         """A table as the CSV bytes ``simnet run --out`` writes (``trace``, ``links``, ``measurements``,
         ``estimators``)."""
+        if name in self._raw and self._raw[name] is None:
+            raise KeyError(f"table {name!r} was not made (a run with tables=False, or without estimators)")
         if name not in self._raw:
             raise KeyError(f"no table {name!r} (known: {', '.join(self._raw)})")
         return self._raw[name]
@@ -294,6 +298,7 @@ def _progress(progress: Union[bool, Callable[[int, int], Any], None], unit: str)
 def run(
     scenario: Union[Scenario, str, os.PathLike],
     progress: Union[bool, Callable[[int, int], Any], None] = False,
+    tables: bool = True,
     **overrides: Any,
 ) -> Result:
     """Run a scenario (or a topology name or path) over UDP sockets on loopback, on simnet's virtual clock, as
@@ -301,12 +306,14 @@ def run(
 
     ``overrides`` are ``simnet run``'s options and scenario keys (see :meth:`Scenario.with_`). ``progress``: True
     draws a tqdm bar (when tqdm is installed), or a callable gets ``(steps_done, steps)``. Ctrl-C stops the run
-    and raises :class:`Interrupted` holding the partial result.
+    and raises :class:`Interrupted` holding the partial result. ``tables=False`` makes no per-step rows (``trace``,
+    ``measurements`` and ``estimators`` are then None; ``summary``, ``nodes`` and ``links`` are whole): a run then
+    costs what ``simnet --json`` does.
     """
     sc = _scenario(scenario, overrides)
     cb, close = _progress(progress, "step")
     try:
-        raw = _simnet.run(sc._native, cb)
+        raw = _simnet.run(sc._native, cb, tables)
     finally:
         close()
     result = Result(raw, sc)

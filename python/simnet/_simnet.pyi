@@ -52,8 +52,8 @@ class Scenario:
 
 Progress = Optional[Callable[[int, int], Any]]
 
-def run(scenario: Scenario, progress: Progress = None) -> Dict[str, Any]:
-    """{summary: str (summary.json), trace, links, measurements: bytes (CSV), estimators: bytes | None,
+def run(scenario: Scenario, progress: Progress = None, tables: bool = True) -> Dict[str, Any]:
+    """{summary: str (summary.json), links: bytes (CSV), trace, measurements, estimators: bytes | None (CSV),
     keyboard_interrupt: bool}"""
 
 def sweep(

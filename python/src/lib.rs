@@ -405,11 +405,12 @@ fn wait<T: Send>(
 /// Run a scenario over UDP sockets on loopback (the virtual clock, as `simnet run`): the summary as
 /// `summary.json` text and the tables as CSV bytes.
 #[pyfunction]
-#[pyo3(signature = (scenario, progress = None))]
+#[pyo3(signature = (scenario, progress = None, tables = true))]
 fn run<'py>(
     py: Python<'py>,
     scenario: &PyScenario,
     progress: Option<Bound<'py, PyAny>>,
+    tables: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let topo = scenario.inner.clone();
     let (trace, measurements, estimators) = (Buf::default(), Buf::default(), Buf::default());
@@ -425,7 +426,8 @@ fn run<'py>(
     let done = Arc::new(AtomicU64::new(0));
     let d = done.clone();
     let opts = RunOptions {
-        trace: Some(writer),
+        // Without tables no row is made: the run costs what `simnet --json` does.
+        trace: tables.then_some(writer),
         progress: Some(Arc::new(move |n, _| d.store(n, Ordering::Relaxed))),
         ..Default::default()
     };
@@ -453,17 +455,10 @@ fn run<'py>(
         .map_err(|e| PyRuntimeError::new_err(format!("writing links: {e}")))?;
     let d = PyDict::new(py);
     d.set_item("summary", summary.to_json())?;
-    d.set_item("trace", trace.bytes(py))?;
+    d.set_item("trace", tables.then(|| trace.bytes(py)))?;
     d.set_item("links", PyBytes::new(py, &links))?;
-    d.set_item("measurements", measurements.bytes(py))?;
-    d.set_item(
-        "estimators",
-        if with_estimators {
-            Some(estimators.bytes(py))
-        } else {
-            None
-        },
-    )?;
+    d.set_item("measurements", tables.then(|| measurements.bytes(py)))?;
+    d.set_item("estimators", (tables && with_estimators).then(|| estimators.bytes(py)))?;
     d.set_item("keyboard_interrupt", interrupted)?;
     Ok(d)
 }

@@ -26,3 +26,9 @@ def cli():
         return p
 
     return run
+
+
+@pytest.fixture(autouse=True)
+def outside_the_source_tree(tmp_path, monkeypatch):
+    """Each test in a directory without ./topologies, like the CLI above: names resolve to the built-ins."""
+    monkeypatch.chdir(tmp_path)

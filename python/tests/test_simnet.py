@@ -94,6 +94,16 @@ def test_tables_are_typed_frames():
     assert list(m.columns) == ["step", "t", "node", "channel", "rows", "values", "r"]
 
 
+def test_a_run_without_tables_has_the_same_summary():
+    full = simnet.run("ring3", loss=0.2, duration=3, estimators="kcf")
+    bare = simnet.run("ring3", loss=0.2, duration=3, estimators="kcf", tables=False)
+    same_summary(bare.summary, full.summary)
+    assert bare.trace is None and bare.measurements is None and bare.estimators is None
+    pd.testing.assert_frame_equal(bare.links, full.links)
+    with pytest.raises(KeyError):
+        bare.csv("trace")
+
+
 def test_a_run_without_estimators_has_no_estimator_table():
     r = simnet.run("sinopoli-scalar", duration=2)
     assert r.scenario.estimators == [] and r.estimators is None
@@ -222,6 +232,37 @@ def test_a_bad_sweep_names_what_is_wrong(tmp_path):
     with pytest.raises(simnet.ScenarioError) as e:
         simnet.sweep("ring3", {"link.loss.p": [0]}, transport="carrier-pigeon", out=tmp_path / "c")
     assert e.value.key == "transport"
+
+
+# ---- the GIL ----------------------------------------------------------------------------------------------
+
+
+def test_a_run_releases_the_gil():
+    # With a switch interval of 100 s the interpreter never takes the GIL from a thread that holds it: the main thread
+    # can make its call during the run only if the run lets go of the GIL while it works.
+    import sys
+    import threading
+
+    entered, returned, during = threading.Event(), threading.Event(), []
+
+    def work():
+        entered.set()
+        simnet.run("ring3", duration=30)
+        returned.set()
+
+    old = sys.getswitchinterval()
+    sys.setswitchinterval(100)
+    try:
+        t = threading.Thread(target=work)
+        t.start()
+        entered.wait()
+        b = simnet.bounds(-1.25, 1, 1, 2.5, lam=0.5)
+        during.append(not returned.is_set())
+        t.join()
+    finally:
+        sys.setswitchinterval(old)
+    assert round(b.trace_S, 4) == 4.5714
+    assert during == [True], "the main thread could not run while simnet.run was running"
 
 
 # ---- Ctrl-C ------------------------------------------------------------------------------------------------
