@@ -14,6 +14,7 @@ use crate::report::{plot, summary};
 use crate::scenario::{builtin, Overrides, Scenario, ScenarioError};
 
 mod args;
+mod attitude;
 mod bounds;
 mod compare;
 mod node;
@@ -91,6 +92,9 @@ pub enum Command {
     Reproduce(reproduce::Paper),
     /// Position from a recorded IMU file as a boundary value problem (FEM), beside the trapezoid rule.
     Reconstruct(reconstruct::ReconstructArgs),
+    /// Attitude from a recording as its maker wrote it: the EKF, Madgwick and Mahony, with noise estimated from the
+    /// file, scored against its reference orientation.
+    Attitude(attitude::AttitudeArgs),
 }
 
 /// An error for the user: exit code 2.
@@ -158,6 +162,7 @@ pub fn main() -> ExitCode {
         Some(Command::Validate { files }) => Ok(validate(&files)),
         Some(Command::Run(args)) => run(&args, cli.quiet),
         Some(Command::Compare(args)) => compare::compare(&args, cli.quiet),
+        Some(Command::Attitude(args)) => attitude::attitude(&args),
         Some(Command::Sweep(args)) => sweep::sweep(&args, cli.quiet),
         Some(Command::Node(args)) => run_node(&args, cli.quiet),
         Some(Command::Collect(args)) => collect(&args),

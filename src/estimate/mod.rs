@@ -1,8 +1,10 @@
 //! Estimation, pure and allocation-light: Kalman prediction and update (Joseph form), intermittent and per-channel
 //! handling, the β-weighted consensus update of Sequeira (2023) (eqs. 5–10) with its LMI conditions (17) and (19),
 //! covariance intersection, NEES; the quaternion attitude EKF of Lesecq's slides in standard and square-root form.
+//! `ahrs.rs`: the Madgwick and Mahony filters, to set beside the EKF on the same data.
 #![allow(non_snake_case)]
 
+pub mod ahrs;
 pub mod attitude;
 pub mod bounds;
 pub mod bvp;

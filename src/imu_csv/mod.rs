@@ -1,11 +1,13 @@
 //! Recorded IMU files: `t,ax,ay,az,gx,gy,gz[,mx,my,mz]` in SI units (s, m/s² specific force in the body frame,
 //! rad/s), optionally with reference columns `x,y,z` (position, m) and `roll,pitch,yaw` (Euler ZYX, rad). A header
 //! line names the columns, in any order; `#` starts a comment line. `simnet run --out` writes one per sensing node
-//! (`imu-ID.csv`, with the true pose as reference).
+//! (`imu-ID.csv`, with the true pose as reference). `layout.rs` reads the files IMU makers and loggers write.
 
 use nalgebra::Vector3;
 
 use crate::sensor::ImuSample;
+
+pub mod layout;
 
 /// One IMU sample as sensed, with the true pose at its time (`imu-ID.csv`).
 #[derive(Debug, Clone, Copy)]
@@ -36,6 +38,8 @@ pub struct ImuRecording {
     pub mag: Option<Vec<Vector3<f64>>>,
     pub position: Option<Vec<Vector3<f64>>>,
     pub euler: Option<Vec<Vector3<f64>>>,
+    /// Reference attitude as a unit quaternion (scalar first, body to navigation), as makers' files give it.
+    pub quat: Option<Vec<nalgebra::Vector4<f64>>>,
 }
 
 const GROUPS: [(&str, [&str; 3]); 5] = [

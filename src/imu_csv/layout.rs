@@ -1,0 +1,704 @@
+//! Recordings as IMU makers and loggers write them: the delimiter (tab, comma, semicolon or spaces) and comment lines
+//! (`#`, `//`, `%`) detected; columns found by their usual names (`Acc_X`, `Gyroscope X (deg/s)`, `Quat_w`, …) or
+//! mapped by hand (`t=Counter/rate,ax=Acc_X,…`); units read from the header (`(g)`, `(deg/s)`, `(us)`) or declared;
+//! the rate taken from a `Sample rate: 50Hz` comment, a declared rate or the time column. Everything comes out in
+//! simnet's units (s, m/s², rad/s; the magnetometer as given, only its direction is used), with the reference
+//! orientation as a quaternion (scalar first, body to navigation) or Euler ZYX angles.
+
+use nalgebra::{Vector3, Vector4};
+
+use super::{clip, CsvError, ImuRecording};
+
+/// Standard gravity, m/s² per g.
+pub const G0: f64 = 9.80665;
+
+/// What each value of the file becomes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Target {
+    T,
+    Accel(usize),
+    Gyro(usize),
+    Mag(usize),
+    /// Reference quaternion component (0 = scalar).
+    Quat(usize),
+    /// Reference Euler ZYX angle: roll, pitch, yaw.
+    Euler(usize),
+}
+
+impl Target {
+    fn parse(s: &str) -> Option<Target> {
+        let axis = |c: char| "xyz".find(c);
+        let mut ch = s.chars();
+        match (ch.next(), ch.next(), ch.next()) {
+            (Some('t'), None, _) => Some(Target::T),
+            (Some('a'), Some(c), None) => axis(c).map(Target::Accel),
+            (Some('g'), Some(c), None) => axis(c).map(Target::Gyro),
+            (Some('m'), Some(c), None) => axis(c).map(Target::Mag),
+            (Some('q'), Some(c), None) => "wxyz".find(c).map(Target::Quat),
+            _ => ["roll", "pitch", "yaw"].iter().position(|n| *n == s).map(Target::Euler),
+        }
+    }
+
+    fn name(self) -> String {
+        let xyz = |i: usize| ["x", "y", "z"][i];
+        match self {
+            Target::T => "t".into(),
+            Target::Accel(i) => format!("a{}", xyz(i)),
+            Target::Gyro(i) => format!("g{}", xyz(i)),
+            Target::Mag(i) => format!("m{}", xyz(i)),
+            Target::Quat(i) => format!("q{}", ["w", "x", "y", "z"][i]),
+            Target::Euler(i) => ["roll", "pitch", "yaw"][i].into(),
+        }
+    }
+}
+
+/// Units of the file's values; None: read from the header, else assumed (and said).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Units {
+    /// Multiplies the accelerometer into m/s² (1 for m/s², [`G0`] for g).
+    pub accel: Option<f64>,
+    /// Multiplies the gyro into rad/s.
+    pub gyro: Option<f64>,
+    /// Multiplies the time column into s; for a sample counter, 1/rate.
+    pub time: Option<f64>,
+    /// Multiplies reference angles into rad.
+    pub angle: Option<f64>,
+}
+
+/// How to read a file beyond what it says of itself.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ReadOptions {
+    /// `TARGET=COLUMN` pairs (`t=Counter/rate,ax=Acc_X`); unnamed targets are found by their usual names.
+    pub columns: Vec<(String, String)>,
+    pub units: Units,
+    /// Samples per second, when the file has only a counter.
+    pub rate_hz: Option<f64>,
+}
+
+/// `TARGET=COLUMN,...` of `--columns`.
+pub fn parse_columns(spec: &str) -> Result<Vec<(String, String)>, String> {
+    spec.split(',')
+        .filter(|p| !p.trim().is_empty())
+        .map(|p| {
+            let (k, v) = p
+                .split_once('=')
+                .ok_or_else(|| format!("`{}`: write TARGET=COLUMN, e.g. ax=Acc_X", clip(p.trim())))?;
+            let k = k.trim();
+            if Target::parse(k).is_none() {
+                return Err(format!(
+                    "`{}` is not a column simnet reads (t, ax…az, gx…gz, mx…mz, qw…qz, roll, pitch, yaw)",
+                    clip(k)
+                ));
+            }
+            Ok((k.to_string(), v.trim().to_string()))
+        })
+        .collect()
+}
+
+/// `g`, `m/s2`, `deg/s`, … as the factor into simnet's units, for `what` (accel, gyro, time, angle).
+pub fn unit_factor(what: &str, unit: &str) -> Option<f64> {
+    let u = unit
+        .trim()
+        .to_ascii_lowercase()
+        .replace(['²', ' '], "2")
+        .replace("^2", "2");
+    match (what, u.as_str()) {
+        ("accel", "g") => Some(G0),
+        ("accel", "m/s2" | "ms2" | "m/s/s" | "mps2") => Some(1.0),
+        ("accel", "mg") => Some(G0 / 1000.0),
+        ("gyro", "rad/s" | "rads" | "rps") => Some(1.0),
+        ("gyro", "deg/s" | "dps" | "°/s") => Some(std::f64::consts::PI / 180.0),
+        ("time", "s") => Some(1.0),
+        ("time", "ms") => Some(1e-3),
+        ("time", "us" | "µs" | "μs") => Some(1e-6),
+        ("time", "ns") => Some(1e-9),
+        ("angle", "rad") => Some(1.0),
+        ("angle", "deg" | "°") => Some(std::f64::consts::PI / 180.0),
+        _ => None,
+    }
+}
+
+/// A column name in lower case without its unit, and the unit in parentheses or brackets, if any.
+fn split_unit(name: &str) -> (String, Option<String>) {
+    let n = name.trim();
+    for (open, close) in [('(', ')'), ('[', ']')] {
+        if let (Some(a), true) = (n.rfind(open), n.ends_with(close)) {
+            return (
+                n[..a].trim().to_ascii_lowercase(),
+                Some(n[a + 1..n.len() - 1].trim().to_string()),
+            );
+        }
+    }
+    (n.to_ascii_lowercase(), None)
+}
+
+/// The usual names of each target's column (lower case, units stripped, `_`, `-`, `.` and spaces removed).
+fn usual(target: Target) -> Vec<String> {
+    let xyz = |i: usize| ["x", "y", "z"][i];
+    match target {
+        Target::T => [
+            "t",
+            "time",
+            "timestamp",
+            "times",
+            "counter",
+            "packetcounter",
+            "packetnumber",
+            "sampletimefine",
+        ]
+        .map(String::from)
+        .to_vec(),
+        Target::Accel(i) => ["acc", "accel", "accelerometer", "acceleration", "rawaccel", "a"]
+            .iter()
+            .map(|p| format!("{p}{}", xyz(i)))
+            .collect(),
+        Target::Gyro(i) => ["gyr", "gyro", "gyroscope", "rawgyro", "angularvelocity", "g"]
+            .iter()
+            .map(|p| format!("{p}{}", xyz(i)))
+            .collect(),
+        Target::Mag(i) => ["mag", "magnetometer", "magneticfield", "compass", "rawcompass", "m"]
+            .iter()
+            .map(|p| format!("{p}{}", xyz(i)))
+            .collect(),
+        Target::Quat(i) => {
+            let c = ["w", "x", "y", "z"][i];
+            let mut v: Vec<String> = ["quat", "q", "quaternion", "orientation"]
+                .iter()
+                .map(|p| format!("{p}{c}"))
+                .collect();
+            v.push(format!("{c}element"));
+            v.push(format!("q{i}"));
+            v
+        }
+        Target::Euler(i) => {
+            let n = ["roll", "pitch", "yaw"][i];
+            vec![n.to_string(), format!("euler{}", xyz(i)), format!("{n}angle")]
+        }
+    }
+}
+
+fn squash(s: &str) -> String {
+    s.chars().filter(|c| !matches!(c, '_' | '-' | '.' | ' ')).collect()
+}
+
+const ALL_TARGETS: [Target; 17] = [
+    Target::T,
+    Target::Accel(0),
+    Target::Accel(1),
+    Target::Accel(2),
+    Target::Gyro(0),
+    Target::Gyro(1),
+    Target::Gyro(2),
+    Target::Mag(0),
+    Target::Mag(1),
+    Target::Mag(2),
+    Target::Quat(0),
+    Target::Quat(1),
+    Target::Quat(2),
+    Target::Quat(3),
+    Target::Euler(0),
+    Target::Euler(1),
+    Target::Euler(2),
+];
+
+/// What a file is read as: each target's column and the factor into simnet's units, and what was assumed.
+#[derive(Debug, Clone, Default)]
+pub struct Reading {
+    pub recording: ImuRecording,
+    /// `(target, column as the file names it)`.
+    pub columns: Vec<(String, String)>,
+    /// What was detected or assumed, for the user to see ("delimiter: tab", "gyro: rad/s (assumed)").
+    pub notes: Vec<String>,
+    /// The rate the time column gives (median interval), Hz.
+    pub rate_hz: f64,
+}
+
+/// A comment's `Sample rate: 50.0Hz` (or `rate = 100 Hz`, `frequency: 200`), Hz.
+fn rate_in_comment(c: &str) -> Option<f64> {
+    let l = c.to_ascii_lowercase();
+    let i = ["sample rate", "sampling rate", "samplerate", "frequency", "rate"]
+        .iter()
+        .find_map(|k| l.find(k).map(|i| i + k.len()))?;
+    let rest = l[i..].trim_start_matches([':', '=', ' ', '\t']);
+    let num: String = rest.chars().take_while(|c| c.is_ascii_digit() || *c == '.').collect();
+    num.parse::<f64>().ok().filter(|r| *r > 0.0 && r.is_finite())
+}
+
+fn is_comment(l: &str) -> bool {
+    l.starts_with('#') || l.starts_with("//") || l.starts_with('%')
+}
+
+/// Split a line on `delim` (None: runs of white space); a trailing delimiter makes no field.
+fn fields(line: &str, delim: Option<char>) -> Vec<&str> {
+    match delim {
+        Some(d) => {
+            let l = line.strip_suffix(d).unwrap_or(line);
+            l.split(d).map(str::trim).collect()
+        }
+        None => line.split_whitespace().collect(),
+    }
+}
+
+/// Read a recording in any common layout (see the module's documentation).
+pub fn read(text: &str, file: &str, o: &ReadOptions) -> Result<Reading, CsvError> {
+    let err = |line: usize, message: String| CsvError {
+        file: file.to_string(),
+        line,
+        message,
+    };
+    let mut notes = Vec::new();
+    let mut comment_rate = None;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .filter(|(_, l)| !l.is_empty());
+    let (hl, header) = loop {
+        match lines.next() {
+            Some((_, l)) if is_comment(l) => comment_rate = comment_rate.or_else(|| rate_in_comment(l)),
+            Some(h) => break h,
+            None => return Err(err(1, "empty file: no header line".into())),
+        }
+    };
+    let delim = ['\t', ',', ';']
+        .into_iter()
+        .map(|d| (header.matches(d).count(), d))
+        .filter(|(n, _)| *n > 0)
+        .max_by_key(|(n, _)| *n)
+        .map(|(_, d)| d);
+    notes.push(format!(
+        "delimiter: {}",
+        match delim {
+            Some('\t') => "tab",
+            Some(',') => "comma",
+            Some(';') => "semicolon",
+            _ => "spaces",
+        }
+    ));
+    let names: Vec<&str> = fields(header, delim);
+    let keys: Vec<(String, Option<String>)> = names.iter().map(|n| split_unit(n)).collect();
+    // Each target's column: mapped by hand, else by its usual names.
+    let mut chosen: Vec<(Target, usize, f64)> = Vec::new(); // (target, column, factor before units)
+    let mut mapped: Vec<Target> = Vec::new();
+    for (k, v) in &o.columns {
+        let target = Target::parse(k).ok_or_else(|| err(hl, format!("--columns: `{}` is not a target", clip(k))))?;
+        // COLUMN, COLUMN/rate, COLUMN/K or COLUMN*K.
+        let (col, scale) = match v.rsplit_once(['/', '*']) {
+            Some((c, by)) if by.trim() == "rate" && v.contains('/') => {
+                let r = o
+                    .rate_hz
+                    .or(comment_rate)
+                    .ok_or_else(|| err(hl, format!("--columns {k}={v}: no rate in the file: give --rate HZ")))?;
+                (c.trim(), 1.0 / r)
+            }
+            Some((c, by)) => match by.trim().parse::<f64>() {
+                Ok(x) if x != 0.0 && x.is_finite() => (c.trim(), if v.contains('/') { 1.0 / x } else { x }),
+                _ => (v.as_str(), 1.0),
+            },
+            None => (v.as_str(), 1.0),
+        };
+        let idx = names
+            .iter()
+            .position(|n| n.trim() == col)
+            .or_else(|| names.iter().position(|n| n.trim().eq_ignore_ascii_case(col)))
+            .ok_or_else(|| err(hl, format!("--columns {k}=…: the header has no column `{}`", clip(col))))?;
+        chosen.push((target, idx, scale));
+        mapped.push(target);
+    }
+    for t in ALL_TARGETS {
+        if mapped.contains(&t) {
+            continue;
+        }
+        let usual = usual(t);
+        if let Some(i) = keys.iter().position(|(k, _)| usual.contains(&squash(k))) {
+            if !chosen.iter().any(|(_, c, _)| *c == i) {
+                chosen.push((t, i, 1.0));
+            }
+        }
+    }
+    let col_of = |t: Target| chosen.iter().find(|(x, _, _)| *x == t).map(|&(_, i, s)| (i, s));
+    // Groups are whole or absent.
+    let groups: [(&str, Vec<Target>); 5] = [
+        ("accelerometer", (0..3).map(Target::Accel).collect()),
+        ("gyro", (0..3).map(Target::Gyro).collect()),
+        ("magnetometer", (0..3).map(Target::Mag).collect()),
+        ("reference quaternion", (0..4).map(Target::Quat).collect()),
+        ("reference Euler angles", (0..3).map(Target::Euler).collect()),
+    ];
+    let mut present = [false; 5];
+    for (g, (what, ts)) in groups.iter().enumerate() {
+        let have: Vec<bool> = ts.iter().map(|t| col_of(*t).is_some()).collect();
+        if have.iter().all(|h| *h) {
+            present[g] = true;
+        } else if have.iter().any(|h| *h) {
+            let missing: Vec<String> = ts
+                .iter()
+                .zip(&have)
+                .filter(|(_, h)| !**h)
+                .map(|(t, _)| t.name())
+                .collect();
+            return Err(err(
+                hl,
+                format!("the {what} lacks {} (map it with --columns)", missing.join(", ")),
+            ));
+        }
+    }
+    for (g, what) in [(0, "accelerometer"), (1, "gyro")] {
+        if !present[g] {
+            return Err(err(
+                hl,
+                format!("no {what} columns found (name them with --columns, e.g. ax=Acc_X,ay=Acc_Y,az=Acc_Z)"),
+            ));
+        }
+    }
+    // Units: declared, else the header's, else assumed.
+    let header_unit = |t: Target, what: &str| -> Result<Option<f64>, CsvError> {
+        match col_of(t).and_then(|(i, _)| keys[i].1.clone()) {
+            Some(u) => match unit_factor(what, &u) {
+                Some(f) => Ok(Some(f)),
+                // A unit simnet does not know is fine for the magnetometer (only its direction counts).
+                None if what == "mag" => Ok(None),
+                None => Err(err(
+                    hl,
+                    format!(
+                        "column `{}`: unknown {what} unit `{}`",
+                        clip(names[col_of(t).map_or(0, |c| c.0)]),
+                        clip(&u)
+                    ),
+                )),
+            },
+            None => Ok(None),
+        }
+    };
+    // 0: decided from the data below.
+    let accel = o.units.accel.or(header_unit(Target::Accel(0), "accel")?).unwrap_or(0.0);
+    let gyro = match o.units.gyro.or(header_unit(Target::Gyro(0), "gyro")?) {
+        Some(f) => {
+            notes.push(format!("gyro: {}", if f == 1.0 { "rad/s" } else { "deg/s" }));
+            f
+        }
+        None => {
+            notes.push("gyro: rad/s (assumed; declare deg/s with --units gyro=deg/s)".into());
+            1.0
+        }
+    };
+    let angle = if present[4] {
+        // 0: decided from the data below.
+        o.units.angle.or(header_unit(Target::Euler(0), "angle")?).unwrap_or(0.0)
+    } else {
+        1.0
+    };
+    let t_col = col_of(Target::T);
+    let counter = t_col.is_some_and(|(i, s)| {
+        s == 1.0
+            && matches!(
+                squash(&keys[i].0).as_str(),
+                "counter" | "packetcounter" | "packetnumber"
+            )
+    });
+    let time = match (t_col, o.units.time) {
+        (None, _) => None,
+        (Some(_), Some(f)) => Some(f),
+        (Some((i, s)), None) if counter => {
+            let r = o.rate_hz.or(comment_rate).ok_or_else(|| {
+                err(
+                    hl,
+                    format!(
+                        "column `{}` counts samples: give the rate with --rate HZ",
+                        clip(names[i])
+                    ),
+                )
+            })?;
+            notes.push(format!("time: sample counter at {r} Hz"));
+            Some(s / r)
+        }
+        (Some((i, s)), None) => Some(match keys[i].1.as_deref() {
+            Some(u) => {
+                let f = unit_factor("time", u).ok_or_else(|| {
+                    err(
+                        hl,
+                        format!(
+                            "column `{}`: unknown time unit `{}` (s, ms, us, ns)",
+                            clip(names[i]),
+                            clip(u)
+                        ),
+                    )
+                })?;
+                f * s
+            }
+            None => s,
+        }),
+    };
+    // Rows.
+    let mut raw: Vec<Vec<f64>> = Vec::new();
+    let mut row_lines = Vec::new();
+    for (ln, line) in lines {
+        if is_comment(line) {
+            continue;
+        }
+        let f = fields(line, delim);
+        if f.len() != names.len() {
+            return Err(err(ln, format!("{} fields, the header has {}", f.len(), names.len())));
+        }
+        let mut vals = vec![f64::NAN; names.len()];
+        for &(t, i, _) in &chosen {
+            match f[i].parse::<f64>() {
+                Ok(v) if v.is_finite() => vals[i] = v,
+                _ => {
+                    return Err(err(
+                        ln,
+                        format!(
+                            "`{}` in column `{}` ({}) is not a finite number",
+                            clip(f[i]),
+                            clip(names[i]),
+                            t.name()
+                        ),
+                    ))
+                }
+            }
+        }
+        raw.push(vals);
+        row_lines.push(ln);
+    }
+    if raw.len() < 3 {
+        return Err(err(hl, format!("{} samples: need at least 3", raw.len())));
+    }
+    let v3 = |row: &[f64], t: fn(usize) -> Target, k: f64| {
+        Vector3::from_fn(|a, _| col_of(t(a)).map_or(0.0, |(i, s)| row[i] * s * k))
+    };
+    // Accelerometer unit from the data: a recording's median |a| is about 1 in g and about 9.8 in m/s².
+    let accel = if accel > 0.0 {
+        notes.push(format!("accelerometer: {}", if accel == 1.0 { "m/s²" } else { "g" }));
+        accel
+    } else {
+        let mut n: Vec<f64> = raw.iter().map(|r| v3(r, Target::Accel, 1.0).norm()).collect();
+        n.sort_by(f64::total_cmp);
+        let med = n[n.len() / 2];
+        let g = if (med - 1.0).abs() < (med - G0).abs() { G0 } else { 1.0 };
+        notes.push(format!(
+            "accelerometer: {} (from the median |a| = {med:.3}; declare with --units accel=g|m/s2)",
+            if g == 1.0 { "m/s²" } else { "g" }
+        ));
+        g
+    };
+    let angle = if angle > 0.0 {
+        angle
+    } else {
+        // Angles beyond ±2π are degrees.
+        let big = raw
+            .iter()
+            .any(|r| v3(r, Target::Euler, 1.0).amax() > 2.0 * std::f64::consts::PI);
+        notes.push(format!("reference angles: {}", if big { "degrees" } else { "radians" }));
+        if big {
+            std::f64::consts::PI / 180.0
+        } else {
+            1.0
+        }
+    };
+    let mut rec = ImuRecording {
+        mag: present[2].then(Vec::new),
+        euler: present[4].then(Vec::new),
+        quat: present[3].then(Vec::new),
+        ..Default::default()
+    };
+    // A 16-bit sample counter wraps: unwrap it.
+    let mut offset = 0.0;
+    let mut prev_raw: Option<f64> = None;
+    for (row, &ln) in raw.iter().zip(&row_lines) {
+        let t = match (t_col, time) {
+            (Some((i, _)), Some(f)) => {
+                let mut c = row[i];
+                if counter {
+                    if let Some(p) = prev_raw {
+                        if c + offset < p && p - (c + offset) > 30_000.0 {
+                            offset += 65_536.0;
+                        }
+                    }
+                    c += offset;
+                    prev_raw = Some(c);
+                }
+                c * f
+            }
+            _ => {
+                let r = o.rate_hz.or(comment_rate).ok_or_else(|| {
+                    err(
+                        hl,
+                        "no time column and no rate: give --rate HZ or map one with --columns t=…".into(),
+                    )
+                })?;
+                rec.t.len() as f64 / r
+            }
+        };
+        if let Some(p) = rec.t.last() {
+            if t <= *p {
+                return Err(err(ln, format!("time {t} s does not increase (previous {p} s)")));
+            }
+        }
+        rec.t.push(t);
+        rec.accel.push(v3(row, Target::Accel, accel));
+        rec.gyro.push(v3(row, Target::Gyro, gyro));
+        if let Some(m) = rec.mag.as_mut() {
+            m.push(v3(row, Target::Mag, 1.0));
+        }
+        if let Some(e) = rec.euler.as_mut() {
+            e.push(v3(row, Target::Euler, angle));
+        }
+        if let Some(q) = rec.quat.as_mut() {
+            let v = Vector4::from_fn(|a, _| col_of(Target::Quat(a)).map_or(0.0, |(i, s)| row[i] * s));
+            match v.try_normalize(1e-9) {
+                Some(u) => q.push(u),
+                None => return Err(err(ln, "the reference quaternion is zero".into())),
+            }
+        }
+    }
+    let mut dts: Vec<f64> = rec.t.windows(2).map(|w| w[1] - w[0]).collect();
+    dts.sort_by(f64::total_cmp);
+    let rate_hz = 1.0 / dts[dts.len() / 2];
+    notes.push(format!(
+        "{} samples over {:.2} s at {rate_hz:.4} Hz{}",
+        rec.t.len(),
+        rec.span(),
+        if present[2] { ", with magnetometer" } else { "" }
+    ));
+    let mut columns: Vec<(String, String)> = chosen
+        .iter()
+        .map(|&(t, i, _)| (t.name(), names[i].trim().to_string()))
+        .collect();
+    columns.sort_by_key(|(t, _)| ALL_TARGETS.iter().position(|x| x.name() == *t));
+    Ok(Reading {
+        recording: rec,
+        columns,
+        notes,
+        rate_hz,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const XSENS: &str = "// Start Time: 0\n// Sample rate: 50.0Hz\n// Scenario: 4.9\n\
+Counter\tAcc_X\tAcc_Y\tAcc_Z\tGyr_X\tGyr_Y\tGyr_Z\tMag_X\tMag_Y\tMag_Z\tQuat_w\tQuat_x\tQuat_y\tQuat_z\n\
+ 65534\t4.374240\t8.578849\t-1.814515\t0.059158\t-0.030138\t0.050860\t-0.484053\t-1.107940\t0.265724\t0.567189\t0.769786\t0.003829\t0.292765\t\n\
+ 65535\t4.474578\t8.604048\t-1.819616\t0.032979\t-0.008316\t0.031548\t-0.484605\t-1.108990\t0.267544\t0.566843\t0.769998\t0.003635\t0.292879\t\n\
+ 0\t4.374881\t8.540353\t-1.805151\t0.022677\t0.009977\t0.018773\t-0.485015\t-1.109239\t0.266979\t0.566614\t0.770098\t0.003613\t0.293061\t\n\
+ 1\t4.374881\t8.540353\t-1.805151\t0.022677\t0.009977\t0.018773\t-0.485015\t-1.109239\t0.266979\t0.566614\t0.770098\t0.003613\t0.293061\t\n";
+
+    #[test]
+    fn an_xsens_export_reads_as_it_comes() {
+        let r = read(XSENS, "x.txt", &ReadOptions::default()).unwrap();
+        let rec = &r.recording;
+        assert_eq!(rec.t.len(), 4);
+        // The counter wraps at 2¹⁶ and runs at the comment's 50 Hz.
+        assert!((r.rate_hz - 50.0).abs() < 1e-9, "{}", r.rate_hz);
+        assert!((rec.t[3] - rec.t[0] - 0.06).abs() < 1e-9);
+        assert_eq!(rec.accel[0], Vector3::new(4.374240, 8.578849, -1.814515));
+        assert_eq!(rec.gyro[1][2], 0.031548);
+        assert!(rec.mag.is_some() && rec.euler.is_none());
+        let q = rec.quat.as_ref().unwrap()[0];
+        let given: Vector4<f64> = Vector4::new(0.567189, 0.769786, 0.003829, 0.292765);
+        assert!((q - given / given.norm()).norm() < 1e-12);
+        assert!(r.notes.iter().any(|n| n == "delimiter: tab"));
+        assert!(r.notes.iter().any(|n| n.starts_with("accelerometer: m/s²")));
+        assert_eq!(r.columns[0], ("t".to_string(), "Counter".to_string()));
+    }
+
+    #[test]
+    fn units_in_the_header_are_applied() {
+        let text = "Time (s),Gyroscope X (deg/s),Gyroscope Y (deg/s),Gyroscope Z (deg/s),Accelerometer X (g),\
+Accelerometer Y (g),Accelerometer Z (g),Magnetometer X (uT),Magnetometer Y (uT),Magnetometer Z (uT)\n\
+0.00,180,0,0,0,0,1,20,-8,-44\n0.02,0,90,0,0,0,1,20,-8,-44\n0.04,0,0,-45,0,0.5,1,20,-8,-44\n";
+        let r = read(text, "ngimu.csv", &ReadOptions::default()).unwrap();
+        let rec = &r.recording;
+        let pi = std::f64::consts::PI;
+        assert!((rec.gyro[0][0] - pi).abs() < 1e-12 && (rec.gyro[2][2] + pi / 4.0).abs() < 1e-12);
+        assert!((rec.accel[0][2] - G0).abs() < 1e-12 && (rec.accel[2][1] - G0 / 2.0).abs() < 1e-12);
+        assert_eq!(rec.mag.as_ref().unwrap()[0], Vector3::new(20.0, -8.0, -44.0));
+        assert!((r.rate_hz - 50.0).abs() < 1e-6);
+        // Microseconds.
+        let us = "Timestamp (us),Gyroscope X (deg/s),Gyroscope Y (deg/s),Gyroscope Z (deg/s),Accelerometer X (g),\
+Accelerometer Y (g),Accelerometer Z (g)\n1000000,0,0,0,0,0,1\n1010000,0,0,0,0,0,1\n1020000,0,0,0,0,0,1\n";
+        let r = read(us, "xio.csv", &ReadOptions::default()).unwrap();
+        assert!((r.rate_hz - 100.0).abs() < 1e-6 && (r.recording.t[0] - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_mapping_names_columns_the_usual_names_miss() {
+        let text = "% logger v2\nn;A1;A2;A3;W1;W2;W3;R;P;Y\n0;0;0;1;0;0;0;10;0;90\n1;0;0;1;0;0;0;10;0;90\n\
+2;0;0;1;0;0;0;10;0;-90\n";
+        let o = ReadOptions {
+            columns: parse_columns("t=n/200,ax=A1,ay=A2,az=A3,gx=W1,gy=W2,gz=W3,roll=R,pitch=P,yaw=Y").unwrap(),
+            units: Units {
+                gyro: unit_factor("gyro", "deg/s"),
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let r = read(text, "log.csv", &o).unwrap();
+        assert!((r.rate_hz - 200.0).abs() < 1e-9);
+        let e = r.recording.euler.as_ref().unwrap();
+        assert!(
+            (e[0][2] - std::f64::consts::FRAC_PI_2).abs() < 1e-12,
+            "degrees detected: {e:?}"
+        );
+        assert!(
+            r.notes
+                .iter()
+                .any(|n| n.starts_with("accelerometer: g (from the median |a| = 1.000")),
+            "{:?}",
+            r.notes
+        );
+        assert!(r.notes.iter().any(|n| n == "delimiter: semicolon"));
+    }
+
+    #[test]
+    fn errors_name_the_file_line_and_column() {
+        let bad = |text: &str, o: &ReadOptions, line: usize, says: &str| {
+            let e = read(text, "f.txt", o).unwrap_err();
+            assert_eq!((e.file.as_str(), e.line), ("f.txt", line), "{e}");
+            assert!(e.message.contains(says), "{e}");
+        };
+        let d = ReadOptions::default();
+        bad("", &d, 1, "empty");
+        bad("# only\n", &d, 1, "empty");
+        bad("t,foo,bar\n0,1,2\n", &d, 1, "no accelerometer");
+        bad("t,ax,ay,gx,gy,gz\n", &d, 1, "lacks az");
+        bad(
+            "t,ax,ay,az,gx,gy,gz\n0,0,0,1,0,0,0\n0.1,0,0,x,0,0,0\n",
+            &d,
+            3,
+            "`x` in column `az`",
+        );
+        bad("t,ax,ay,az,gx,gy,gz\n0,0,0,1,0,0,0\n0.1,0,0,1,0,0\n", &d, 3, "6 fields");
+        bad(
+            "t,ax,ay,az,gx,gy,gz\n0,0,0,1,0,0,0\n0,0,0,1,0,0,0\n0.1,0,0,1,0,0,0\n",
+            &d,
+            3,
+            "does not increase",
+        );
+        bad(
+            "Counter,ax,ay,az,gx,gy,gz\n0,0,0,1,0,0,0\n1,0,0,1,0,0,0\n2,0,0,1,0,0,0\n",
+            &d,
+            1,
+            "--rate",
+        );
+        bad(
+            "Time (fortnights),ax,ay,az,gx,gy,gz\n0,0,0,1,0,0,0\n",
+            &d,
+            1,
+            "unknown time unit `fortnights`",
+        );
+        bad(
+            "t,Acc_X (furlongs),Acc_Y (furlongs),Acc_Z (furlongs),gx,gy,gz\n",
+            &d,
+            1,
+            "unknown accel unit `furlongs`",
+        );
+        let map = ReadOptions {
+            columns: parse_columns("ax=Nope").unwrap(),
+            ..Default::default()
+        };
+        bad("t,ax,ay,az,gx,gy,gz\n", &map, 1, "no column `Nope`");
+        assert!(parse_columns("ax").is_err() && parse_columns("speed=V").is_err());
+    }
+}
