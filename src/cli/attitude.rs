@@ -8,46 +8,39 @@ use std::process::ExitCode;
 use clap::Args;
 
 use super::UsageError;
-use crate::analysis::attitude::{compare, Errors};
+use anyhow::Context;
+
+use super::out::write_atomic;
+use crate::analysis::attitude::{compare, error_angles, Comparison, Errors};
 use crate::imu_csv::layout::{self, ReadOptions, Units};
+use crate::report::plot;
 
 #[derive(Args, Debug, Clone)]
 pub struct AttitudeArgs {
     /// The recording: simnet's CSV or a maker's export (tab, comma, semicolon or space separated; `#`, `//` or `%`
     /// comments), with a reference orientation (quaternion or roll, pitch, yaw).
     pub file: PathBuf,
+    /// The reference orientation from a file of its own (a maker's `quaternion.csv` beside `sensors.csv`), matched
+    /// to the recording by time (interpolated; samples outside its time span are left out).
+    #[arg(long, value_name = "FILE")]
+    pub reference: Option<PathBuf>,
     /// Columns the usual names miss: TARGET=COLUMN pairs, e.g. `t=Counter/rate,ax=Acc_X,qw=Quat_w` (COLUMN/K,
     /// COLUMN*K scale; /rate divides by --rate).
     #[arg(long, value_parser = layout::parse_columns)]
-    pub columns: Option<Vec<(String, String)>>,
+    pub columns: Option<layout::ColumnMap>,
     /// Units the header does not give: accel=g|m/s2, gyro=deg/s|rad/s, time=s|ms|us, angle=deg|rad (comma-separated).
-    #[arg(long, value_parser = units)]
+    #[arg(long, value_parser = layout::parse_units)]
     pub units: Option<Units>,
     /// Samples per second, for a file whose time column counts samples (or that has none).
     #[arg(long, value_parser = super::args::positive)]
     pub rate: Option<f64>,
+    /// Write `attitude.csv` (every filter's attitude and error per sample, the gates' verdicts) and `attitude.svg`
+    /// (error against time) into this directory.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
     /// Print the comparison as JSON.
     #[arg(long)]
     pub json: bool,
-}
-
-fn units(s: &str) -> Result<Units, String> {
-    let mut u = Units::default();
-    for part in s.split(',').filter(|p| !p.trim().is_empty()) {
-        let (k, v) = part
-            .split_once('=')
-            .ok_or_else(|| format!("`{part}`: write WHAT=UNIT, e.g. gyro=deg/s"))?;
-        let k = k.trim();
-        let f = layout::unit_factor(k, v).ok_or_else(|| format!("`{}` is not a unit of {k}", v.trim()))?;
-        match k {
-            "accel" => u.accel = Some(f),
-            "gyro" => u.gyro = Some(f),
-            "time" => u.time = Some(f),
-            "angle" => u.angle = Some(f),
-            _ => unreachable!("unit_factor knows no other quantity"),
-        }
-    }
-    Ok(u)
 }
 
 pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
@@ -59,9 +52,50 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
         units: args.units.clone().unwrap_or_default(),
         rate_hz: args.rate,
     };
-    let reading = layout::read(&text, &shown, &o).map_err(|e| UsageError::Option(e.to_string()))?;
+    let mut reading = layout::read(&text, &shown, &o).map_err(|e| UsageError::Option(e.to_string()))?;
+    if let Some(path) = &args.reference {
+        let rshown = path.display().to_string();
+        let rtext = crate::input::read_text(path, crate::input::MAX_TABLE)
+            .map_err(|e| UsageError::Option(format!("{rshown}: cannot read: {e}")))?;
+        let ro = ReadOptions {
+            columns: Vec::new(),
+            ..o.clone()
+        };
+        let r = layout::read_reference(&rtext, &rshown, &ro).map_err(|e| UsageError::Option(e.to_string()))?;
+        let q: Vec<_> = match (&r.recording.quat, &r.recording.euler) {
+            (Some(q), _) => q.clone(),
+            (_, Some(e)) => e.iter().map(crate::estimate::attitude::from_euler).collect(),
+            _ => unreachable!("read_reference returns a reference or an error"),
+        };
+        let dropped = crate::imu_csv::join_reference(&mut reading.recording, &r.recording.t, &q);
+        if reading.recording.t.len() < 3 {
+            return Err(UsageError::Option(format!(
+                "{rshown}: its times ({:.3}–{:.3} s) hardly overlap the recording's",
+                r.recording.t[0],
+                r.recording.t.last().copied().unwrap_or(0.0)
+            ))
+            .into());
+        }
+        reading.notes.push(format!(
+            "reference: {rshown} ({} samples at {:.4} Hz), interpolated at the recording's times{}",
+            r.recording.t.len(),
+            r.rate_hz,
+            if dropped > 0 {
+                format!("; {dropped} samples outside its time span left out")
+            } else {
+                String::new()
+            }
+        ));
+        reading.columns.extend(r.columns.into_iter().filter(|(t, _)| t != "t"));
+    }
     let c = compare(&reading.recording, reading.rate_hz).map_err(|e| UsageError::Option(format!("{shown}: {e}")))?;
+    if let Some(dir) = &args.out {
+        write_out(dir, &reading.recording.t, &c)?;
+    }
     let mut out = std::io::stdout().lock();
+    let e = &c.characterised;
+    let t = &reading.recording.t;
+    let still_s = e.still.map(|(a, b)| [t[a] - t[0], t[b] - t[0]]);
     if args.json {
         let v = serde_json::json!({
             "file": shown,
@@ -69,14 +103,22 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
             "read": reading.notes,
             "rate_hz": reading.rate_hz,
             "estimated": {
-                "window_s": [reading.recording.t[c.estimated.window.0] - reading.recording.t[0],
-                             reading.recording.t[c.estimated.window.1] - reading.recording.t[0]],
-                "gyro_bias": c.estimated.gyro_bias.as_slice(),
-                "gyro_sd": c.estimated.gyro_var.sqrt(),
-                "accel_sd": c.estimated.accel_var.sqrt(),
-                "g": c.estimated.g,
-                "mag_sd": c.estimated.mag_var.map(f64::sqrt),
-                "field": c.estimated.field.map(|(m, d)| serde_json::json!({"magnitude": m, "dip_deg": d.to_degrees()})),
+                "still_s": still_s,
+                "gyro_bias": e.gyro_bias.as_slice(),
+                "gyro_sd": e.gyro_var.sqrt(),
+                "accel_sd": e.accel_var.sqrt(),
+                "mag_sd": e.mag_var.map(f64::sqrt),
+                "g": e.g,
+                "accel_motion_sd": e.accel_motion_var.sqrt(),
+                "accel_motion_tau": e.accel_motion_tau,
+                "accel_passed": e.accel_passed,
+                "field": e.field.map(|f| serde_json::json!({
+                    "magnitude": f.magnitude,
+                    "dip_deg": f.dip.to_degrees(),
+                    "passed": f.passed,
+                    "disturbance_sd": e.mag_disturbance_var.map(f64::sqrt),
+                    "disturbance_tau": e.mag_disturbance_tau,
+                })),
             },
             "reference_z_down": c.reference_z_down,
             "scores": c.scores,
@@ -90,34 +132,61 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
     }
     let cols: Vec<String> = reading.columns.iter().map(|(t, c)| format!("{t}={c}")).collect();
     writeln!(out, "  columns: {}", cols.join(","))?;
-    let e = &c.estimated;
-    let t = &reading.recording.t;
+    let g = &crate::analysis::attitude::GATES;
+    writeln!(out, "estimated from the recording:")?;
     writeln!(
         out,
-        "estimated from its quietest second ({:.2}–{:.2} s): gyro noise sd {:.2e} rad/s, bias [{:.4}, {:.4}, {:.4}] \
-         rad/s; accelerometer noise sd {:.2e} m/s², |g| {:.4} m/s²{}",
-        t[e.window.0] - t[0],
-        t[e.window.1] - t[0],
+        "  white noise ({}): gyro sd {:.2e} rad/s, accelerometer sd {:.2e} m/s²{}",
+        if e.still.is_some() {
+            "at rest"
+        } else {
+            "second differences"
+        },
         e.gyro_var.sqrt(),
-        e.gyro_bias[0],
-        e.gyro_bias[1],
-        e.gyro_bias[2],
         e.accel_var.sqrt(),
-        e.g,
-        match (e.mag_var, e.field) {
-            (Some(v), Some((m, d))) => format!(
-                "; magnetometer noise sd {:.2e}, field {m:.4} (file unit), dip {:.1}°",
-                v.sqrt(),
-                d.to_degrees()
-            ),
-            _ => String::new(),
-        }
+        e.mag_var
+            .map_or(String::new(), |v| format!(", magnetometer sd {:.2e}", v.sqrt()))
     )?;
+    match still_s {
+        Some([a, b]) => writeln!(
+            out,
+            "  at rest {a:.2}–{b:.2} s: gyro bias [{:.4}, {:.4}, {:.4}] rad/s, |g| {:.4} m/s²",
+            e.gyro_bias[0], e.gyro_bias[1], e.gyro_bias[2], e.g
+        )?,
+        None => writeln!(
+            out,
+            "  no second at rest: gyro bias taken as zero; |g| {:.4} m/s² (median |a|)",
+            e.g
+        )?,
+    }
     writeln!(
         out,
-        "reference: {} (turned z-up for the comparison); filters start from the first accelerometer{} sample\n",
+        "  accelerometer gate (|a| within {:.0} % of |g|) passes {:.1} % of samples; linear acceleration it lets \
+         through: sd {:.3} m/s², correlation time {:.1} samples",
+        100.0 * g.accel,
+        100.0 * e.accel_passed,
+        e.accel_motion_var.sqrt(),
+        e.accel_motion_tau
+    )?;
+    if let Some(f) = e.field {
+        writeln!(
+            out,
+            "  field {:.4} (file unit), dip {:.1}°; field gate (|m| within {:.0} %, dip within {:.1}°) passes {:.1} % of \
+             samples; disturbance it lets through: sd {:.3}, correlation time {:.1} samples",
+            f.magnitude,
+            f.dip.to_degrees(),
+            100.0 * g.field,
+            g.dip.to_degrees(),
+            100.0 * f.passed,
+            e.mag_disturbance_var.unwrap_or(0.0).sqrt(),
+            e.mag_disturbance_tau.unwrap_or(1.0)
+        )?;
+    }
+    writeln!(
+        out,
+        "reference: {}; filters start from the first accelerometer{} sample\n",
         if c.reference_z_down {
-            "z down (NED-like)"
+            "z down (NED-like), turned z-up for the comparison"
         } else {
             "z up"
         },
@@ -125,7 +194,7 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
     )?;
     writeln!(
         out,
-        "{:<10} │ {:>8} {:>8} {:>8} {:>9} {:>8} │ {:>8} {:>8} {:>8} {:>9} {:>8} │ {:>8}",
+        "{:<10} │ {:>8} {:>8} {:>8} {:>9} {:>8} │ {:>8} {:>8} {:>8} {:>9} {:>8} │ {:>8} │ {:>13}",
         "filter",
         "mean °",
         "rms °",
@@ -137,7 +206,8 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
         "max °",
         "heading °",
         "tilt °",
-        "offset °"
+        "offset °",
+        "gated a / m"
     )?;
     writeln!(
         out,
@@ -153,11 +223,13 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
     for s in &c.scores {
         writeln!(
             out,
-            "{:<10} │ {} │ {} │ {:>8.1}",
+            "{:<10} │ {} │ {} │ {:>8.1} │ {:>13}",
             s.filter,
             row(&s.as_recorded),
             row(&s.offset_removed),
-            s.heading_offset_deg
+            s.heading_offset_deg,
+            s.gated
+                .map_or("-".to_string(), |g| format!("{} / {}", g.accel, g.field))
         )?;
     }
     writeln!(
@@ -172,5 +244,72 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
         crate::estimate::ahrs::MAHONY_KP,
         crate::estimate::ahrs::MAHONY_KI
     )?;
+    if let Some(dir) = &args.out {
+        writeln!(out, "wrote {0}/attitude.csv and {0}/attitude.svg", dir.display())?;
+    }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `attitude.csv` and `attitude.svg`.
+fn write_out(dir: &std::path::Path, t: &[f64], c: &Comparison) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let errors: Vec<Vec<[f64; 3]>> = c
+        .attitudes
+        .iter()
+        .map(|(_, q)| error_angles(q, &c.reference, 0.0))
+        .collect();
+    let mut csv = String::from("t,ref_qw,ref_qx,ref_qy,ref_qz,accel_passed,field_passed");
+    for (name, _) in &c.attitudes {
+        csv.push_str(&format!(
+            ",{name}_qw,{name}_qx,{name}_qy,{name}_qz,{name}_error_deg,{name}_heading_deg,{name}_tilt_deg"
+        ));
+    }
+    csv.push('\n');
+    for k in 0..t.len() {
+        let r = &c.reference[k];
+        let (a, f) = c.passed[k];
+        csv.push_str(&format!(
+            "{},{},{},{},{},{},{}",
+            t[k] - t[0],
+            r[0],
+            r[1],
+            r[2],
+            r[3],
+            u8::from(a),
+            u8::from(f)
+        ));
+        for ((_, q), e) in c.attitudes.iter().zip(&errors) {
+            let (q, e) = (q[k], e[k]);
+            csv.push_str(&format!(
+                ",{},{},{},{},{},{},{}",
+                q[0],
+                q[1],
+                q[2],
+                q[3],
+                e[0].to_degrees(),
+                e[1].to_degrees(),
+                e[2].to_degrees()
+            ));
+        }
+        csv.push('\n');
+    }
+    write_atomic(&dir.join("attitude.csv"), csv.as_bytes())?;
+    let series: Vec<(String, Vec<(f64, f64)>)> = c
+        .attitudes
+        .iter()
+        .zip(&errors)
+        .map(|((name, _), e)| {
+            let pts = t.iter().zip(e).map(|(t0, e)| (t0 - t[0], e[0].to_degrees())).collect();
+            (name.to_string(), pts)
+        })
+        .collect();
+    let svg = plot::lines(
+        &series,
+        "t (s)",
+        "error against the reference (°)",
+        false,
+        "attitude error",
+    )?;
+    write_atomic(&dir.join("attitude.svg"), svg.as_bytes())?;
+    Ok(())
 }

@@ -22,6 +22,23 @@ pub const MADGWICK_BETA_IMU: f64 = 0.033;
 pub const MAHONY_KP: f64 = 1.0;
 pub const MAHONY_KI: f64 = 0.3;
 
+/// A filter of this family: one sample at a time, the attitude as a unit quaternion.
+pub trait Ahrs {
+    /// One sample: gyro `w` (rad/s), specific force `f` (body), magnetometer `m` (body, any unit), over `dt`; `g` and
+    /// `h` are the navigation-frame gravity and field.
+    fn update(
+        &mut self,
+        w: &Vector3<f64>,
+        f: Option<&Vector3<f64>>,
+        m: Option<&Vector3<f64>>,
+        g: &Vector3<f64>,
+        h: &Vector3<f64>,
+        dt: f64,
+    );
+
+    fn attitude(&self) -> Vector4<f64>;
+}
+
 /// q ⊗ [0, ω]: the product the attitude kinematics q̇ = ½ q ⊗ [0, ω] need.
 fn times_pure(q: &Vector4<f64>, w: &Vector3<f64>) -> Vector4<f64> {
     Vector4::new(
@@ -34,7 +51,12 @@ fn times_pure(q: &Vector4<f64>, w: &Vector3<f64>) -> Vector4<f64> {
 
 /// The field reference of Madgwick's eqs. 45–46: the measured field `m` (body) in the navigation frame, with the
 /// reference `h`'s horizontal direction ("horizontal": orthogonal to `g`).
-fn compensated_field(q: &Vector4<f64>, m: &Vector3<f64>, g: &Vector3<f64>, h: &Vector3<f64>) -> Option<Vector3<f64>> {
+pub fn compensated_field(
+    q: &Vector4<f64>,
+    m: &Vector3<f64>,
+    g: &Vector3<f64>,
+    h: &Vector3<f64>,
+) -> Option<Vector3<f64>> {
     let down = g.try_normalize(1e-12)?;
     let n = rotation(q) * m;
     let vertical = down * n.dot(&down);
@@ -63,10 +85,14 @@ impl Madgwick {
     pub fn new(q: Vector4<f64>, beta: f64) -> Madgwick {
         Madgwick { q: q.normalize(), beta }
     }
+}
 
-    /// One sample: gyro `w` (rad/s), specific force `f` (body), magnetometer `m` (body, any unit), over `dt`; `g` and
-    /// `h` are the navigation-frame gravity and field.
-    pub fn update(
+impl Ahrs for Madgwick {
+    fn attitude(&self) -> Vector4<f64> {
+        self.q
+    }
+
+    fn update(
         &mut self,
         w: &Vector3<f64>,
         f: Option<&Vector3<f64>>,
@@ -119,9 +145,14 @@ impl Mahony {
             ki,
         }
     }
+}
 
-    /// One sample, as [`Madgwick::update`].
-    pub fn update(
+impl Ahrs for Mahony {
+    fn attitude(&self) -> Vector4<f64> {
+        self.q
+    }
+
+    fn update(
         &mut self,
         w: &Vector3<f64>,
         f: Option<&Vector3<f64>>,

@@ -75,8 +75,11 @@ pub struct ReadOptions {
     pub rate_hz: Option<f64>,
 }
 
+/// `(target, column)` pairs of `--columns` (a named type: clap would take a bare `Vec` for repeated values).
+pub type ColumnMap = Vec<(String, String)>;
+
 /// `TARGET=COLUMN,...` of `--columns`.
-pub fn parse_columns(spec: &str) -> Result<Vec<(String, String)>, String> {
+pub fn parse_columns(spec: &str) -> Result<ColumnMap, String> {
     spec.split(',')
         .filter(|p| !p.trim().is_empty())
         .map(|p| {
@@ -93,6 +96,31 @@ pub fn parse_columns(spec: &str) -> Result<Vec<(String, String)>, String> {
             Ok((k.to_string(), v.trim().to_string()))
         })
         .collect()
+}
+
+/// `WHAT=UNIT,...` of `--units` (accel=g, gyro=deg/s, time=us, angle=deg).
+pub fn parse_units(spec: &str) -> Result<Units, String> {
+    let mut u = Units::default();
+    for part in spec.split(',').filter(|p| !p.trim().is_empty()) {
+        let (k, v) = part
+            .split_once('=')
+            .ok_or_else(|| format!("`{}`: write WHAT=UNIT, e.g. gyro=deg/s", clip(part.trim())))?;
+        let k = k.trim();
+        let slot = match k {
+            "accel" => &mut u.accel,
+            "gyro" => &mut u.gyro,
+            "time" => &mut u.time,
+            "angle" => &mut u.angle,
+            _ => {
+                return Err(format!(
+                    "`{}` is not a quantity with a unit (accel, gyro, time, angle)",
+                    clip(k)
+                ))
+            }
+        };
+        *slot = Some(unit_factor(k, v).ok_or_else(|| format!("`{}` is not a unit of {k}", clip(v.trim())))?);
+    }
+    Ok(u)
 }
 
 /// `g`, `m/s2`, `deg/s`, … as the factor into simnet's units, for `what` (accel, gyro, time, angle).
@@ -241,6 +269,16 @@ fn fields(line: &str, delim: Option<char>) -> Vec<&str> {
 
 /// Read a recording in any common layout (see the module's documentation).
 pub fn read(text: &str, file: &str, o: &ReadOptions) -> Result<Reading, CsvError> {
+    read_as(text, file, o, false)
+}
+
+/// Read a file that holds the reference orientation alone (a maker's `quaternion.csv` beside its `sensors.csv`):
+/// a time column and a quaternion (`W,X,Y,Z` too) or Euler angles. The reading's accelerometer and gyro are zero.
+pub fn read_reference(text: &str, file: &str, o: &ReadOptions) -> Result<Reading, CsvError> {
+    read_as(text, file, o, true)
+}
+
+fn read_as(text: &str, file: &str, o: &ReadOptions, reference_only: bool) -> Result<Reading, CsvError> {
     let err = |line: usize, message: String| CsvError {
         file: file.to_string(),
         line,
@@ -306,10 +344,14 @@ pub fn read(text: &str, file: &str, o: &ReadOptions) -> Result<Reading, CsvError
         mapped.push(target);
     }
     for t in ALL_TARGETS {
-        if mapped.contains(&t) {
+        if mapped.contains(&t) || (reference_only && !matches!(t, Target::T | Target::Quat(_) | Target::Euler(_))) {
             continue;
         }
-        let usual = usual(t);
+        let mut usual = usual(t);
+        if let (true, Target::Quat(i)) = (reference_only, t) {
+            // A file of quaternions alone may name the components by their letters.
+            usual.push(["w", "x", "y", "z"][i].to_string());
+        }
         if let Some(i) = keys.iter().position(|(k, _)| usual.contains(&squash(k))) {
             if !chosen.iter().any(|(_, c, _)| *c == i) {
                 chosen.push((t, i, 1.0));
@@ -343,8 +385,14 @@ pub fn read(text: &str, file: &str, o: &ReadOptions) -> Result<Reading, CsvError
             ));
         }
     }
+    if reference_only && !present[3] && !present[4] {
+        return Err(err(
+            hl,
+            "no reference orientation columns found (a quaternion or roll, pitch, yaw; map them with --columns)".into(),
+        ));
+    }
     for (g, what) in [(0, "accelerometer"), (1, "gyro")] {
-        if !present[g] {
+        if !present[g] && !reference_only {
             return Err(err(
                 hl,
                 format!("no {what} columns found (name them with --columns, e.g. ax=Acc_X,ay=Acc_Y,az=Acc_Z)"),
@@ -373,6 +421,7 @@ pub fn read(text: &str, file: &str, o: &ReadOptions) -> Result<Reading, CsvError
     // 0: decided from the data below.
     let accel = o.units.accel.or(header_unit(Target::Accel(0), "accel")?).unwrap_or(0.0);
     let gyro = match o.units.gyro.or(header_unit(Target::Gyro(0), "gyro")?) {
+        _ if reference_only => 1.0,
         Some(f) => {
             notes.push(format!("gyro: {}", if f == 1.0 { "rad/s" } else { "deg/s" }));
             f
@@ -467,7 +516,9 @@ pub fn read(text: &str, file: &str, o: &ReadOptions) -> Result<Reading, CsvError
         Vector3::from_fn(|a, _| col_of(t(a)).map_or(0.0, |(i, s)| row[i] * s * k))
     };
     // Accelerometer unit from the data: a recording's median |a| is about 1 in g and about 9.8 in m/s².
-    let accel = if accel > 0.0 {
+    let accel = if reference_only {
+        1.0
+    } else if accel > 0.0 {
         notes.push(format!("accelerometer: {}", if accel == 1.0 { "m/s²" } else { "g" }));
         accel
     } else {

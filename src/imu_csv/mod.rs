@@ -176,6 +176,48 @@ impl StepRecording {
     }
 }
 
+/// Samples of `rec` at the times of a reference recorded apart, `(t, q)`: the reference is interpolated (slerp)
+/// at each sample's time; samples outside the reference's time span are dropped. Returns how many were dropped.
+pub fn join_reference(rec: &mut ImuRecording, t: &[f64], q: &[nalgebra::Vector4<f64>]) -> usize {
+    use nalgebra::{Quaternion, UnitQuaternion};
+    let unit = |v: &nalgebra::Vector4<f64>| UnitQuaternion::from_quaternion(Quaternion::new(v[0], v[1], v[2], v[3]));
+    let keep: Vec<usize> = (0..rec.t.len())
+        .filter(|&k| t.first().is_some_and(|a| rec.t[k] >= *a) && t.last().is_some_and(|b| rec.t[k] <= *b))
+        .collect();
+    let mut out = Vec::with_capacity(keep.len());
+    let mut j = 0;
+    for &k in &keep {
+        let tk = rec.t[k];
+        while j + 2 < t.len() && t[j + 1] < tk {
+            j += 1;
+        }
+        let j1 = (j + 1).min(t.len() - 1);
+        let span = t[j1] - t[j];
+        let s = if span > 0.0 {
+            ((tk - t[j]) / span).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let (a, mut b) = (unit(&q[j]), q[j1]);
+        // q and −q are one attitude: take the nearer.
+        if q[j].dot(&b) < 0.0 {
+            b = -b;
+        }
+        let u = a.try_slerp(&unit(&b), s, 1e-12).unwrap_or(a);
+        out.push(nalgebra::Vector4::new(u.w, u.i, u.j, u.k));
+    }
+    let dropped = rec.t.len() - keep.len();
+    let pick = |v: &Vec<Vector3<f64>>| keep.iter().map(|&k| v[k]).collect::<Vec<_>>();
+    rec.accel = pick(&rec.accel);
+    rec.gyro = pick(&rec.gyro);
+    rec.mag = rec.mag.as_ref().map(pick);
+    rec.position = rec.position.as_ref().map(pick);
+    rec.euler = None;
+    rec.t = keep.iter().map(|&k| rec.t[k]).collect();
+    rec.quat = Some(out);
+    dropped
+}
+
 impl ImuRecording {
     /// Seconds from the first row to the last.
     pub fn span(&self) -> f64 {

@@ -155,3 +155,136 @@ fn a_recorded_imu_replays_the_run_that_wrote_it() {
     assert!(err < 0.3, "{err}°");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+fn recording(name: &str) -> String {
+    format!("{}/tests/data/recordings/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// `simnet attitude … --json`: (exit code, stdout, stderr).
+fn attitude_cli(args: &[&str]) -> (i32, serde_json::Value, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_simnet"))
+        .arg("attitude")
+        .args(args)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    let v = serde_json::from_slice(&out.stdout).unwrap_or(serde_json::Value::Null);
+    (out.status.code().unwrap_or(-1), v, stderr)
+}
+
+fn score<'a>(v: &'a serde_json::Value, filter: &str, which: &str) -> &'a serde_json::Value {
+    let s = v["scores"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["filter"] == filter)
+        .unwrap();
+    &s[which]
+}
+
+/// The three real recordings of tests/data/recordings run as they come, with no flag beyond the reference file:
+/// every filter's error against the on-board orientation stays within a bound a little above what was measured
+/// (README, "Real recordings"), and the accelerometer gate's count equals an independent count of the samples
+/// whose |a| is more than 10 % off the median |a|.
+#[test]
+fn real_recordings_run_as_they_come() {
+    let xsens = recording("xsens-mti.txt");
+    let (code, v, err) = attitude_cli(&[&xsens, "--json"]);
+    assert_eq!(code, 0, "{err}");
+    assert!((v["rate_hz"].as_f64().unwrap() - 50.0).abs() < 1e-9);
+    assert!(
+        v["estimated"]["still_s"].is_null(),
+        "the Xsens recording moves throughout"
+    );
+    for (filter, bound) in [("ekf", 4.0), ("madgwick", 3.5), ("mahony", 8.0)] {
+        let m = score(&v, filter, "as_recorded")["mean"].as_f64().unwrap();
+        assert!(m < bound, "xsens {filter}: {m}°");
+    }
+    let text = std::fs::read_to_string(&xsens).unwrap();
+    let r = simnet::imu_csv::layout::read(&text, "x", &Default::default())
+        .unwrap()
+        .recording;
+    let mut n: Vec<f64> = r.accel.iter().map(|a| a.norm()).collect();
+    n.sort_by(f64::total_cmp);
+    let g = 0.5 * (n[n.len() / 2 - 1] + n[n.len() / 2]);
+    let off = r.accel.iter().filter(|a| (a.norm() - g).abs() > 0.1 * g).count();
+    let ekf = v["scores"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["filter"] == "ekf")
+        .unwrap();
+    assert_eq!(ekf["gated"]["accel"].as_u64().unwrap() as usize, off);
+    assert!(ekf["gated"]["field"].as_u64().unwrap() > 0);
+
+    let (code, v, err) = attitude_cli(&[
+        &recording("xio3-inertial.csv"),
+        "--reference",
+        &recording("xio3-quaternion.csv"),
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(v["estimated"]["field"].is_null(), "no magnetometer");
+    for filter in ["ekf", "madgwick", "mahony"] {
+        // Without a magnetometer heading is the gyro's alone: scored with the constant offset removed.
+        let e = score(&v, filter, "offset_removed");
+        assert!(e["mean"].as_f64().unwrap() < 3.5, "xio3 {filter}: {e}");
+        assert!(e["tilt_mean"].as_f64().unwrap() < 1.5, "xio3 {filter}: {e}");
+    }
+
+    let (code, v, err) = attitude_cli(&[
+        &recording("ngimu-sensors.csv"),
+        "--reference",
+        &recording("ngimu-quaternion.csv"),
+        "--json",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    for filter in ["ekf", "madgwick", "mahony"] {
+        let m = score(&v, filter, "offset_removed")["mean"].as_f64().unwrap();
+        assert!(m < 13.0, "ngimu {filter}: {m}°");
+    }
+}
+
+/// Bad input gets exit 2 and a message naming what is wrong.
+#[test]
+fn attitude_bad_input_is_named() {
+    let dir = std::env::temp_dir().join(format!("simnet-test-{}-attitude-bad", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bare = dir.join("bare.csv");
+    std::fs::write(
+        &bare,
+        "t,ax,ay,az,gx,gy,gz\n0,0,0,9.8,0,0,0\n0.01,0,0,9.8,0,0,0\n0.02,0,0,9.8,0,0,0\n",
+    )
+    .unwrap();
+    let bad_row = dir.join("bad.csv");
+    std::fs::write(
+        &bad_row,
+        "t,ax,ay,az,gx,gy,gz,qw,qx,qy,qz\n0,0,0,9.8,0,0,0,1,0,0,0\n0.01,0,0,x9,0,0,0,1,0,0,0\n",
+    )
+    .unwrap();
+    let late = dir.join("late.csv");
+    std::fs::write(&late, "t,qw,qx,qy,qz\n1000,1,0,0,0\n1001,1,0,0,0\n1002,1,0,0,0\n").unwrap();
+    let xsens = recording("xsens-mti.txt");
+    let bare_s = bare.to_str().unwrap();
+    let late_s = late.to_str().unwrap();
+    let missing = dir.join("nope.txt");
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec![missing.to_str().unwrap()], "cannot read"),
+        (vec![bare_s], "no reference orientation"),
+        (vec![bad_row.to_str().unwrap()], ":3: `x9` in column `az`"),
+        (vec![&xsens, "--units", "gyro=furlong/s"], "not a unit of gyro"),
+        (vec![&xsens, "--units", "speed=m/s"], "not a quantity with a unit"),
+        (vec![&xsens, "--columns", "ax=Nope"], "no column `Nope`"),
+        (vec![&xsens, "--columns", "wx=Acc_X"], "not a column simnet reads"),
+        (vec![&xsens, "--rate=-5"], "must be a positive number"),
+        (vec![bare_s, "--reference", late_s], "hardly overlap"),
+        (vec![bare_s, "--reference", bare_s], "no reference orientation columns"),
+    ];
+    for (args, says) in cases {
+        let (code, _, err) = attitude_cli(&args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: `{err}` does not say `{says}`");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -1,0 +1,244 @@
+//! What a recording says of its sensor, read off the samples with no setting by hand: the white-noise level of each
+//! sensor (from second differences, which motion that is smooth at the sample rate hardly touches), a window where
+//! the sensor was at rest if it had one (the gyro bias there), |g| and the earth field's magnitude and dip, and the
+//! gates that keep disturbed samples out of the filter's corrections.
+
+use nalgebra::Vector3;
+
+use crate::imu_csv::ImuRecording;
+
+/// The gates of the corrections, as fractions. An accelerometer sample whose |a| departs from |g| by more than
+/// `accel` of |g| is taken as linear acceleration; a magnetometer sample whose |m| departs from the field's
+/// magnitude by more than `field` of it, or whose dip departs by more than `dip` (rad), is taken as disturbed.
+/// The accelerometer's 0.1 is the magnitude error where Valenti, Dryanovski & Xiao (2015, "Keeping a good
+/// attitude", §5.1) start to lower their filter's gain; the field's are the same fraction and the dip it allows
+/// (asin 0.1 ≈ 5.7°).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gates {
+    pub accel: f64,
+    pub field: f64,
+    pub dip: f64,
+}
+
+pub const GATES: Gates = Gates {
+    accel: 0.1,
+    field: 0.1,
+    dip: 0.1,
+};
+
+/// The earth field as the recording measures it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Field {
+    /// |h| in the file's unit: the median |m| over samples the accelerometer gate passes.
+    pub magnitude: f64,
+    /// Angle below the horizontal, rad (median over the same samples).
+    pub dip: f64,
+    /// Share of the magnetometer samples the field gate passed.
+    pub passed: f64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Characterised {
+    /// A second at rest: first and last sample; None when no second of the recording was still.
+    pub still: Option<(usize, usize)>,
+    /// Gyro bias: the mean rate over the still window, zero without one, rad/s.
+    pub gyro_bias: Vector3<f64>,
+    /// White-noise variance per axis (mean of the three): gyro (rad/s)², accelerometer (m/s²)², magnetometer
+    /// (file unit)²; over the still window when there is one, else from second differences.
+    pub gyro_var: f64,
+    pub accel_var: f64,
+    pub mag_var: Option<f64>,
+    /// |g| as the sensor reads it: over the still window, else the median |a|, m/s².
+    pub g: f64,
+    /// Mean (|a| − |g|)² over the samples the accelerometer gate passes: the linear acceleration a filter that
+    /// takes them sees as noise, (m/s²)².
+    pub accel_motion_var: f64,
+    /// Its correlation time, samples ([`correlation_time`] of |a| − |g| over the samples the gate passes).
+    pub accel_motion_tau: f64,
+    /// Mean (|m| − |h|)² over the samples the field gate passes, (file unit)², and its correlation time.
+    pub mag_disturbance_var: Option<f64>,
+    pub mag_disturbance_tau: Option<f64>,
+    pub field: Option<Field>,
+    /// Share of the accelerometer samples the gate passed.
+    pub accel_passed: f64,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// White-noise variance of a three-axis signal, mean over the axes: for x = s + e with s smooth and e white of
+/// variance σ², the second difference x[k+1] − 2x[k] + x[k−1] has variance 6σ² (Gasser, Sroka & Jennen-Steinmetz
+/// 1986); its spread is taken robustly, 1.4826 × the median absolute deviation, so that a few jerks do not count.
+pub fn white_noise_var(v: &[Vector3<f64>]) -> f64 {
+    if v.len() < 3 {
+        return 0.0;
+    }
+    let mut total = 0.0;
+    for axis in 0..3 {
+        let d: Vec<f64> = v
+            .windows(3)
+            .map(|w| w[2][axis] - 2.0 * w[1][axis] + w[0][axis])
+            .collect();
+        let m = median(d.clone());
+        let mad = median(d.iter().map(|x| (x - m).abs()).collect());
+        total += (1.4826 * mad).powi(2) / 6.0;
+    }
+    total / 3.0
+}
+
+/// The integrated autocorrelation time of a series, in samples: 1 + 2 Σ ρ_k over the initial positive sequence of
+/// its autocorrelations ρ_k (Geyer 1992). A disturbance that lasts τ samples weighs in a filter that takes it as
+/// white noise like τ independent ones: its white-noise equivalent has τ times its variance.
+pub fn correlation_time(x: &[f64]) -> f64 {
+    let n = x.len();
+    if n < 3 {
+        return 1.0;
+    }
+    let m = x.iter().sum::<f64>() / n as f64;
+    let c0 = x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / n as f64;
+    if c0 <= 0.0 {
+        return 1.0;
+    }
+    let mut tau = 1.0;
+    for k in 1..n / 2 {
+        let ck = x[..n - k]
+            .iter()
+            .zip(&x[k..])
+            .map(|(a, b)| (a - m) * (b - m))
+            .sum::<f64>()
+            / n as f64;
+        let rho = ck / c0;
+        if rho <= 0.0 {
+            break;
+        }
+        tau += 2.0 * rho;
+    }
+    tau
+}
+
+fn mean_var(v: &[Vector3<f64>]) -> (Vector3<f64>, f64) {
+    let n = v.len() as f64;
+    let m = v.iter().sum::<Vector3<f64>>() / n;
+    let var = v.iter().map(|x| (x - m).norm_squared()).sum::<f64>() / (3.0 * (n - 1.0).max(1.0));
+    (m, var)
+}
+
+/// A window at rest: the gyro and the accelerometer vary there by no more than twice their white-noise variance
+/// (a body that moves adds the motion's variance to it). Of the one-second windows, the stillest by the gyro.
+fn still_window(rec: &ImuRecording, w: usize, gyro_var: f64, accel_var: f64) -> Option<(usize, usize)> {
+    let n = rec.t.len();
+    let mut best: Option<(f64, usize)> = None;
+    let mut i = 0;
+    while i + w <= n {
+        let (_, gv) = mean_var(&rec.gyro[i..i + w]);
+        let (_, av) = mean_var(&rec.accel[i..i + w]);
+        if gv <= 2.0 * gyro_var && av <= 2.0 * accel_var && best.is_none_or(|(b, _)| gv < b) {
+            best = Some((gv, i));
+        }
+        i += (w / 4).max(1);
+    }
+    best.map(|(_, s)| (s, s + w - 1))
+}
+
+/// Whether the accelerometer sample passes the gate: |a| within `gates.accel` of |g|.
+pub fn accel_passes(a: &Vector3<f64>, g: f64, gates: &Gates) -> bool {
+    (a.norm() - g).abs() <= gates.accel * g
+}
+
+/// The dip of field sample `m` against the vertical the accelerometer sample `a` gives, rad.
+pub fn dip_of(m: &Vector3<f64>, a: &Vector3<f64>) -> Option<f64> {
+    let down = -a.try_normalize(1e-12)?;
+    Some(m.try_normalize(1e-12)?.dot(&down).clamp(-1.0, 1.0).asin())
+}
+
+/// Whether the magnetometer sample passes the gate: |m| within `gates.field` of |h|, and, when the accelerometer
+/// gives the vertical (`a` passed its gate), the dip within `gates.dip`.
+pub fn field_passes(m: &Vector3<f64>, a: Option<&Vector3<f64>>, field: &Field, gates: &Gates) -> bool {
+    if (m.norm() - field.magnitude).abs() > gates.field * field.magnitude {
+        return false;
+    }
+    match a.and_then(|a| dip_of(m, a)) {
+        Some(d) => (d - field.dip).abs() <= gates.dip,
+        None => true,
+    }
+}
+
+/// Everything above, from the recording at `rate_hz`.
+pub fn characterise(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Characterised {
+    let n = rec.t.len();
+    let gyro_var = white_noise_var(&rec.gyro);
+    let accel_var = white_noise_var(&rec.accel);
+    let mag_var = rec.mag.as_ref().map(|m| white_noise_var(m));
+    let w = ((rate_hz.round() as usize).max(10)).min(n);
+    let still = still_window(rec, w, gyro_var, accel_var);
+    // At rest the sensor's own noise shows alone: take it there when the recording has such a second.
+    let (gyro_bias, g, gyro_var, accel_var, mag_var) = match still {
+        Some((s, e)) => {
+            let (bias, gv) = mean_var(&rec.gyro[s..=e]);
+            let (a, av) = mean_var(&rec.accel[s..=e]);
+            let mv = rec.mag.as_ref().map(|m| mean_var(&m[s..=e]).1);
+            (bias, a.norm(), gv, av, mv)
+        }
+        None => (
+            Vector3::zeros(),
+            median(rec.accel.iter().map(|a| a.norm()).collect()),
+            gyro_var,
+            accel_var,
+            mag_var,
+        ),
+    };
+    let passes: Vec<bool> = rec.accel.iter().map(|a| accel_passes(a, g, gates)).collect();
+    let kept = passes.iter().filter(|p| **p).count();
+    let motion: Vec<f64> = rec
+        .accel
+        .iter()
+        .zip(&passes)
+        .filter(|(_, p)| **p)
+        .map(|(a, _)| a.norm() - g)
+        .collect();
+    let accel_motion_var = motion.iter().map(|d| d * d).sum::<f64>() / kept.max(1) as f64;
+    let (field, mag_disturbance) = match &rec.mag {
+        Some(mag) => {
+            let level: Vec<usize> = (0..n).filter(|&k| passes[k]).collect();
+            let magnitude = median(level.iter().map(|&k| mag[k].norm()).collect());
+            let dip = median(level.iter().filter_map(|&k| dip_of(&mag[k], &rec.accel[k])).collect());
+            let mut f = Field {
+                magnitude,
+                dip,
+                passed: 0.0,
+            };
+            let ok: Vec<usize> = (0..n)
+                .filter(|&k| field_passes(&mag[k], Some(&rec.accel[k]).filter(|_| passes[k]), &f, gates))
+                .collect();
+            f.passed = ok.len() as f64 / n.max(1) as f64;
+            let d: Vec<f64> = ok.iter().map(|&k| mag[k].norm() - magnitude).collect();
+            let var = d.iter().map(|d| d * d).sum::<f64>() / ok.len().max(1) as f64;
+            (Some(f), Some((var, correlation_time(&d))))
+        }
+        None => (None, None),
+    };
+    Characterised {
+        still,
+        gyro_bias,
+        gyro_var,
+        accel_var,
+        mag_var,
+        g,
+        accel_motion_var,
+        accel_motion_tau: correlation_time(&motion),
+        mag_disturbance_var: mag_disturbance.map(|d| d.0),
+        mag_disturbance_tau: mag_disturbance.map(|d| d.1),
+        field,
+        accel_passed: kept as f64 / n.max(1) as f64,
+    }
+}
