@@ -57,6 +57,9 @@ pub fn attitudes(rec: &ImuRecording, initial: Option<Vector3<f64>>) -> Vec<Matri
     if let Some(e) = &rec.euler {
         return e.iter().map(rotation).collect();
     }
+    if let Some(q) = &rec.quat {
+        return q.iter().map(quat_rotation).collect();
+    }
     let mut q = from_euler(&initial.unwrap_or_else(Vector3::zeros));
     let mut out = vec![quat_rotation(&q)];
     for k in 1..rec.t.len() {

@@ -225,3 +225,28 @@ impl RunArgs {
         Ok(t)
     }
 }
+
+/// How to read a recording beyond what it says of itself (`simnet attitude`, `simnet reconstruct`).
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct ReadFlags {
+    /// Columns the usual names miss: TARGET=COLUMN pairs, e.g. `t=Counter/rate,ax=Acc_X,qw=Quat_w` (COLUMN/K,
+    /// COLUMN*K scale; /rate divides by --rate).
+    #[arg(long, value_parser = crate::imu_csv::layout::parse_columns)]
+    pub columns: Option<crate::imu_csv::layout::ColumnMap>,
+    /// Units the header does not give: accel=g|m/s2, gyro=deg/s|rad/s, time=s|ms|us, angle=deg|rad (comma-separated).
+    #[arg(long, value_parser = crate::imu_csv::layout::parse_units)]
+    pub units: Option<crate::imu_csv::layout::Units>,
+    /// Samples per second, for a file whose time column counts samples (or that has none).
+    #[arg(long, value_parser = positive)]
+    pub rate: Option<f64>,
+}
+
+impl ReadFlags {
+    pub fn options(&self) -> crate::imu_csv::layout::ReadOptions {
+        crate::imu_csv::layout::ReadOptions {
+            columns: self.columns.clone().unwrap_or_default(),
+            units: self.units.clone().unwrap_or_default(),
+            rate_hz: self.rate,
+        }
+    }
+}

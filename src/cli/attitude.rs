@@ -12,7 +12,7 @@ use anyhow::Context;
 
 use super::out::write_atomic;
 use crate::analysis::attitude::{compare, error_angles, Comparison, Errors};
-use crate::imu_csv::layout::{self, ReadOptions, Units};
+use crate::imu_csv::layout::{self, ReadOptions};
 use crate::report::plot;
 
 #[derive(Args, Debug, Clone)]
@@ -24,16 +24,8 @@ pub struct AttitudeArgs {
     /// to the recording by time (interpolated; samples outside its time span are left out).
     #[arg(long, value_name = "FILE")]
     pub reference: Option<PathBuf>,
-    /// Columns the usual names miss: TARGET=COLUMN pairs, e.g. `t=Counter/rate,ax=Acc_X,qw=Quat_w` (COLUMN/K,
-    /// COLUMN*K scale; /rate divides by --rate).
-    #[arg(long, value_parser = layout::parse_columns)]
-    pub columns: Option<layout::ColumnMap>,
-    /// Units the header does not give: accel=g|m/s2, gyro=deg/s|rad/s, time=s|ms|us, angle=deg|rad (comma-separated).
-    #[arg(long, value_parser = layout::parse_units)]
-    pub units: Option<Units>,
-    /// Samples per second, for a file whose time column counts samples (or that has none).
-    #[arg(long, value_parser = super::args::positive)]
-    pub rate: Option<f64>,
+    #[command(flatten)]
+    pub read: super::args::ReadFlags,
     /// Write `attitude.csv` (every filter's attitude and error per sample, the gates' verdicts) and `attitude.svg`
     /// (error against time) into this directory.
     #[arg(long)]
@@ -47,12 +39,8 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
     let shown = args.file.display().to_string();
     let text = crate::input::read_text(&args.file, crate::input::MAX_TABLE)
         .map_err(|e| UsageError::Option(format!("{shown}: cannot read: {e}")))?;
-    let o = ReadOptions {
-        columns: args.columns.clone().unwrap_or_default(),
-        units: args.units.clone().unwrap_or_default(),
-        rate_hz: args.rate,
-    };
-    let mut reading = layout::read(&text, &shown, &o).map_err(|e| UsageError::Option(e.to_string()))?;
+    let o = args.read.options();
+    let mut reading = layout::read_any(&text, &shown, &o).map_err(|e| UsageError::Option(e.to_string()))?;
     if let Some(path) = &args.reference {
         let rshown = path.display().to_string();
         let rtext = crate::input::read_text(path, crate::input::MAX_TABLE)

@@ -9,14 +9,17 @@ use clap::Args;
 use nalgebra::Vector3;
 
 use super::{write_atomic, UsageError};
-use crate::imu_csv;
+use crate::imu_csv::layout;
 use crate::reconstruct::{self, reference_velocity, Known, Options};
 use crate::report::plot;
 
 #[derive(Args, Debug, Clone)]
 pub struct ReconstructArgs {
-    /// The IMU file: `t,ax,ay,az,gx,gy,gz[,mx,my,mz][,x,y,z][,roll,pitch,yaw]` (README: "Recorded IMU files").
+    /// The IMU file: `t,ax,ay,az,gx,gy,gz[,mx,my,mz][,x,y,z][,roll,pitch,yaw]` (README: "Recorded IMU files"), or a
+    /// maker's export as `simnet attitude` reads it.
     pub file: PathBuf,
+    #[command(flatten)]
+    pub read: super::args::ReadFlags,
     /// Take the positions at both ends and the start velocity from the file's reference columns.
     #[arg(long)]
     pub from_reference: bool,
@@ -72,7 +75,13 @@ pub fn reconstruct(args: &ReconstructArgs) -> anyhow::Result<ExitCode> {
     super::check_out(&args.out)?;
     let text = crate::input::read_text(&args.file, crate::input::MAX_TABLE)
         .map_err(|e| UsageError::Option(format!("cannot read {}: {e}", args.file.display())))?;
-    let rec = imu_csv::parse(&text, &args.file.display().to_string()).map_err(|e| UsageError::Option(e.to_string()))?;
+    let mut rec = layout::read_any(&text, &args.file.display().to_string(), &args.read.options())
+        .map_err(|e| UsageError::Option(e.to_string()))?
+        .recording;
+    if rec.quat.is_some() && rec.euler.is_none() {
+        // A maker's quaternion may be z down (NED): reconstruction integrates in simnet's z-up frame.
+        rec.quat = crate::analysis::attitude::reference_up(&rec).ok().map(|(q, _)| q);
+    }
     let n = rec.t.len();
     let mut o = Options {
         start: args
@@ -117,7 +126,7 @@ pub fn reconstruct(args: &ReconstructArgs) -> anyhow::Result<ExitCode> {
         "{}: {n} samples over {:.2} s; attitude from {}",
         args.file.display(),
         rec.t[n - 1] - rec.t[0],
-        if rec.euler.is_some() {
+        if rec.euler.is_some() || rec.quat.is_some() {
             "the reference columns"
         } else {
             "the integrated gyro"

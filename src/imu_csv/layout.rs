@@ -267,6 +267,44 @@ fn fields(line: &str, delim: Option<char>) -> Vec<&str> {
     }
 }
 
+/// Read simnet's own CSV (a comma-separated header of simnet's column names alone, t, ax…az and gx…gz among them,
+/// and no option given) with its strict reader, which keeps the reference position, and any other layout with
+/// [`read`].
+pub fn read_any(text: &str, file: &str, o: &ReadOptions) -> Result<Reading, CsvError> {
+    let header = text.lines().map(str::trim).find(|l| !l.is_empty() && !is_comment(l));
+    let simnet = header.is_some_and(|h| {
+        let names: Vec<&str> = h.split(',').map(str::trim).collect();
+        let known = |n: &&str| *n == "t" || super::GROUPS.iter().any(|(_, g)| g.contains(n));
+        names.iter().all(known)
+            && ["t", "ax", "ay", "az", "gx", "gy", "gz"]
+                .iter()
+                .all(|n| names.contains(n))
+    });
+    if !simnet || *o != ReadOptions::default() {
+        return read(text, file, o);
+    }
+    let recording = super::parse(text, file)?;
+    let mut dts: Vec<f64> = recording.t.windows(2).map(|w| w[1] - w[0]).collect();
+    dts.sort_by(f64::total_cmp);
+    let rate_hz = dts.get(dts.len() / 2).map_or(f64::NAN, |d| 1.0 / d);
+    let columns = header
+        .unwrap_or_default()
+        .split(',')
+        .map(|n| (n.trim().to_string(), n.trim().to_string()))
+        .collect();
+    let notes = vec![format!(
+        "simnet's CSV: {} samples over {:.2} s at {rate_hz:.4} Hz",
+        recording.t.len(),
+        recording.span()
+    )];
+    Ok(Reading {
+        recording,
+        columns,
+        notes,
+        rate_hz,
+    })
+}
+
 /// Read a recording in any common layout (see the module's documentation).
 pub fn read(text: &str, file: &str, o: &ReadOptions) -> Result<Reading, CsvError> {
     read_as(text, file, o, false)
