@@ -11,7 +11,7 @@ use super::UsageError;
 use anyhow::Context;
 
 use super::out::write_atomic;
-use crate::analysis::attitude::{compare, error_angles, Comparison, Errors};
+use crate::analysis::attitude::{calibrate, compare, error_angles, Comparison, Errors};
 use crate::imu_csv::layout::{self, ReadOptions};
 use crate::report::plot;
 
@@ -26,6 +26,10 @@ pub struct AttitudeArgs {
     pub reference: Option<PathBuf>,
     #[command(flatten)]
     pub read: super::args::ReadFlags,
+    /// Calibrate the magnetometer's hard and soft iron from the recording (an ellipsoid fit) before the filters run;
+    /// refused, with the reason, when the recording does not turn the sensor enough.
+    #[arg(long)]
+    pub calibrate_mag: bool,
     /// Write `attitude.csv` (every filter's attitude and error per sample, the gates' verdicts) and `attitude.svg`
     /// (error against time) into this directory.
     #[arg(long)]
@@ -76,6 +80,19 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
         ));
         reading.columns.extend(r.columns.into_iter().filter(|(t, _)| t != "t"));
     }
+    let mut calibration = None;
+    if args.calibrate_mag {
+        let Some(mag) = reading.recording.mag.as_mut() else {
+            return Err(
+                UsageError::Option(format!("{shown}: --calibrate-mag: the recording has no magnetometer")).into(),
+            );
+        };
+        calibration = Some(calibrate::fit(mag).inspect(|c| {
+            for m in mag.iter_mut() {
+                *m = c.apply(m);
+            }
+        }));
+    }
     let c = compare(&reading.recording, reading.rate_hz).map_err(|e| UsageError::Option(format!("{shown}: {e}")))?;
     if let Some(dir) = &args.out {
         write_out(dir, &reading.recording.t, &c)?;
@@ -109,6 +126,15 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
                 })),
             },
             "reference_z_down": c.reference_z_down,
+            "mag_calibration": calibration.as_ref().map(|r| match r {
+                Ok(c) => serde_json::json!({
+                    "offset": c.offset.as_slice(),
+                    "matrix": c.matrix.transpose().as_slice(),
+                    "spread_before": c.spread_before,
+                    "spread_after": c.spread_after,
+                }),
+                Err(e) => serde_json::json!({ "refused": e.to_string() }),
+            }),
             "scores": c.scores,
         });
         writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
@@ -156,6 +182,22 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
         e.accel_motion_var.sqrt(),
         e.accel_motion_tau
     )?;
+    match &calibration {
+        Some(Ok(c)) => writeln!(
+            out,
+            "  magnetometer calibrated (ellipsoid fit): hard iron [{:.4}, {:.4}, {:.4}], |m| spread {:.1} % → {:.1} %",
+            c.offset[0],
+            c.offset[1],
+            c.offset[2],
+            100.0 * c.spread_before,
+            100.0 * c.spread_after
+        )?,
+        Some(Err(r)) => writeln!(
+            out,
+            "  magnetometer not calibrated: {r}; the readings are used as recorded"
+        )?,
+        None => {}
+    }
     if let Some(f) = e.field {
         writeln!(
             out,

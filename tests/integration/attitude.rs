@@ -216,6 +216,12 @@ fn real_recordings_run_as_they_come() {
         .unwrap();
     assert_eq!(ekf["gated"]["accel"].as_u64().unwrap() as usize, off);
     assert!(ekf["gated"]["field"].as_u64().unwrap() > 0);
+    // Its field varies by disturbance, not by iron: the ellipsoid fit is refused and the readings kept.
+    let (code, c, err) = attitude_cli(&[&xsens, "--calibrate-mag", "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let refused = c["mag_calibration"]["refused"].as_str().unwrap();
+    assert!(refused.contains("explains too little"), "{refused}");
+    assert_eq!(c["scores"], v["scores"]);
 
     let (code, v, err) = attitude_cli(&[
         &recording("xio3-inertial.csv"),
@@ -265,6 +271,7 @@ fn attitude_bad_input_is_named() {
     let late = dir.join("late.csv");
     std::fs::write(&late, "t,qw,qx,qy,qz\n1000,1,0,0,0\n1001,1,0,0,0\n1002,1,0,0,0\n").unwrap();
     let xsens = recording("xsens-mti.txt");
+    let (xio3, xio3q) = (recording("xio3-inertial.csv"), recording("xio3-quaternion.csv"));
     let bare_s = bare.to_str().unwrap();
     let late_s = late.to_str().unwrap();
     let missing = dir.join("nope.txt");
@@ -279,6 +286,10 @@ fn attitude_bad_input_is_named() {
         (vec![&xsens, "--rate=-5"], "must be a positive number"),
         (vec![bare_s, "--reference", late_s], "hardly overlap"),
         (vec![bare_s, "--reference", bare_s], "no reference orientation columns"),
+        (
+            vec![&xio3, "--reference", &xio3q, "--calibrate-mag"],
+            "has no magnetometer",
+        ),
     ];
     for (args, says) in cases {
         let (code, _, err) = attitude_cli(&args);
