@@ -23,7 +23,7 @@
 //! | [`sim`] | whole runs in memory: [`Sim`] steps every node in lockstep and returns [`RunResults`], the same as over UDP |
 //! | [`net`] | the only I/O: one UDP socket per node served by one worker per core, virtual and realtime clocks, shutdown; `net::host` runs one node per process (`simnet node`) |
 //! | [`report`] | `summary.json` (with the settings that made it), the table, `trace.csv` and IMU files streamed as a run goes (`report::trace`), `links.csv`, SVG plots |
-//! | [`analysis`] | studies over whole runs: Sinopoli's covariance bounds against runs measured at each arrival rate |
+//! | [`analysis`] | studies over whole runs: Sinopoli's covariance bounds against runs measured at each arrival rate; attitude filters on a real recording against its own reference (noise, gates and magnetometer calibration read off the recording) |
 //! | [`protocol`] | β protocol search over whole in-memory runs: the paper's family by bisection on (17)/(19); all β by SDP (feature `sdp`) |
 //! | [`reconstruct`] | position from a recorded IMU file as a boundary value problem (FEM), trapezoid for comparison, sensor-error model |
 //! | [`reproduce`] | the source documents' experiments rerun: claims tables with simnet's figures, and plots |
@@ -34,7 +34,7 @@
 //! bounded, never quoted), [`geom`] (Euler ZYX attitude),
 //! [`rng`] (seeded streams), [`stats`] (quantiles for tests and reports), `par` (jobs over every core,
 //! crate-private), [`imu_csv`] (recorded IMU files: `simnet run --out` writes them, `imu_csv` on a node and
-//! `simnet reconstruct` read them).
+//! `simnet reconstruct` and `simnet attitude` read them, and makers' layouts through `imu_csv::layout`).
 //!
 //! The library API: build or load a [`Scenario`] ([`Scenario::builder`], [`Scenario::resolve`], [`Scenario::with`]),
 //! run it with [`Sim`] (in memory) or [`net::run`] (over UDP), read [`RunResults::summary`]. [`scenario::Flags`] holds

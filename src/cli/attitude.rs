@@ -95,7 +95,11 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
     }
     let c = compare(&reading.recording, reading.rate_hz).map_err(|e| UsageError::Option(format!("{shown}: {e}")))?;
     if let Some(dir) = &args.out {
-        write_out(dir, &reading.recording.t, &c)?;
+        let name = args
+            .file
+            .file_name()
+            .map_or(shown.clone(), |n| n.to_string_lossy().to_string());
+        write_out(dir, &name, &reading.recording.t, &c)?;
     }
     let mut out = std::io::stdout().lock();
     let e = &c.characterised;
@@ -281,7 +285,7 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// `attitude.csv` and `attitude.svg`.
-fn write_out(dir: &std::path::Path, t: &[f64], c: &Comparison) -> anyhow::Result<()> {
+fn write_out(dir: &std::path::Path, title: &str, t: &[f64], c: &Comparison) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let errors: Vec<Vec<[f64; 3]>> = c
         .attitudes
@@ -328,18 +332,14 @@ fn write_out(dir: &std::path::Path, t: &[f64], c: &Comparison) -> anyhow::Result
         .attitudes
         .iter()
         .zip(&errors)
-        .map(|((name, _), e)| {
+        .zip(&c.scores)
+        .map(|(((name, _), e), s)| {
             let pts = t.iter().zip(e).map(|(t0, e)| (t0 - t[0], e[0].to_degrees())).collect();
-            (name.to_string(), pts)
+            (format!("{name}: mean {:.2}°", s.as_recorded.mean), pts)
         })
         .collect();
-    let svg = plot::lines(
-        &series,
-        "t (s)",
-        "error against the reference (°)",
-        false,
-        "attitude error",
-    )?;
+    let title = format!("attitude error against the on-board orientation, {title}");
+    let svg = plot::lines(&series, "t (s)", "error (°)", false, &title)?;
     write_atomic(&dir.join("attitude.svg"), svg.as_bytes())?;
     Ok(())
 }
