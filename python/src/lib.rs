@@ -530,15 +530,13 @@ fn sweep<'py>(
         })
         .collect::<PyResult<_>>()?;
     let kinds = estimators.map(|e| kinds(py, &e)).transpose()?;
-    if let Some(r) = rounds {
-        if !(1..=simnet::scenario::MAX_ROUNDS as u64).contains(&r) {
-            return Err(option_error(
-                py,
-                "rounds",
-                format!("--rounds: must be 1 to {}, got {r}", simnet::scenario::MAX_ROUNDS),
-            ));
-        }
+    // The range check of --rounds, as the CLI makes it.
+    Flags {
+        rounds,
+        ..Flags::default()
     }
+    .overrides()
+    .map_err(|e| flag_error(py, e))?;
     let base = campaign::sweep_base(&scenario.inner, kinds, rounds, duration).map_err(|e| scenario_error(py, &e))?;
     let plan = Plan::new(base, axes, seeds).map_err(|e| scenario_error(py, &e))?;
     let file = PlanFile::of(&plan);
@@ -602,9 +600,8 @@ fn sweep<'py>(
     Ok(d)
 }
 
-fn fixed_point(py: Python<'_>, f: &FixedPoint) -> PyResult<(f64, Option<Vec<Vec<f64>>>)> {
-    let _ = py;
-    Ok(match f {
+fn fixed_point(f: &FixedPoint) -> (f64, Option<Vec<Vec<f64>>>) {
+    match f {
         FixedPoint::Converged(m) => (
             m.trace(),
             Some(
@@ -615,7 +612,7 @@ fn fixed_point(py: Python<'_>, f: &FixedPoint) -> PyResult<(f64, Option<Vec<Vec<
         ),
         FixedPoint::Diverged => (f64::INFINITY, None),
         FixedPoint::Undecided => (f64::NAN, None),
-    })
+    }
 }
 
 fn matrix(py: Python<'_>, name: &str, rows: Vec<Vec<f64>>) -> PyResult<nalgebra::DMatrix<f64>> {
@@ -702,8 +699,8 @@ fn bounds<'py>(
     d.set_item("lambda_bar_interval", (st.critical.lo, st.critical.hi))?;
     let out = PyList::empty(py);
     for (l, s, v, m) in rows {
-        let (ts, sm) = fixed_point(py, &s)?;
-        let (tv, vm) = fixed_point(py, &v)?;
+        let (ts, sm) = fixed_point(&s);
+        let (tv, vm) = fixed_point(&v);
         out.append((l, ts, tv, sm, vm, m))?;
     }
     d.set_item("rows", out)?;
