@@ -11,7 +11,7 @@ use super::UsageError;
 use anyhow::Context;
 
 use super::out::write_atomic;
-use crate::analysis::attitude::{calibrate, compare, error_angles, Comparison, Errors};
+use crate::analysis::attitude::{calibrate, compare_with, error_angles, Comparison, Errors, Gates, GATES};
 use crate::imu_csv::layout::{self, ReadOptions};
 use crate::report::plot;
 
@@ -30,6 +30,10 @@ pub struct AttitudeArgs {
     /// refused, with the reason, when the recording does not turn the sensor enough.
     #[arg(long)]
     pub calibrate_mag: bool,
+    /// The gates: `off`, or `accel=F,field=F,dip=DEG` (fractions of |g| and |h|, degrees of dip; default
+    /// accel=0.1,field=0.1,dip=5.7).
+    #[arg(long, value_parser = Gates::parse)]
+    pub gates: Option<Gates>,
     /// Write `attitude.csv` (every filter's attitude and error per sample, the gates' verdicts) and `attitude.svg`
     /// (error against time) into this directory.
     #[arg(long)]
@@ -93,7 +97,9 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
             }
         }));
     }
-    let c = compare(&reading.recording, reading.rate_hz).map_err(|e| UsageError::Option(format!("{shown}: {e}")))?;
+    let gates = args.gates.unwrap_or(GATES);
+    let c = compare_with(&reading.recording, reading.rate_hz, &gates)
+        .map_err(|e| UsageError::Option(format!("{shown}: {e}")))?;
     if let Some(dir) = &args.out {
         let name = args
             .file
@@ -130,6 +136,7 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
                 })),
             },
             "reference_z_down": c.reference_z_down,
+            "gates": { "accel": finite(gates.accel), "field": finite(gates.field), "dip_deg": finite(gates.dip.to_degrees()) },
             "mag_calibration": calibration.as_ref().map(|r| match r {
                 Ok(c) => serde_json::json!({
                     "offset": c.offset.as_slice(),
@@ -150,7 +157,7 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
     }
     let cols: Vec<String> = reading.columns.iter().map(|(t, c)| format!("{t}={c}")).collect();
     writeln!(out, "  columns: {}", cols.join(","))?;
-    let g = &crate::analysis::attitude::GATES;
+    let g = &gates;
     writeln!(out, "estimated from the recording:")?;
     writeln!(
         out,
@@ -179,9 +186,13 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
     }
     writeln!(
         out,
-        "  accelerometer gate (|a| within {:.0} % of |g|) passes {:.1} % of samples; linear acceleration it lets \
-         through: sd {:.3} m/s², correlation time {:.1} samples",
-        100.0 * g.accel,
+        "  accelerometer gate ({}) passes {:.1} % of samples; linear acceleration it lets through: sd {:.3} m/s², \
+         correlation time {:.1} samples",
+        if g.accel.is_finite() {
+            format!("|a| within {:.0} % of |g|", 100.0 * g.accel)
+        } else {
+            "open".into()
+        },
         100.0 * e.accel_passed,
         e.accel_motion_var.sqrt(),
         e.accel_motion_tau
@@ -205,12 +216,18 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
     if let Some(f) = e.field {
         writeln!(
             out,
-            "  field {:.4} (file unit), dip {:.1}°; field gate (|m| within {:.0} %, dip within {:.1}°) passes {:.1} % of \
-             samples; disturbance it lets through: sd {:.3}, correlation time {:.1} samples",
+            "  field {:.4} (file unit), dip {:.1}°; field gate ({}) passes {:.1} % of samples; disturbance it lets \
+             through: sd {:.3}, correlation time {:.1} samples",
             f.magnitude,
             f.dip.to_degrees(),
-            100.0 * g.field,
-            g.dip.to_degrees(),
+            match (g.field.is_finite(), g.dip.is_finite()) {
+                (false, false) => "open".to_string(),
+                _ => format!(
+                    "|m| within {:.0} %, dip within {:.1}°",
+                    100.0 * g.field,
+                    g.dip.to_degrees()
+                ),
+            },
             100.0 * f.passed,
             e.mag_disturbance_var.unwrap_or(0.0).sqrt(),
             e.mag_disturbance_tau.unwrap_or(1.0)
@@ -282,6 +299,11 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
         writeln!(out, "wrote {0}/attitude.csv and {0}/attitude.svg", dir.display())?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// An open gate (∞) as JSON null.
+fn finite(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
 }
 
 /// `attitude.csv` and `attitude.svg`.

@@ -222,6 +222,22 @@ fn real_recordings_run_as_they_come() {
     let refused = c["mag_calibration"]["refused"].as_str().unwrap();
     assert!(refused.contains("explains too little"), "{refused}");
     assert_eq!(c["scores"], v["scores"]);
+    // Open, nothing is refused; the noise model alone then keeps the field's long disturbances light.
+    let (code, o, err) = attitude_cli(&[&xsens, "--gates", "off", "--json"]);
+    assert_eq!(code, 0, "{err}");
+    let ekf = o["scores"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["filter"] == "ekf")
+        .unwrap();
+    assert_eq!(
+        (ekf["gated"]["accel"].as_u64(), ekf["gated"]["field"].as_u64()),
+        (Some(0), Some(0))
+    );
+    assert!(o["gates"]["accel"].is_null());
+    let m = ekf["as_recorded"]["mean"].as_f64().unwrap();
+    assert!(m < 2.5, "xsens ekf, gates open: {m}°");
 
     let (code, v, err) = attitude_cli(&[
         &recording("xio3-inertial.csv"),

@@ -26,6 +26,41 @@ pub const GATES: Gates = Gates {
     dip: 0.1,
 };
 
+impl Gates {
+    /// Every gate open: every sample corrects.
+    pub const OPEN: Gates = Gates {
+        accel: f64::INFINITY,
+        field: f64::INFINITY,
+        dip: f64::INFINITY,
+    };
+
+    /// `off`, or `accel=F,field=F,dip=DEG` (any of them; the others keep [`GATES`]).
+    pub fn parse(spec: &str) -> Result<Gates, String> {
+        if spec.trim() == "off" {
+            return Ok(Gates::OPEN);
+        }
+        let mut g = GATES;
+        for part in spec.split(',').filter(|p| !p.trim().is_empty()) {
+            let (k, v) = part
+                .split_once('=')
+                .ok_or_else(|| format!("`{}`: write accel=F,field=F,dip=DEG or off", part.trim()))?;
+            let x: f64 = v
+                .trim()
+                .parse()
+                .ok()
+                .filter(|x: &f64| *x > 0.0)
+                .ok_or_else(|| format!("{}: `{}` is not a positive number", k.trim(), v.trim()))?;
+            match k.trim() {
+                "accel" => g.accel = x,
+                "field" => g.field = x,
+                "dip" => g.dip = x.to_radians(),
+                other => return Err(format!("`{other}` is not a gate (accel, field, dip)")),
+            }
+        }
+        Ok(g)
+    }
+}
+
 /// The earth field as the recording measures it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Field {
