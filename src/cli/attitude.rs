@@ -5,12 +5,11 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use anyhow::Context;
 use clap::Args;
 
-use super::UsageError;
-use anyhow::Context;
-
 use super::out::write_atomic;
+use super::UsageError;
 use crate::analysis::attitude::{calibrate, compare_with, error_angles, Comparison, Errors, Gates, GATES};
 use crate::imu_csv::layout::{self, ReadOptions};
 use crate::report::plot;

@@ -315,6 +315,34 @@ pub fn push_row(s: &mut String, r: &ImuRow, mag: bool) {
 mod tests {
     use super::*;
 
+    /// A reference turning about z by 90° a second, sampled at 0, 1, 2 s (one sample with the other sign): the
+    /// recording's samples between get the slerped attitude; those outside its span are dropped.
+    #[test]
+    fn a_reference_apart_is_slerped_onto_the_samples() {
+        let yaw = |deg: f64| {
+            let h = deg.to_radians() / 2.0;
+            nalgebra::Vector4::new(h.cos(), 0.0, 0.0, h.sin())
+        };
+        let t_ref = [0.0, 1.0, 2.0];
+        let q_ref = [yaw(0.0), -yaw(90.0), yaw(180.0)];
+        let mut rec = ImuRecording {
+            t: vec![-0.5, 0.5, 1.25, 2.0, 2.5],
+            accel: vec![Vector3::z(); 5],
+            gyro: vec![Vector3::zeros(); 5],
+            ..Default::default()
+        };
+        assert_eq!(join_reference(&mut rec, &t_ref, &q_ref), 2);
+        assert_eq!(rec.t, vec![0.5, 1.25, 2.0]);
+        let q = rec.quat.unwrap();
+        for (got, deg) in q.iter().zip([45.0, 112.5, 180.0]) {
+            let want = yaw(deg);
+            assert!(
+                (got - want).norm() < 1e-12 || (got + want).norm() < 1e-12,
+                "{got} against {deg}°"
+            );
+        }
+    }
+
     #[test]
     fn reads_columns_in_any_order_with_optional_groups() {
         let text = "# recorded\ngx,gy,gz,t,ax,ay,az,x,y,z\n0,0,0.1,0.0,0,0,9.81,1,2,3\n0,0,0.1,0.01,0,0,9.81,1,2,3\n\

@@ -97,18 +97,22 @@ pub fn fit(m: &[Vector3<f64>]) -> Result<Calibration, Refused> {
     let centre = -a.try_inverse().ok_or(Refused::NotEllipsoid)? * u;
     // (x − c)ᵀ A (x − c) = 1 + cᵀ A c.
     let k = 1.0 + centre.dot(&(a * centre));
-    let shape = SymmetricEigen::new(a / k);
-    if shape
-        .eigenvalues
-        .iter()
-        .any(|e| e.is_nan() || *e <= 0.0 || !e.is_finite())
-    {
+    // An eigen-decomposition of a non-finite matrix need not end: those are no ellipsoid.
+    let eigen = |m: Matrix3<f64>| {
+        if m.iter().all(|x| x.is_finite()) {
+            SymmetricEigen::try_new(m, f64::EPSILON, 1000)
+        } else {
+            None
+        }
+    };
+    let shape = eigen(a / k).ok_or(Refused::NotEllipsoid)?;
+    if shape.eigenvalues.iter().any(|e| !e.is_finite() || *e <= 0.0) {
         return Err(Refused::NotEllipsoid);
     }
     // The directions from the centre: their scatter's thinnest axis says how much of the sphere was seen.
     let dirs: Vec<Vector3<f64>> = p.iter().filter_map(|x| (x - centre).try_normalize(1e-12)).collect();
     let scatter = dirs.iter().map(|d| d * d.transpose()).sum::<Matrix3<f64>>() / dirs.len().max(1) as f64;
-    let thinnest = SymmetricEigen::new(scatter).eigenvalues.min();
+    let thinnest = eigen(scatter).ok_or(Refused::NotEllipsoid)?.eigenvalues.min();
     if thinnest < MIN_COVERAGE {
         return Err(Refused::Coverage(thinnest));
     }

@@ -131,6 +131,9 @@ pub fn white_noise_var(v: &[Vector3<f64>]) -> f64 {
     total / 3.0
 }
 
+/// The longest lag [`correlation_time`] sums over, samples.
+pub const MAX_LAG: usize = 2000;
+
 /// The integrated autocorrelation time of a series, in samples: 1 + 2 Σ ρ_k over the initial positive sequence of
 /// its autocorrelations ρ_k (Geyer 1992). A disturbance that lasts τ samples weighs in a filter that takes it as
 /// white noise like τ independent ones: its white-noise equivalent has τ times its variance.
@@ -145,7 +148,8 @@ pub fn correlation_time(x: &[f64]) -> f64 {
         return 1.0;
     }
     let mut tau = 1.0;
-    for k in 1..n / 2 {
+    // At most MAX_LAG lags: a drifting series stays positively correlated far out, and the sum is then past any use.
+    for k in 1..(n / 2).min(MAX_LAG) {
         let ck = x[..n - k]
             .iter()
             .zip(&x[k..])
