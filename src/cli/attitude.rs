@@ -10,8 +10,8 @@ use clap::Args;
 
 use super::out::write_atomic;
 use super::UsageError;
-use crate::analysis::attitude::{calibrate, compare_with, error_angles, Comparison, Errors, Gates, GATES};
-use crate::imu_csv::layout::{self, ReadOptions};
+use crate::analysis::attitude::study::{study, Source, Study};
+use crate::analysis::attitude::{Errors, Gates, GATES};
 use crate::report::plot;
 
 #[derive(Args, Debug, Clone)]
@@ -44,112 +44,42 @@ pub struct AttitudeArgs {
 
 pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
     let shown = args.file.display().to_string();
-    let text = crate::input::read_text(&args.file, crate::input::MAX_TABLE)
-        .map_err(|e| UsageError::Option(format!("{shown}: cannot read: {e}")))?;
-    let o = args.read.options();
-    let mut reading = layout::read_any(&text, &shown, &o).map_err(|e| UsageError::Option(e.to_string()))?;
-    if let Some(path) = &args.reference {
-        let rshown = path.display().to_string();
-        let rtext = crate::input::read_text(path, crate::input::MAX_TABLE)
-            .map_err(|e| UsageError::Option(format!("{rshown}: cannot read: {e}")))?;
-        let ro = ReadOptions {
-            columns: Vec::new(),
-            ..o.clone()
-        };
-        let r = layout::read_reference(&rtext, &rshown, &ro).map_err(|e| UsageError::Option(e.to_string()))?;
-        let q: Vec<_> = match (&r.recording.quat, &r.recording.euler) {
-            (Some(q), _) => q.clone(),
-            (_, Some(e)) => e.iter().map(crate::estimate::attitude::from_euler).collect(),
-            _ => unreachable!("read_reference returns a reference or an error"),
-        };
-        let dropped = crate::imu_csv::join_reference(&mut reading.recording, &r.recording.t, &q);
-        if reading.recording.t.len() < 3 {
-            return Err(UsageError::Option(format!(
-                "{rshown}: its times ({:.3}–{:.3} s) hardly overlap the recording's",
-                r.recording.t[0],
-                r.recording.t.last().copied().unwrap_or(0.0)
-            ))
-            .into());
-        }
-        reading.notes.push(format!(
-            "reference: {rshown} ({} samples at {:.4} Hz), interpolated at the recording's times{}",
-            r.recording.t.len(),
-            r.rate_hz,
-            if dropped > 0 {
-                format!("; {dropped} samples outside its time span left out")
-            } else {
-                String::new()
-            }
-        ));
-        reading.columns.extend(r.columns.into_iter().filter(|(t, _)| t != "t"));
-    }
-    let mut calibration = None;
-    if args.calibrate_mag {
-        let Some(mag) = reading.recording.mag.as_mut() else {
-            return Err(
-                UsageError::Option(format!("{shown}: --calibrate-mag: the recording has no magnetometer")).into(),
-            );
-        };
-        calibration = Some(calibrate::fit(mag).inspect(|c| {
-            for m in mag.iter_mut() {
-                *m = c.apply(m);
-            }
-        }));
-    }
+    let read = |p: &std::path::Path, shown: &str| {
+        crate::input::read_text(p, crate::input::MAX_TABLE)
+            .map_err(|e| UsageError::Option(format!("{shown}: cannot read: {e}")))
+    };
+    let text = read(&args.file, &shown)?;
+    let reference = match &args.reference {
+        Some(p) => Some((read(p, &p.display().to_string())?, p.display().to_string())),
+        None => None,
+    };
     let gates = args.gates.unwrap_or(GATES);
-    let c = compare_with(&reading.recording, reading.rate_hz, &gates)
-        .map_err(|e| UsageError::Option(format!("{shown}: {e}")))?;
+    let st = study(
+        Source {
+            text: &text,
+            name: &shown,
+        },
+        reference.as_ref().map(|(text, name)| Source { text, name }),
+        &args.read.options(),
+        args.calibrate_mag,
+        gates,
+    )
+    .map_err(|e| UsageError::Option(e.to_string()))?;
     if let Some(dir) = &args.out {
         let name = args
             .file
             .file_name()
             .map_or(shown.clone(), |n| n.to_string_lossy().to_string());
-        write_out(dir, &name, &reading.recording.t, &c)?;
+        write_out(dir, &name, &st)?;
     }
     let mut out = std::io::stdout().lock();
-    let e = &c.characterised;
-    let t = &reading.recording.t;
-    let still_s = e.still.map(|(a, b)| [t[a] - t[0], t[b] - t[0]]);
     if args.json {
-        let v = serde_json::json!({
-            "file": shown,
-            "columns": reading.columns,
-            "read": reading.notes,
-            "rate_hz": reading.rate_hz,
-            "estimated": {
-                "still_s": still_s,
-                "gyro_bias": e.gyro_bias.as_slice(),
-                "gyro_sd": e.gyro_var.sqrt(),
-                "accel_sd": e.accel_var.sqrt(),
-                "mag_sd": e.mag_var.map(f64::sqrt),
-                "g": e.g,
-                "accel_motion_sd": e.accel_motion_var.sqrt(),
-                "accel_motion_tau": e.accel_motion_tau,
-                "accel_passed": e.accel_passed,
-                "field": e.field.map(|f| serde_json::json!({
-                    "magnitude": f.magnitude,
-                    "dip_deg": f.dip.to_degrees(),
-                    "passed": f.passed,
-                    "disturbance_sd": e.mag_disturbance_var.map(f64::sqrt),
-                    "disturbance_tau": e.mag_disturbance_tau,
-                })),
-            },
-            "reference_z_down": c.reference_z_down,
-            "gates": { "accel": finite(gates.accel), "field": finite(gates.field), "dip_deg": finite(gates.dip.to_degrees()) },
-            "mag_calibration": calibration.as_ref().map(|r| match r {
-                Ok(c) => serde_json::json!({
-                    "offset": c.offset.as_slice(),
-                    "matrix": c.matrix.transpose().as_slice(),
-                    "spread_before": c.spread_before,
-                    "spread_after": c.spread_after,
-                }),
-                Err(e) => serde_json::json!({ "refused": e.to_string() }),
-            }),
-            "scores": c.scores,
-        });
-        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+        writeln!(out, "{}", serde_json::to_string_pretty(&st.json())?)?;
         return Ok(ExitCode::SUCCESS);
     }
+    let (reading, c, calibration) = (&st.reading, &st.comparison, &st.calibration);
+    let e = &c.characterised;
+    let still_s = st.still_s();
     writeln!(out, "{shown}: read as")?;
     for n in &reading.notes {
         writeln!(out, "  {n}")?;
@@ -196,7 +126,7 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
         e.accel_motion_var.sqrt(),
         e.accel_motion_tau
     )?;
-    match &calibration {
+    match calibration {
         Some(Ok(c)) => writeln!(
             out,
             "  magnetometer calibrated (ellipsoid fit): hard iron [{:.4}, {:.4}, {:.4}], |m| spread {:.1} % → {:.1} %",
@@ -300,59 +230,15 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// An open gate (∞) as JSON null.
-fn finite(x: f64) -> Option<f64> {
-    x.is_finite().then_some(x)
-}
-
 /// `attitude.csv` and `attitude.svg`.
-fn write_out(dir: &std::path::Path, title: &str, t: &[f64], c: &Comparison) -> anyhow::Result<()> {
+fn write_out(dir: &std::path::Path, title: &str, st: &Study) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let errors: Vec<Vec<[f64; 3]>> = c
-        .attitudes
-        .iter()
-        .map(|(_, q)| error_angles(q, &c.reference, 0.0))
-        .collect();
-    let mut csv = String::from("t,ref_qw,ref_qx,ref_qy,ref_qz,accel_passed,field_passed");
-    for (name, _) in &c.attitudes {
-        csv.push_str(&format!(
-            ",{name}_qw,{name}_qx,{name}_qy,{name}_qz,{name}_error_deg,{name}_heading_deg,{name}_tilt_deg"
-        ));
-    }
-    csv.push('\n');
-    for k in 0..t.len() {
-        let r = &c.reference[k];
-        let (a, f) = c.passed[k];
-        csv.push_str(&format!(
-            "{},{},{},{},{},{},{}",
-            t[k] - t[0],
-            r[0],
-            r[1],
-            r[2],
-            r[3],
-            u8::from(a),
-            u8::from(f)
-        ));
-        for ((_, q), e) in c.attitudes.iter().zip(&errors) {
-            let (q, e) = (q[k], e[k]);
-            csv.push_str(&format!(
-                ",{},{},{},{},{},{},{}",
-                q[0],
-                q[1],
-                q[2],
-                q[3],
-                e[0].to_degrees(),
-                e[1].to_degrees(),
-                e[2].to_degrees()
-            ));
-        }
-        csv.push('\n');
-    }
-    write_atomic(&dir.join("attitude.csv"), csv.as_bytes())?;
+    write_atomic(&dir.join("attitude.csv"), st.csv().as_bytes())?;
+    let (c, t) = (&st.comparison, &st.reading.recording.t);
     let series: Vec<(String, Vec<(f64, f64)>)> = c
         .attitudes
         .iter()
-        .zip(&errors)
+        .zip(st.error_angles())
         .zip(&c.scores)
         .map(|(((name, _), e), s)| {
             let pts = t.iter().zip(e).map(|(t0, e)| (t0 - t[0], e[0].to_degrees())).collect();

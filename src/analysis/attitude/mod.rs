@@ -18,6 +18,7 @@ use crate::imu_csv::ImuRecording;
 
 pub mod calibrate;
 pub mod sensor;
+pub mod study;
 
 pub use sensor::{characterise, Characterised, Field, Gates, GATES};
 

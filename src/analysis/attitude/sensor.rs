@@ -112,7 +112,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// White-noise variance of a three-axis signal, mean over the axes: for x = s + e with s smooth and e white of
-/// variance σ², the second difference x[k+1] − 2x[k] + x[k−1] has variance 6σ² (Gasser, Sroka & Jennen-Steinmetz
+/// variance σ², the second difference `x[k+1] − 2x[k] + x[k−1]` has variance 6σ² (Gasser, Sroka & Jennen-Steinmetz
 /// 1986); its spread is taken robustly, 1.4826 × the median absolute deviation, so that a few jerks do not count.
 pub fn white_noise_var(v: &[Vector3<f64>]) -> f64 {
     if v.len() < 3 {
