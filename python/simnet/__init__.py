@@ -40,6 +40,8 @@ __all__ = [
     "run",
     "sweep",
     "bounds",
+    "attitude",
+    "Attitude",
     "topologies",
     "estimators",
     "__version__",
@@ -437,6 +439,38 @@ def bounds(
     df = pd.DataFrame(records, columns=["lambda", "trace_S", "trace_V", "measured"]).astype(float)
     df.attrs.update(lambda_min=raw["lambda_min"], lambda_bar=raw["lambda_bar"], rho=raw["rho"])
     return df
+
+
+Attitude = namedtuple("Attitude", ["summary", "samples"])
+Attitude.__doc__ = """A recording studied by :func:`attitude`: ``summary`` is what ``simnet attitude --json`` prints (what
+was read and estimated, the gates, each filter's scores); ``samples`` is ``attitude.csv`` as a DataFrame (time, the
+reference, the gates' verdicts, each filter's quaternion and error in degrees)."""
+
+
+def attitude(
+    file: Union[str, os.PathLike],
+    reference: Union[str, os.PathLike, None] = None,
+    *,
+    columns: Optional[str] = None,
+    units: Optional[str] = None,
+    rate: Optional[float] = None,
+    gates: Optional[str] = None,
+    calibrate_mag: bool = False,
+) -> Attitude:
+    """The EKF, Madgwick and Mahony on a recording, scored against its reference orientation, as
+    ``simnet attitude FILE [--reference REFERENCE]`` does; the options take the command line's values
+    (``columns="t=Counter/rate,ax=Acc_X"``, ``units="gyro=deg/s"``, ``gates="off"``). Bad input raises
+    :class:`ScenarioError` naming the option (``key``) with the command line's message."""
+    raw = _simnet.attitude(
+        os.fspath(file),
+        None if reference is None else os.fspath(reference),
+        columns,
+        units,
+        rate,
+        gates,
+        calibrate_mag,
+    )
+    return Attitude(json.loads(raw["json"]), _table(raw["csv"]))
 
 
 def topologies() -> Dict[str, str]:

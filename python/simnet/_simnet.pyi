@@ -80,6 +80,17 @@ def bounds(
 ) -> Dict[str, Any]:
     """{rho, lambda_min, lambda_bar, lambda_bar_interval, rows: [(λ, trace S̄, trace V̄, S̄, V̄, measured)]}"""
 
+def attitude(
+    file: str,
+    reference: Optional[str] = None,
+    columns: Optional[str] = None,
+    units: Optional[str] = None,
+    rate: Optional[float] = None,
+    gates: Optional[str] = None,
+    calibrate_mag: bool = False,
+) -> Dict[str, Any]:
+    """{json: the text simnet attitude --json prints, csv: attitude.csv as bytes}"""
+
 def builtins() -> List[Tuple[str, str]]: ...
 def estimators() -> List[Tuple[str, str, str, str]]: ...
 def version() -> str: ...

@@ -707,6 +707,76 @@ fn bounds<'py>(
     Ok(d)
 }
 
+/// A recording studied by `simnet attitude`: its JSON text and `attitude.csv` bytes.
+#[pyfunction]
+#[pyo3(signature = (file, reference = None, columns = None, units = None, rate = None, gates = None,
+                    calibrate_mag = false))]
+#[allow(clippy::too_many_arguments)]
+fn attitude<'py>(
+    py: Python<'py>,
+    file: std::path::PathBuf,
+    reference: Option<std::path::PathBuf>,
+    columns: Option<String>,
+    units: Option<String>,
+    rate: Option<f64>,
+    gates: Option<String>,
+    calibrate_mag: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    use simnet::analysis::attitude::{study, Gates, GATES};
+    use simnet::imu_csv::layout;
+    let bad = |key: &str, m: String| option_error(py, key, m);
+    let o = layout::ReadOptions {
+        columns: columns
+            .map(|c| layout::parse_columns(&c))
+            .transpose()
+            .map_err(|e| bad("columns", format!("--columns: {e}")))?
+            .unwrap_or_default(),
+        units: units
+            .map(|u| layout::parse_units(&u))
+            .transpose()
+            .map_err(|e| bad("units", format!("--units: {e}")))?
+            .unwrap_or_default(),
+        rate_hz: match rate {
+            Some(r) if !(r.is_finite() && r > 0.0) => {
+                return Err(bad("rate", format!("--rate: must be a positive number, got {r}")))
+            }
+            r => r,
+        },
+    };
+    let gates = match gates {
+        Some(g) => Gates::parse(&g).map_err(|e| bad("gates", format!("--gates: {e}")))?,
+        None => GATES,
+    };
+    let read = |p: &std::path::Path| {
+        let shown = p.display().to_string();
+        simnet::input::read_text(p, simnet::input::MAX_TABLE)
+            .map(|t| (t, shown.clone()))
+            .map_err(|e| bad("file", format!("{shown}: cannot read: {e}")))
+    };
+    let (text, name) = read(&file)?;
+    let reference = reference.as_deref().map(read).transpose()?;
+    let (json, csv) = py
+        .detach(|| {
+            study::study(
+                study::Source {
+                    text: &text,
+                    name: &name,
+                },
+                reference.as_ref().map(|(text, name)| study::Source { text, name }),
+                &o,
+                calibrate_mag,
+                gates,
+            )
+            .map(|st| (st.json().to_string(), st.csv()))
+            .map_err(|e| e.to_string())
+        })
+        .map_err(|e| bad("file", e))?;
+    let d = PyDict::new(py);
+    d.set_item("json", json)?;
+    d.set_item("csv", PyBytes::new(py, csv.as_bytes()))?;
+    Ok(d)
+}
+
 /// The built-in topologies: (name, description).
 #[pyfunction]
 fn builtins() -> Vec<(String, String)> {
@@ -743,6 +813,7 @@ fn _simnet(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(sweep, m)?)?;
     m.add_function(wrap_pyfunction!(bounds, m)?)?;
+    m.add_function(wrap_pyfunction!(attitude, m)?)?;
     m.add_function(wrap_pyfunction!(builtins, m)?)?;
     m.add_function(wrap_pyfunction!(estimators, m)?)?;
     m.add_function(wrap_pyfunction!(version, m)?)?;

@@ -357,3 +357,34 @@ def test_a_measured_run_lies_between_the_bounds():
         simnet.bounds(A, C, Q, R, lam=1.5)
     with pytest.raises(TypeError):
         simnet.bounds(lam=0.5)
+
+
+RECORDINGS = Path(__file__).resolve().parents[2] / "tests" / "data" / "recordings"
+
+
+def test_attitude_is_what_simnet_attitude_prints(cli, tmp_path):
+    sensors, quats = RECORDINGS / "ngimu-sensors.csv", RECORDINGS / "ngimu-quaternion.csv"
+    a = simnet.attitude(sensors, quats, gates="off")
+    p = cli("attitude", str(sensors), "--reference", str(quats), "--gates", "off", "--json", "--out", str(tmp_path))
+    assert a.summary == json.loads(p.stdout)
+    expected = pd.read_csv(tmp_path / "attitude.csv")
+    pd.testing.assert_frame_equal(a.samples, expected)
+    # The per-sample errors average to the scores.
+    ekf = next(s for s in a.summary["scores"] if s["filter"] == "ekf")
+    assert math.isclose(a.samples["ekf_error_deg"].mean(), ekf["as_recorded"]["mean"], rel_tol=1e-9)
+
+
+def test_attitude_bad_input_names_the_option(cli):
+    xsens = RECORDINGS / "xsens-mti.txt"
+    for kwargs, key, says in [
+        (dict(units="gyro=furlong/s"), "units", "not a unit of gyro"),
+        (dict(gates="heading=1"), "gates", "not a gate"),
+        (dict(rate=-1.0), "rate", "positive"),
+        (dict(columns="ax=Nope"), "file", "no column `Nope`"),
+    ]:
+        with pytest.raises(simnet.ScenarioError) as e:
+            simnet.attitude(xsens, **kwargs)
+        assert e.value.key == key and says in str(e.value), (kwargs, str(e.value))
+    with pytest.raises(simnet.ScenarioError) as e:
+        simnet.attitude(RECORDINGS / "nope.txt")
+    assert "cannot read" in str(e.value)
