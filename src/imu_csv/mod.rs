@@ -1,7 +1,8 @@
 //! Recorded IMU files: `t,ax,ay,az,gx,gy,gz[,mx,my,mz]` in SI units (s, m/s² specific force in the body frame,
 //! rad/s), optionally with reference columns `x,y,z` (position, m) and `roll,pitch,yaw` (Euler ZYX, rad). A header
 //! line names the columns, in any order; `#` starts a comment line. `simnet run --out` writes one per sensing node
-//! (`imu-ID.csv`, with the true pose as reference). `layout/` reads the files IMU makers and loggers write (`names.rs`: their column names and units).
+//! (`imu-ID.csv`, with the true pose as reference). `layout/` reads the files IMU makers and loggers write
+//! (`names.rs`: their column names and units).
 
 use nalgebra::Vector3;
 
