@@ -306,6 +306,8 @@ fn attitude_bad_input_is_named() {
             vec![&xio3, "--reference", &xio3q, "--calibrate-mag"],
             "has no magnetometer",
         ),
+        (vec![&xsens, "--gates", "accel=0"], "not a positive number"),
+        (vec![&xsens, "--gates", "heading=0.1"], "not a gate"),
     ];
     for (args, says) in cases {
         let (code, _, err) = attitude_cli(&args);
