@@ -35,7 +35,12 @@ impl Linear {
         x0: DVector<f64>,
         P0: DMatrix<f64>,
     ) -> Linear {
-        let R_chol = nalgebra::Cholesky::new(R.clone()).map(|c| c.l());
+        // nalgebra's Cholesky panics on a non-square matrix; validation reports that shape, here it only has no factor.
+        let R_chol = R
+            .is_square()
+            .then(|| nalgebra::Cholesky::new(R.clone()))
+            .flatten()
+            .map(|c| c.l());
         Linear {
             A,
             C,
