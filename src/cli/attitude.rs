@@ -115,8 +115,8 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
     }
     writeln!(
         out,
-        "  accelerometer gate ({}) passes {:.1} % of samples; linear acceleration it lets through: sd {:.3} m/s², \
-         correlation time {:.1} samples",
+        "  accelerometer gate ({}) passes {:.1} % of samples; linear acceleration (|a| − |g|, every sample): \
+         sd {:.3} m/s², correlation time {:.1} samples",
         if g.accel.is_finite() {
             format!("|a| within {:.0} % of |g|", 100.0 * g.accel)
         } else {
@@ -145,8 +145,8 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
     if let Some(f) = e.field {
         writeln!(
             out,
-            "  field {:.4} (file unit), dip {:.1}°; field gate ({}) passes {:.1} % of samples; disturbance it lets \
-             through: sd {:.3}, correlation time {:.1} samples",
+            "  field {:.4} (file unit), dip {:.1}°; field gate ({}) passes {:.1} % of samples; disturbance (|m| − |h|, every \
+             sample): sd {:.3}, correlation time {:.1} samples",
             f.magnitude,
             f.dip.to_degrees(),
             match (g.field.is_finite(), g.dip.is_finite()) {
@@ -224,6 +224,35 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
         crate::estimate::ahrs::MAHONY_KP,
         crate::estimate::ahrs::MAHONY_KI
     )?;
+    let nc = &c.noise_check;
+    let part = |p: &crate::analysis::attitude::check::Part, model: f64| {
+        format!(
+            "sd {}, τ {:.1} → R {} ({:.2}× the model's)",
+            sig3(p.var.sqrt()),
+            p.tau,
+            sig3(p.white_equivalent),
+            p.white_equivalent / model
+        )
+    };
+    writeln!(
+        out,
+        "
+the EKF's noise model against the reference (per axis; R = mean square over the samples the gates pass × \
+         correlation time):\n  linear acceleration across g: {}; the model's R {}",
+        part(&nc.accel_across, nc.accel_model),
+        sig3(nc.accel_model)
+    )?;
+    if let Some(f) = &nc.field {
+        writeln!(
+            out,
+            "  field disturbance across the field, horizontal (turns heading): {}\n  across, vertical (dip): {}\n  \
+             along (|m|): {}; the model's R {}",
+            part(&f.across_horizontal, f.model),
+            part(&f.across_vertical, f.model),
+            part(&f.along, f.model),
+            sig3(f.model)
+        )?;
+    }
     if let Some(dir) = &args.out {
         writeln!(out, "wrote {0}/attitude.csv and {0}/attitude.svg", dir.display())?;
     }
@@ -249,4 +278,13 @@ fn write_out(dir: &std::path::Path, title: &str, st: &Study) -> anyhow::Result<(
     let svg = plot::lines(&series, "t (s)", "error (°)", false, &title)?;
     write_atomic(&dir.join("attitude.svg"), svg.as_bytes())?;
     Ok(())
+}
+
+/// Three significant digits, fixed point.
+fn sig3(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let decimals = (2 - x.abs().log10().floor() as i64).clamp(0, 12) as usize;
+    format!("{x:.decimals$}")
 }

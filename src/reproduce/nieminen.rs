@@ -203,18 +203,6 @@ pub const HOLDS_ON: f64 = 0.9;
 /// errors (s − 1 and b).
 pub const IDENTIFIED: f64 = 0.25;
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n == 0 {
-        f64::NAN
-    } else if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
 /// Both tests on `seeds` seeds from `s.seed`; the table shows the first seed, the claims are judged on every seed.
 pub fn run(s: &Sensor, seeds: u64) -> Result<Output, super::ReproduceError> {
     let seeds = seeds.max(1);
@@ -263,7 +251,8 @@ pub fn run(s: &Sensor, seeds: u64) -> Result<Output, super::ReproduceError> {
     // Per seed: (holds, figures) of each claim.
     let count = |f: &dyn Fn(&[TestResult]) -> bool| per_seed.iter().filter(|r| f(r)).count();
     let verdict = |k: usize| (k as f64 >= HOLDS_ON * n as f64, format!("holds on {k}/{n} seeds"));
-    let med = |f: &dyn Fn(&[TestResult]) -> f64| median(per_seed.iter().map(|r| f(r)).collect());
+    let med =
+        |f: &dyn Fn(&[TestResult]) -> f64| crate::stats::median(&per_seed.iter().map(|r| f(r)).collect::<Vec<_>>());
 
     let grows = |r: &[TestResult]| {
         r.iter()

@@ -17,6 +17,7 @@ use crate::estimate::EstimateError;
 use crate::imu_csv::ImuRecording;
 
 pub mod calibrate;
+pub mod check;
 pub mod sensor;
 pub mod study;
 
@@ -182,8 +183,7 @@ impl Ekf {
         g: Vector3<f64>,
         h: Option<Vector3<f64>>,
     ) -> Result<Ekf, EstimateError> {
-        let ra = c.accel_var + c.accel_motion_var * c.accel_motion_tau;
-        let rm = c.mag_var.unwrap_or(1.0) + c.mag_disturbance_var.unwrap_or(0.0) * c.mag_disturbance_tau.unwrap_or(1.0);
+        let (ra, rm) = (c.r_accel(), c.r_mag().unwrap_or(1.0));
         let hv = h.unwrap_or_else(Vector3::x);
         let model = AttitudeModel {
             g,
@@ -276,8 +276,8 @@ pub struct Comparison {
     pub attitudes: Vec<(&'static str, Vec<Vector4<f64>>)>,
     /// The reference, z up.
     pub reference: Vec<Vector4<f64>>,
-    /// Per sample: whether the accelerometer and the field passed their gates.
-    pub passed: Vec<(bool, bool)>,
+    /// The noise model held against the reference.
+    pub noise_check: check::NoiseCheck,
 }
 
 /// Run the EKF, Madgwick and Mahony on `rec`, each initialised from the first accelerometer and magnetometer
@@ -321,20 +321,12 @@ pub fn compare_with(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Result<C
         }),
     ];
     let mut out: Vec<Vec<Vector4<f64>>> = filters.iter().map(|_| Vec::with_capacity(n)).collect();
-    let mut passed = Vec::with_capacity(n);
     for k in 0..n {
-        let a = rec.accel[k];
-        let accel_ok = sensor::accel_passes(&a, c.g, gates);
-        let m = rec.mag.as_ref().map(|m| m[k]);
-        let field_ok = match (m, c.field) {
-            (Some(m), Some(f)) => sensor::field_passes(&m, Some(&a).filter(|_| accel_ok), &f, gates),
-            _ => false,
-        };
-        passed.push((accel_ok, field_ok));
+        let (accel_ok, field_ok) = c.passed[k];
         let s = Sample {
             w: rec.gyro[k],
-            f: a,
-            m,
+            f: rec.accel[k],
+            m: rec.mag.as_ref().map(|m| m[k]),
             dt: if k == 0 { 0.0 } else { rec.t[k] - rec.t[k - 1] },
             accel_ok,
             field_ok,
@@ -355,7 +347,9 @@ pub fn compare_with(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Result<C
             gated: f.gated(),
         });
     }
+    let noise_check = check::check(rec, &reference, &c);
     Ok(Comparison {
+        noise_check,
         characterised: c,
         reference_z_down: z_down,
         g,
@@ -363,7 +357,6 @@ pub fn compare_with(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Result<C
         scores,
         attitudes: filters.iter().map(|f| f.name()).zip(out).collect(),
         reference,
-        passed,
     })
 }
 
@@ -456,6 +449,40 @@ mod tests {
         );
     }
 
+    /// Against the truth the simulation knows, the check measures each component: the field's white noise (σ 0.005
+    /// on every axis, no disturbance) as σ² in all three directions with a correlation time near one sample, and the
+    /// linear acceleration across g as an independent sum over the samples the gate passes, within 10 %.
+    #[test]
+    fn the_noise_check_measures_what_the_simulation_put_in() {
+        let (rec, _) = recording(5, Vector3::zeros(), false);
+        let c = compare(&rec, 100.0).unwrap();
+        let f = c.noise_check.field.expect("a magnetometer");
+        for (name, p) in [
+            ("horizontal", f.across_horizontal),
+            ("vertical", f.across_vertical),
+            ("along", f.along),
+        ] {
+            assert!((p.var / 0.005f64.powi(2) - 1.0).abs() < 0.1, "{name}: {p:?}");
+            assert!(p.tau < 1.5, "{name}: {p:?}");
+        }
+        let passed: Vec<usize> = (0..rec.t.len()).filter(|&k| c.characterised.passed[k].0).collect();
+        let horizontal: f64 = passed
+            .iter()
+            .map(|&k| {
+                let t = rec.t[k];
+                if t > 3.0 && (t % 4.0) < 0.5 {
+                    0.5 * ((3.0 * (12.0 * t).sin()).powi(2) + (2.0 * (9.0 * t).cos()).powi(2))
+                } else {
+                    0.0
+                }
+            })
+            .sum::<f64>()
+            / passed.len() as f64;
+        let expected = horizontal + 0.05f64.powi(2);
+        let got = c.noise_check.accel_across.var;
+        assert!((got / expected - 1.0).abs() < 0.1, "{got} against {expected}");
+    }
+
     /// Second differences find white noise under smooth motion: over 20 000 samples of a sinusoid with σ = 0.1,
     /// within 5 %.
     #[test]
@@ -479,9 +506,9 @@ mod tests {
     fn gates_keep_a_magnetic_disturbance_and_linear_acceleration_out() {
         let (rec, disturbed) = recording(11, Vector3::new(0.01, -0.02, 0.015), true);
         let c = compare(&rec, 100.0).unwrap();
-        let refused_in = disturbed.clone().filter(|&k| !c.passed[k].1).count();
+        let refused_in = disturbed.clone().filter(|&k| !c.characterised.passed[k].1).count();
         let refused_out = (0..rec.t.len())
-            .filter(|k| !disturbed.contains(k) && !c.passed[*k].1 && c.passed[*k].0)
+            .filter(|k| !disturbed.contains(k) && !c.characterised.passed[*k].1 && c.characterised.passed[*k].0)
             .count();
         assert!(
             refused_in as f64 >= 0.9 * disturbed.len() as f64,
@@ -494,7 +521,7 @@ mod tests {
         );
         let ekf = c.scores.iter().find(|s| s.filter == "ekf").unwrap();
         let gated = ekf.gated.unwrap();
-        assert_eq!(gated.field, c.passed.iter().filter(|p| !p.1).count());
+        assert_eq!(gated.field, c.characterised.passed.iter().filter(|p| !p.1).count());
         // Bursts: 0.5 s of every 4 s after 3 s, 100 samples a second.
         let bursts = (0..rec.t.len())
             .filter(|&k| rec.t[k] > 3.0 && rec.t[k] % 4.0 < 0.5)

@@ -6,6 +6,7 @@
 use nalgebra::Vector3;
 
 use crate::imu_csv::ImuRecording;
+use crate::stats;
 
 /// The gates of the corrections, as fractions. An accelerometer sample whose |a| departs from |g| by more than
 /// `accel` of |g| is taken as linear acceleration; a magnetometer sample whose |m| departs from the field's
@@ -85,30 +86,40 @@ pub struct Characterised {
     pub mag_var: Option<f64>,
     /// |g| as the sensor reads it: over the still window, else the median |a|, m/s².
     pub g: f64,
-    /// Mean (|a| − |g|)² over the samples the accelerometer gate passes: the linear acceleration a filter that
-    /// takes them sees as noise, (m/s²)².
+    /// Mean (|a| − |g|)² over every sample: the per-axis variance of the linear acceleration, (m/s²)². Taken
+    /// before the gate: the gate bounds the component along gravity, which is what |a| − |g| measures, and leaves
+    /// the horizontal ones, which are what tilt an estimate, as large as they were.
     pub accel_motion_var: f64,
-    /// Its correlation time, samples ([`correlation_time`] of |a| − |g| over the samples the gate passes).
+    /// Its correlation time, samples ([`correlation_time`] of |a| − |g|).
     pub accel_motion_tau: f64,
-    /// Mean (|m| − |h|)² over the samples the field gate passes, (file unit)², and its correlation time.
+    /// Mean (|m| − |h|)² over every sample, (file unit)², and its correlation time: likewise taken before the
+    /// field gate, which bounds the component along the field and not the horizontal one across it, the one that
+    /// turns heading.
     pub mag_disturbance_var: Option<f64>,
     pub mag_disturbance_tau: Option<f64>,
     pub field: Option<Field>,
     /// Share of the accelerometer samples the gate passed.
     pub accel_passed: f64,
+    /// Per sample: whether the accelerometer and the field passed their gates (the field's false without a
+    /// magnetometer).
+    pub passed: Vec<(bool, bool)>,
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
+impl Characterised {
+    /// The EKF's accelerometer R per axis: the white noise plus the linear acceleration's white-noise equivalent,
+    /// its variance times its correlation time.
+    pub fn r_accel(&self) -> f64 {
+        self.accel_var + self.accel_motion_var * self.accel_motion_tau
     }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
+
+    /// Its magnetometer R per axis, built the same way from the field's disturbance; None without a magnetometer.
+    pub fn r_mag(&self) -> Option<f64> {
+        Some(self.mag_var? + self.mag_disturbance_var? * self.mag_disturbance_tau?)
     }
+}
+
+fn mean_square(x: &[f64]) -> f64 {
+    x.iter().map(|d| d * d).sum::<f64>() / x.len().max(1) as f64
 }
 
 /// White-noise variance of a three-axis signal, mean over the axes: for x = s + e with s smooth and e white of
@@ -124,8 +135,8 @@ pub fn white_noise_var(v: &[Vector3<f64>]) -> f64 {
             .windows(3)
             .map(|w| w[2][axis] - 2.0 * w[1][axis] + w[0][axis])
             .collect();
-        let m = median(d.clone());
-        let mad = median(d.iter().map(|x| (x - m).abs()).collect());
+        let m = stats::median(&d);
+        let mad = stats::median(&d.iter().map(|x| (x - m).abs()).collect::<Vec<_>>());
         total += (1.4826 * mad).powi(2) / 6.0;
     }
     total / 3.0
@@ -230,7 +241,7 @@ pub fn characterise(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Characte
         }
         None => (
             Vector3::zeros(),
-            median(rec.accel.iter().map(|a| a.norm()).collect()),
+            stats::median(&rec.accel.iter().map(|a| a.norm()).collect::<Vec<_>>()),
             gyro_var,
             accel_var,
             mag_var,
@@ -238,33 +249,30 @@ pub fn characterise(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Characte
     };
     let passes: Vec<bool> = rec.accel.iter().map(|a| accel_passes(a, g, gates)).collect();
     let kept = passes.iter().filter(|p| **p).count();
-    let motion: Vec<f64> = rec
-        .accel
-        .iter()
-        .zip(&passes)
-        .filter(|(_, p)| **p)
-        .map(|(a, _)| a.norm() - g)
-        .collect();
-    let accel_motion_var = motion.iter().map(|d| d * d).sum::<f64>() / kept.max(1) as f64;
-    let (field, mag_disturbance) = match &rec.mag {
+    let motion: Vec<f64> = rec.accel.iter().map(|a| a.norm() - g).collect();
+    let (field, mag_disturbance, field_ok) = match &rec.mag {
         Some(mag) => {
             let level: Vec<usize> = (0..n).filter(|&k| passes[k]).collect();
-            let magnitude = median(level.iter().map(|&k| mag[k].norm()).collect());
-            let dip = median(level.iter().filter_map(|&k| dip_of(&mag[k], &rec.accel[k])).collect());
+            let magnitude = stats::median(&level.iter().map(|&k| mag[k].norm()).collect::<Vec<_>>());
+            let dip = stats::median(
+                &level
+                    .iter()
+                    .filter_map(|&k| dip_of(&mag[k], &rec.accel[k]))
+                    .collect::<Vec<_>>(),
+            );
             let mut f = Field {
                 magnitude,
                 dip,
                 passed: 0.0,
             };
-            let ok: Vec<usize> = (0..n)
-                .filter(|&k| field_passes(&mag[k], Some(&rec.accel[k]).filter(|_| passes[k]), &f, gates))
+            let ok: Vec<bool> = (0..n)
+                .map(|k| field_passes(&mag[k], Some(&rec.accel[k]).filter(|_| passes[k]), &f, gates))
                 .collect();
-            f.passed = ok.len() as f64 / n.max(1) as f64;
-            let d: Vec<f64> = ok.iter().map(|&k| mag[k].norm() - magnitude).collect();
-            let var = d.iter().map(|d| d * d).sum::<f64>() / ok.len().max(1) as f64;
-            (Some(f), Some((var, correlation_time(&d))))
+            f.passed = ok.iter().filter(|p| **p).count() as f64 / n.max(1) as f64;
+            let d: Vec<f64> = mag.iter().map(|m| m.norm() - magnitude).collect();
+            (Some(f), Some((mean_square(&d), correlation_time(&d))), ok)
         }
-        None => (None, None),
+        None => (None, None, vec![false; n]),
     };
     Characterised {
         still,
@@ -273,11 +281,12 @@ pub fn characterise(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Characte
         accel_var,
         mag_var,
         g,
-        accel_motion_var,
+        accel_motion_var: mean_square(&motion),
         accel_motion_tau: correlation_time(&motion),
         mag_disturbance_var: mag_disturbance.map(|d| d.0),
         mag_disturbance_tau: mag_disturbance.map(|d| d.1),
         field,
         accel_passed: kept as f64 / n.max(1) as f64,
+        passed: passes.into_iter().zip(field_ok).collect(),
     }
 }

@@ -145,6 +145,7 @@ impl Study {
                     "disturbance_tau": e.mag_disturbance_tau,
                 })),
             },
+            "noise_check": c.noise_check,
             "reference_z_down": c.reference_z_down,
             "gates": {
                 "accel": finite(gates.accel),
@@ -188,7 +189,7 @@ impl Study {
         csv.push('\n');
         for k in 0..t.len() {
             let r = &c.reference[k];
-            let (a, f) = c.passed[k];
+            let (a, f) = c.characterised.passed[k];
             csv.push_str(&format!(
                 "{},{},{},{},{},{},{}",
                 t[k] - t[0],

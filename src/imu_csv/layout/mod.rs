@@ -62,6 +62,12 @@ fn fields(line: &str, delim: Option<char>) -> Vec<&str> {
     }
 }
 
+/// The rate the time column gives: one over the median interval, Hz (NaN for fewer than two samples).
+fn median_rate(t: &[f64]) -> f64 {
+    let dts: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    1.0 / crate::stats::median(&dts)
+}
+
 /// Read simnet's own CSV (a comma-separated header of simnet's column names alone, t, ax…az and gx…gz among them,
 /// and no option given) with its strict reader, which keeps the reference position, and any other layout with
 /// [`read`].
@@ -79,9 +85,7 @@ pub fn read_any(text: &str, file: &str, o: &ReadOptions) -> Result<Reading, CsvE
         return read(text, file, o);
     }
     let recording = super::parse(text, file)?;
-    let mut dts: Vec<f64> = recording.t.windows(2).map(|w| w[1] - w[0]).collect();
-    dts.sort_by(f64::total_cmp);
-    let rate_hz = dts.get(dts.len() / 2).map_or(f64::NAN, |d| 1.0 / d);
+    let rate_hz = median_rate(&recording.t);
     let columns = header
         .unwrap_or_default()
         .split(',')
@@ -435,9 +439,7 @@ fn read_as(text: &str, file: &str, o: &ReadOptions, reference_only: bool) -> Res
             }
         }
     }
-    let mut dts: Vec<f64> = rec.t.windows(2).map(|w| w[1] - w[0]).collect();
-    dts.sort_by(f64::total_cmp);
-    let rate_hz = 1.0 / dts[dts.len() / 2];
+    let rate_hz = median_rate(&rec.t);
     notes.push(format!(
         "{} samples over {:.2} s at {rate_hz:.4} Hz{}",
         rec.t.len(),
