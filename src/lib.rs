@@ -23,7 +23,7 @@
 //! | [`sim`] | whole runs in memory: [`Sim`] steps every node in lockstep and returns [`RunResults`], the same as over UDP |
 //! | [`net`] | the only I/O: one UDP socket per node served by one worker per core, virtual and realtime clocks, shutdown; `net::host` runs one node per process (`simnet node`) |
 //! | [`report`] | `summary.json` (with the settings that made it), the table, `trace.csv` and IMU files streamed as a run goes (`report::trace`), `links.csv`, SVG plots |
-//! | [`analysis`] | studies over whole runs: Sinopoli's covariance bounds against runs measured at each arrival rate; attitude filters on a real recording against its own reference (noise, gates and magnetometer calibration read off the recording) |
+//! | [`analysis`] | studies over whole runs: Sinopoli's covariance bounds against runs measured at each arrival rate; attitude filters on a real recording against its own reference (noise, gates and magnetometer calibration read off the recording; the noise model checked against the reference) |
 //! | [`protocol`] | β protocol search over whole in-memory runs: the paper's family by bisection on (17)/(19); all β by SDP (feature `sdp`) |
 //! | [`reconstruct`] | position from a recorded IMU file as a boundary value problem (FEM), trapezoid for comparison, sensor-error model |
 //! | [`reproduce`] | the source documents' experiments rerun: claims tables with simnet's figures, and plots |

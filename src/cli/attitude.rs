@@ -162,6 +162,29 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
             e.mag_disturbance_tau.unwrap_or(1.0)
         )?;
     }
+    match &e.across {
+        Some(x) => writeln!(
+            out,
+            "  across g and the field, the gyro linking the samples (fitted gyro bias [{:.4}, {:.4}, {:.4}] rad/s \
+             more): horizontal specific force sd {} m/s², τ {:.1} → R {}{}",
+            x.bias_correction[0],
+            x.bias_correction[1],
+            x.bias_correction[2],
+            sig3(x.accel.var.sqrt()),
+            x.accel.tau,
+            sig3(x.accel.white_equivalent),
+            x.field.map_or(String::new(), |f| format!(
+                "; field across, horizontal sd {}, τ {:.1} → R {}",
+                sig3(f.var.sqrt()),
+                f.tau,
+                sig3(f.white_equivalent)
+            ))
+        )?,
+        None => writeln!(
+            out,
+            "  across g and the field: the gyro-aided fit failed; R from |a| − |g| and |m| − |h| instead"
+        )?,
+    }
     writeln!(
         out,
         "reference: {}; filters start from the first accelerometer{} sample\n",
@@ -225,7 +248,7 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
         crate::estimate::ahrs::MAHONY_KI
     )?;
     let nc = &c.noise_check;
-    let part = |p: &crate::analysis::attitude::check::Part, model: f64| {
+    let part = |p: &crate::analysis::attitude::sensor::Part, model: f64| {
         format!(
             "sd {}, τ {:.1} → R {} ({:.2}× the model's)",
             sig3(p.var.sqrt()),
@@ -238,7 +261,7 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
         out,
         "
 the EKF's noise model against the reference (per axis; R = mean square over the samples the gates pass × \
-         correlation time):\n  linear acceleration across g: {}; the model's R {}",
+         their correlation time):\n  linear acceleration across g: {}; the model's R {}",
         part(&nc.accel_across, nc.accel_model),
         sig3(nc.accel_model)
     )?;

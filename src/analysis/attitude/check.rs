@@ -6,43 +6,10 @@
 
 use nalgebra::{Vector3, Vector4};
 
-use super::sensor::{correlation_time, Characterised};
+use super::sensor::{Characterised, Part};
 use super::unit;
 use crate::imu_csv::ImuRecording;
 use crate::stats;
-
-/// One component of a disturbance: its mean square over the samples a gate passes, its correlation time over the
-/// whole recording (samples), and their product, the white-noise variance a filter that takes it as white should
-/// use.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
-pub struct Part {
-    pub var: f64,
-    pub tau: f64,
-    pub white_equivalent: f64,
-}
-
-impl Part {
-    fn of(series: &[f64], passed: impl Fn(usize) -> bool) -> Part {
-        let kept: Vec<f64> = (0..series.len()).filter(|&k| passed(k)).map(|k| series[k]).collect();
-        let var = kept.iter().map(|x| x * x).sum::<f64>() / kept.len().max(1) as f64;
-        let tau = correlation_time(series);
-        Part {
-            var,
-            tau,
-            white_equivalent: var * tau,
-        }
-    }
-
-    /// The mean of two components (the two horizontal axes).
-    fn mean(a: Part, b: Part) -> Part {
-        let (var, tau) = (0.5 * (a.var + b.var), 0.5 * (a.tau + b.tau));
-        Part {
-            var,
-            tau,
-            white_equivalent: 0.5 * (a.white_equivalent + b.white_equivalent),
-        }
-    }
-}
 
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct FieldCheck {

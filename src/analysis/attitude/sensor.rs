@@ -5,6 +5,8 @@
 
 use nalgebra::Vector3;
 
+use super::across::{self, Across};
+use crate::estimate::attitude::{from_euler, level};
 use crate::imu_csv::ImuRecording;
 use crate::stats;
 
@@ -62,6 +64,39 @@ impl Gates {
     }
 }
 
+/// One component of a disturbance: its mean square over the samples a gate passes, its correlation time over the
+/// same samples, the others gaps ([`correlation_time_of`], samples), and their product, the white-noise variance a
+/// filter that takes it as white should use.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Part {
+    pub var: f64,
+    pub tau: f64,
+    pub white_equivalent: f64,
+}
+
+impl Part {
+    pub fn of(series: &[f64], passed: impl Fn(usize) -> bool) -> Part {
+        let kept: Vec<f64> = (0..series.len()).filter(|&k| passed(k)).map(|k| series[k]).collect();
+        let var = kept.iter().map(|x| x * x).sum::<f64>() / kept.len().max(1) as f64;
+        let tau = correlation_time_of(series, &passed);
+        Part {
+            var,
+            tau,
+            white_equivalent: var * tau,
+        }
+    }
+
+    /// The mean of two components (the two horizontal axes).
+    pub fn mean(a: Part, b: Part) -> Part {
+        let (var, tau) = (0.5 * (a.var + b.var), 0.5 * (a.tau + b.tau));
+        Part {
+            var,
+            tau,
+            white_equivalent: 0.5 * (a.white_equivalent + b.white_equivalent),
+        }
+    }
+}
+
 /// The earth field as the recording measures it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Field {
@@ -86,35 +121,45 @@ pub struct Characterised {
     pub mag_var: Option<f64>,
     /// |g| as the sensor reads it: over the still window, else the median |a|, m/s².
     pub g: f64,
-    /// Mean (|a| − |g|)² over every sample: the per-axis variance of the linear acceleration, (m/s²)². Taken
-    /// before the gate: the gate bounds the component along gravity, which is what |a| − |g| measures, and leaves
-    /// the horizontal ones, which are what tilt an estimate, as large as they were.
+    /// Mean (|a| − |g|)² over every sample, (m/s²)²: the linear acceleration along g, before the gate, which
+    /// bounds that component alone. The noise model falls back on it, as the per-axis variance, when the gyro-aided
+    /// fit ([`Characterised::across`]) fails.
     pub accel_motion_var: f64,
     /// Its correlation time, samples ([`correlation_time`] of |a| − |g|).
     pub accel_motion_tau: f64,
-    /// Mean (|m| − |h|)² over every sample, (file unit)², and its correlation time: likewise taken before the
-    /// field gate, which bounds the component along the field and not the horizontal one across it, the one that
-    /// turns heading.
+    /// Mean (|m| − |h|)² over every sample, (file unit)², and its correlation time: the field's disturbance along
+    /// it, the fallback likewise.
     pub mag_disturbance_var: Option<f64>,
     pub mag_disturbance_tau: Option<f64>,
     pub field: Option<Field>,
     /// Share of the accelerometer samples the gate passed.
     pub accel_passed: f64,
+    /// The disturbances across g and across the field, the gyro linking the samples ([`across::fit`]); None
+    /// when the fit fails.
+    pub across: Option<Across>,
     /// Per sample: whether the accelerometer and the field passed their gates (the field's false without a
     /// magnetometer).
     pub passed: Vec<(bool, bool)>,
 }
 
 impl Characterised {
-    /// The EKF's accelerometer R per axis: the white noise plus the linear acceleration's white-noise equivalent,
-    /// its variance times its correlation time.
+    /// The EKF's accelerometer R per axis: the white-noise equivalent (variance times correlation time) of the
+    /// specific force across g over the samples the gate passes, white noise and linear acceleration together, as
+    /// the gyro-aided fit measures it; without the fit, the white noise plus |a| − |g|'s equivalent.
     pub fn r_accel(&self) -> f64 {
-        self.accel_var + self.accel_motion_var * self.accel_motion_tau
+        match &self.across {
+            Some(x) => x.accel.white_equivalent,
+            None => self.accel_var + self.accel_motion_var * self.accel_motion_tau,
+        }
     }
 
-    /// Its magnetometer R per axis, built the same way from the field's disturbance; None without a magnetometer.
+    /// Its magnetometer R per axis, the same of the field's horizontal component across it (the one that turns
+    /// heading; the compensated field reference leaves the EKF no other); None without a magnetometer.
     pub fn r_mag(&self) -> Option<f64> {
-        Some(self.mag_var? + self.mag_disturbance_var? * self.mag_disturbance_tau?)
+        match self.across.and_then(|x| x.field) {
+            Some(f) => Some(f.white_equivalent),
+            None => Some(self.mag_var? + self.mag_disturbance_var? * self.mag_disturbance_tau?),
+        }
     }
 }
 
@@ -149,24 +194,31 @@ pub const MAX_LAG: usize = 2000;
 /// its autocorrelations ρ_k (Geyer 1992). A disturbance that lasts τ samples weighs in a filter that takes it as
 /// white noise like τ independent ones: its white-noise equivalent has τ times its variance.
 pub fn correlation_time(x: &[f64]) -> f64 {
+    correlation_time_of(x, |_| true)
+}
+
+/// [`correlation_time`] of the samples `kept` keeps, the others gaps: each lag's autocovariance sums over the pairs
+/// both of whose samples are kept, so that a refused stretch neither joins its neighbours nor counts.
+pub fn correlation_time_of(x: &[f64], kept: impl Fn(usize) -> bool) -> f64 {
     let n = x.len();
-    if n < 3 {
+    let keep: Vec<bool> = (0..n).map(kept).collect();
+    let count = keep.iter().filter(|k| **k).count();
+    if count < 3 {
         return 1.0;
     }
-    let m = x.iter().sum::<f64>() / n as f64;
-    let c0 = x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / n as f64;
+    let m = (0..n).filter(|&i| keep[i]).map(|i| x[i]).sum::<f64>() / count as f64;
+    let c0 = (0..n).filter(|&i| keep[i]).map(|i| (x[i] - m).powi(2)).sum::<f64>() / count as f64;
     if c0 <= 0.0 {
         return 1.0;
     }
     let mut tau = 1.0;
     // At most MAX_LAG lags: a drifting series stays positively correlated far out, and the sum is then past any use.
     for k in 1..(n / 2).min(MAX_LAG) {
-        let ck = x[..n - k]
-            .iter()
-            .zip(&x[k..])
-            .map(|(a, b)| (a - m) * (b - m))
+        let ck = (0..n - k)
+            .filter(|&i| keep[i] && keep[i + k])
+            .map(|i| (x[i] - m) * (x[i + k] - m))
             .sum::<f64>()
-            / n as f64;
+            / count as f64;
         let rho = ck / c0;
         if rho <= 0.0 {
             break;
@@ -274,19 +326,33 @@ pub fn characterise(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Characte
         }
         None => (None, None, vec![false; n]),
     };
+    let passed: Vec<(bool, bool)> = passes.iter().copied().zip(field_ok).collect();
+    let gv = Vector3::new(0.0, 0.0, -g);
+    let h = field.map(|f| Vector3::new(f.magnitude * f.dip.cos(), 0.0, -f.magnitude * f.dip.sin()));
+    let m0 = rec.mag.as_ref().map(|m| m[0]);
+    let q0 = from_euler(&level(&rec.accel[0], m0.as_ref(), &gv, &h.unwrap_or_else(Vector3::x)));
+    let motion_var = mean_square(&motion);
+    let across = across::fit(&across::Input {
+        rec,
+        q0,
+        bias: gyro_bias,
+        g,
+        passed: &passed,
+    });
     Characterised {
+        across,
         still,
         gyro_bias,
         gyro_var,
         accel_var,
         mag_var,
         g,
-        accel_motion_var: mean_square(&motion),
+        accel_motion_var: motion_var,
         accel_motion_tau: correlation_time(&motion),
         mag_disturbance_var: mag_disturbance.map(|d| d.0),
         mag_disturbance_tau: mag_disturbance.map(|d| d.1),
         field,
         accel_passed: kept as f64 / n.max(1) as f64,
-        passed: passes.into_iter().zip(field_ok).collect(),
+        passed,
     }
 }

@@ -137,6 +137,11 @@ impl Study {
                 "accel_motion_sd": e.accel_motion_var.sqrt(),
                 "accel_motion_tau": e.accel_motion_tau,
                 "accel_passed": e.accel_passed,
+                "across": e.across.map(|x| serde_json::json!({
+                    "accel": x.accel,
+                    "field": x.field,
+                    "bias_correction": x.bias_correction.as_slice(),
+                })),
                 "field": e.field.map(|f| serde_json::json!({
                     "magnitude": f.magnitude,
                     "dip_deg": f.dip.to_degrees(),
