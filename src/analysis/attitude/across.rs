@@ -80,12 +80,12 @@ pub fn fit(inp: &Input) -> Option<Across> {
             let eval = |s: f64| {
                 let mut q = p;
                 q[i] += s;
-                let rq = if i < 3 {
-                    integrate(inp, &Vector3::new(q[0], q[1], q[2]))
+                // Only the bias moves the integration; the tilt turns its frame after it.
+                if i < 3 {
+                    residuals(inp, &q, &integrate(inp, &Vector3::new(q[0], q[1], q[2])))
                 } else {
-                    rot.clone()
-                };
-                residuals(inp, &q, &rq)
+                    residuals(inp, &q, &rot)
+                }
             };
             let (plus, minus) = (eval(step), eval(-step));
             for (j, c) in col.iter_mut().enumerate() {
