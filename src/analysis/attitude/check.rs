@@ -1,8 +1,7 @@
 //! The EKF's noise model held against the reference. The reference gives what the recording alone cannot: each
 //! sample in the navigation frame, so the linear acceleration across gravity and the field's disturbance across the
-//! field can be measured component by component. The noise model sees |a| − |g| and |m| − |h| alone, the components
-//! along, and takes the ones across to be as large (an isotropic disturbance); this says how far that holds. Nothing
-//! here feeds a filter: the reference only scores.
+//! field can be measured component by component. The noise model reaches the components across with the gyro alone
+//! ([`super::across`]); this says how close it comes. Nothing here feeds a filter: the reference only scores.
 
 use nalgebra::{Vector3, Vector4};
 
