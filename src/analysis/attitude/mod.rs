@@ -12,7 +12,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, Quaternion, UnitQuaternion, Vector3, V
 use crate::estimate::ahrs::{
     compensated_field, Ahrs, Madgwick, Mahony, MADGWICK_BETA_IMU, MADGWICK_BETA_MARG, MAHONY_KI, MAHONY_KP,
 };
-use crate::estimate::attitude::{from_euler, level, rotate_to_body, AttitudeEkf, AttitudeModel, Form};
+use crate::estimate::attitude::{from_euler, rotate_to_body, AttitudeEkf, AttitudeModel, Form};
 use crate::estimate::EstimateError;
 use crate::imu_csv::ImuRecording;
 
@@ -295,12 +295,7 @@ pub fn compare_with(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Result<C
     }
     let (reference, z_down) = reference_up(rec)?;
     let c = characterise(rec, rate_hz, gates);
-    let g = Vector3::new(0.0, 0.0, -c.g);
-    let h = c
-        .field
-        .map(|f| Vector3::new(f.magnitude * f.dip.cos(), 0.0, -f.magnitude * f.dip.sin()));
-    let m0 = rec.mag.as_ref().map(|m| m[0]);
-    let q0 = from_euler(&level(&rec.accel[0], m0.as_ref(), &g, &h.unwrap_or_else(Vector3::x)));
+    let (g, h, q0) = (sensor::gravity(c.g), c.field.map(|f| f.nav()), c.start);
     let beta = if h.is_some() {
         MADGWICK_BETA_MARG
     } else {

@@ -3,7 +3,7 @@
 //! the sensor was at rest if it had one (the gyro bias there), |g| and the earth field's magnitude and dip, and the
 //! gates that keep disturbed samples out of the filter's corrections.
 
-use nalgebra::Vector3;
+use nalgebra::{Vector3, Vector4};
 
 use super::across::{self, Across};
 use crate::estimate::attitude::{from_euler, level};
@@ -77,7 +77,7 @@ pub struct Part {
 impl Part {
     pub fn of(series: &[f64], passed: impl Fn(usize) -> bool) -> Part {
         let kept: Vec<f64> = (0..series.len()).filter(|&k| passed(k)).map(|k| series[k]).collect();
-        let var = kept.iter().map(|x| x * x).sum::<f64>() / kept.len().max(1) as f64;
+        let var = mean_square(&kept);
         let tau = correlation_time_of(series, &passed);
         Part {
             var,
@@ -94,6 +94,13 @@ impl Part {
             tau,
             white_equivalent: 0.5 * (a.white_equivalent + b.white_equivalent),
         }
+    }
+}
+
+impl Field {
+    /// The navigation-frame field: x toward magnetic north, z up.
+    pub fn nav(&self) -> Vector3<f64> {
+        Vector3::new(self.magnitude * self.dip.cos(), 0.0, -self.magnitude * self.dip.sin())
     }
 }
 
@@ -140,6 +147,13 @@ pub struct Characterised {
     /// Per sample: whether the accelerometer and the field passed their gates (the field's false without a
     /// magnetometer).
     pub passed: Vec<(bool, bool)>,
+    /// The attitude every filter starts from: levelled on the first accelerometer and magnetometer samples.
+    pub start: Vector4<f64>,
+}
+
+/// Navigation-frame gravity (z up) for |g| = `g`.
+pub fn gravity(g: f64) -> Vector3<f64> {
+    Vector3::new(0.0, 0.0, -g)
 }
 
 impl Characterised {
@@ -327,10 +341,14 @@ pub fn characterise(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Characte
         None => (None, None, vec![false; n]),
     };
     let passed: Vec<(bool, bool)> = passes.iter().copied().zip(field_ok).collect();
-    let gv = Vector3::new(0.0, 0.0, -g);
-    let h = field.map(|f| Vector3::new(f.magnitude * f.dip.cos(), 0.0, -f.magnitude * f.dip.sin()));
+    let h = field.map(|f| f.nav());
     let m0 = rec.mag.as_ref().map(|m| m[0]);
-    let q0 = from_euler(&level(&rec.accel[0], m0.as_ref(), &gv, &h.unwrap_or_else(Vector3::x)));
+    let q0 = from_euler(&level(
+        &rec.accel[0],
+        m0.as_ref(),
+        &gravity(g),
+        &h.unwrap_or_else(Vector3::x),
+    ));
     let motion_var = mean_square(&motion);
     let across = across::fit(&across::Input {
         rec,
@@ -341,6 +359,7 @@ pub fn characterise(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Characte
     });
     Characterised {
         across,
+        start: q0,
         still,
         gyro_bias,
         gyro_var,
