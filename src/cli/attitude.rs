@@ -185,6 +185,20 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
             "  across g and the field: the gyro-aided fit failed; R from |a| − |g| and |m| − |h| instead"
         )?,
     }
+    let m = &c.mekf_model;
+    writeln!(
+        out,
+        "  the MEKF's disturbances (less the white noise): horizontal linear acceleration sd {} m/s², τ {:.2} s; \
+         vertical sd {} m/s²{}",
+        sig3(m.accel_horizontal.var.sqrt()),
+        m.accel_horizontal.tau,
+        sig3(m.accel_vertical.var.sqrt()),
+        c.h.map_or(String::new(), |_| format!(
+            "; field across, horizontal sd {}, τ {:.2} s",
+            sig3(m.field.var.sqrt()),
+            m.field.tau
+        ))
+    )?;
     writeln!(
         out,
         "reference: {}; filters start from the first accelerometer{} sample\n",
@@ -237,8 +251,9 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
     }
     writeln!(
         out,
-        "\nekf: Lesecq's quaternion EKF; madgwick: β = {} (Madgwick et al. 2011); mahony: k_P = {}, k_I = {} (Mahony et \
-         al. 2008)",
+        "\nekf: Lesecq's quaternion EKF; mekf: the multiplicative EKF with Gauss–Markov linear acceleration and field \
+         disturbance (Markley 2003; Roetenberg et al. 2005); madgwick: β = {} (Madgwick et al. 2011); mahony: k_P = \
+         {}, k_I = {} (Mahony et al. 2008); gyro: the gyro alone, bias removed",
         if c.h.is_some() {
             crate::estimate::ahrs::MADGWICK_BETA_MARG
         } else {
@@ -247,6 +262,30 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
         crate::estimate::ahrs::MAHONY_KP,
         crate::estimate::ahrs::MAHONY_KI
     )?;
+    let nis = |n: &Option<crate::analysis::attitude::Nis>| {
+        n.map_or("-".to_string(), |n| {
+            let verdict = if n.per_dof < n.band[0] {
+                "model too wide"
+            } else if n.per_dof > n.band[1] {
+                "model too narrow"
+            } else {
+                "consistent"
+            };
+            format!(
+                "{:.2} ({verdict}; 99 % band {:.2}–{:.2})",
+                n.per_dof, n.band[0], n.band[1]
+            )
+        })
+    };
+    writeln!(
+        out,
+        "\nnormalised innovation squared per degree of freedom, accelerometer / magnetometer:"
+    )?;
+    for s in &c.scores {
+        if let Some(k) = &s.consistency {
+            writeln!(out, "  {:<8} {} / {}", s.filter, nis(&k.accel), nis(&k.field))?;
+        }
+    }
     let nc = &c.noise_check;
     let part = |p: &crate::analysis::attitude::sensor::Part, model: f64| {
         format!(

@@ -1,7 +1,8 @@
 //! Estimation, pure and allocation-light: Kalman prediction and update (Joseph form), intermittent and per-channel
 //! handling, the β-weighted consensus update of Sequeira (2023) (eqs. 5–10) with its LMI conditions (17) and (19),
 //! covariance intersection, NEES; the quaternion attitude EKF of Lesecq's slides in standard and square-root form.
-//! `ahrs.rs`: the Madgwick and Mahony filters, to set beside the EKF on the same data.
+//! `ahrs.rs`: the Madgwick and Mahony filters, to set beside the EKF on the same data; `mekf.rs`: the multiplicative
+//! EKF with Gauss–Markov states for linear acceleration and the field's disturbance.
 #![allow(non_snake_case)]
 
 pub mod ahrs;
@@ -12,6 +13,7 @@ pub mod consensus;
 mod fixed;
 pub mod fusion;
 pub mod kalman;
+pub mod mekf;
 pub mod rigid_pair;
 
 use nalgebra::{DMatrix, DVector};

@@ -197,10 +197,28 @@ fn real_recordings_run_as_they_come() {
         v["estimated"]["still_s"].is_null(),
         "the Xsens recording moves throughout"
     );
-    for (filter, bound) in [("ekf", 3.6), ("madgwick", 3.5), ("mahony", 8.0)] {
+    for (filter, bound) in [
+        ("ekf", 3.6),
+        ("mekf", 3.7),
+        ("madgwick", 3.5),
+        ("mahony", 8.0),
+        ("gyro", 3.0),
+    ] {
         let m = score(&v, filter, "as_recorded")["mean"].as_f64().unwrap();
         assert!(m < bound, "xsens {filter}: {m}°");
     }
+    // The filters that keep a covariance report their innovations' consistency, with the χ² band around 1.
+    for filter in ["ekf", "mekf"] {
+        for sensor in ["accel", "field"] {
+            let n = &score(&v, filter, "consistency")[sensor];
+            let (lo, hi) = (n["band"][0].as_f64().unwrap(), n["band"][1].as_f64().unwrap());
+            assert!(
+                n["per_dof"].as_f64().unwrap() > 0.0 && lo < 1.0 && hi > 1.0,
+                "{filter} {sensor}: {n}"
+            );
+        }
+    }
+    assert!(score(&v, "madgwick", "consistency").is_null());
     // The noise model, from the recording alone, within a factor 3 of what the reference shows, across g and
     // across the field (README, "Real recordings": 1.23× and 2.83×).
     let across = &v["estimated"]["across"];
@@ -220,14 +238,11 @@ fn real_recordings_run_as_they_come() {
     n.sort_by(f64::total_cmp);
     let g = 0.5 * (n[n.len() / 2 - 1] + n[n.len() / 2]);
     let off = r.accel.iter().filter(|a| (a.norm() - g).abs() > 0.1 * g).count();
-    let ekf = v["scores"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|s| s["filter"] == "ekf")
-        .unwrap();
-    assert_eq!(ekf["gated"]["accel"].as_u64().unwrap() as usize, off);
-    assert!(ekf["gated"]["field"].as_u64().unwrap() > 0);
+    for filter in ["ekf", "mekf"] {
+        let gated = score(&v, filter, "gated");
+        assert_eq!(gated["accel"].as_u64().unwrap() as usize, off, "{filter}");
+        assert!(gated["field"].as_u64().unwrap() > 0, "{filter}");
+    }
     // Its field varies by disturbance, not by iron: the ellipsoid fit is refused and the readings kept.
     let (code, c, err) = attitude_cli(&[&xsens, "--calibrate-mag", "--json"]);
     assert_eq!(code, 0, "{err}");
@@ -259,7 +274,7 @@ fn real_recordings_run_as_they_come() {
     ]);
     assert_eq!(code, 0, "{err}");
     assert!(v["estimated"]["field"].is_null(), "no magnetometer");
-    for filter in ["ekf", "madgwick", "mahony"] {
+    for filter in ["ekf", "mekf", "madgwick", "mahony", "gyro"] {
         // Without a magnetometer heading is the gyro's alone: scored with the constant offset removed.
         let e = score(&v, filter, "offset_removed");
         assert!(e["mean"].as_f64().unwrap() < 3.5, "xio3 {filter}: {e}");
@@ -273,7 +288,7 @@ fn real_recordings_run_as_they_come() {
         "--json",
     ]);
     assert_eq!(code, 0, "{err}");
-    for filter in ["ekf", "madgwick", "mahony"] {
+    for filter in ["ekf", "mekf", "madgwick", "mahony", "gyro"] {
         let m = score(&v, filter, "offset_removed")["mean"].as_f64().unwrap();
         assert!(m < 13.0, "ngimu {filter}: {m}°");
     }
@@ -346,7 +361,7 @@ fn simnet_recordings_and_maker_files_go_through_both_commands() {
     assert!(status.success());
     let (code, v, err) = attitude_cli(&[dir.join("imu-0.csv").to_str().unwrap(), "--json"]);
     assert_eq!(code, 0, "{err}");
-    for (filter, bound) in [("ekf", 0.5), ("madgwick", 1.0), ("mahony", 1.0)] {
+    for (filter, bound) in [("ekf", 0.5), ("mekf", 0.5), ("madgwick", 1.0), ("mahony", 1.0)] {
         let m = score(&v, filter, "as_recorded")["mean"].as_f64().unwrap();
         assert!(m < bound, "{filter}: {m}°");
     }

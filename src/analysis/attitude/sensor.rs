@@ -7,6 +7,7 @@ use nalgebra::{Vector3, Vector4};
 
 use super::across::{self, Across};
 use crate::estimate::attitude::{from_euler, level};
+use crate::estimate::mekf::{GaussMarkov, MekfModel};
 use crate::imu_csv::ImuRecording;
 use crate::stats;
 
@@ -173,6 +174,48 @@ impl Characterised {
         match self.across.and_then(|x| x.field) {
             Some(f) => Some(f.white_equivalent),
             None => Some(self.mag_var? + self.mag_disturbance_var? * self.mag_disturbance_tau?),
+        }
+    }
+
+    /// The multiplicative EKF's model ([`crate::estimate::mekf`]): white noise as measured; the horizontal linear
+    /// acceleration and the field's disturbance across it as the gyro-aided fit measures them, less the white noise
+    /// the fit's residuals also hold; the vertical linear acceleration from |a| − |g|. Correlation times go from
+    /// samples to seconds at `rate_hz`. Without the fit, |a| − |g| and |m| − |h| stand for the components across.
+    pub fn mekf_model(&self, g: Vector3<f64>, h: Option<Vector3<f64>>, rate_hz: f64) -> MekfModel {
+        let s = |samples: f64| samples / rate_hz;
+        let vertical = GaussMarkov {
+            var: self.accel_motion_var,
+            tau: s(self.accel_motion_tau),
+        };
+        let horizontal = match &self.across {
+            Some(x) => GaussMarkov {
+                var: (x.accel.var - self.accel_var).max(0.0),
+                tau: s(x.accel.tau),
+            },
+            None => vertical,
+        };
+        let mag_var = self.mag_var.unwrap_or(1.0);
+        let field = match (
+            self.across.and_then(|x| x.field),
+            self.mag_disturbance_var,
+            self.mag_disturbance_tau,
+        ) {
+            (Some(f), _, _) => GaussMarkov {
+                var: (f.var - mag_var).max(0.0),
+                tau: s(f.tau),
+            },
+            (None, Some(var), Some(tau)) => GaussMarkov { var, tau: s(tau) },
+            _ => GaussMarkov { var: 0.0, tau: 1.0 },
+        };
+        MekfModel {
+            g,
+            h,
+            gyro_var: self.gyro_var,
+            accel_var: self.accel_var,
+            mag_var,
+            accel_horizontal: horizontal,
+            accel_vertical: vertical,
+            field,
         }
     }
 }

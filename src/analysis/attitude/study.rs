@@ -151,6 +151,14 @@ impl Study {
                 })),
             },
             "noise_check": c.noise_check,
+            "mekf_model": {
+                "gyro_sd": c.mekf_model.gyro_var.sqrt(),
+                "accel_sd": c.mekf_model.accel_var.sqrt(),
+                "mag_sd": c.mekf_model.mag_var.sqrt(),
+                "accel_horizontal": gauss_markov(&c.mekf_model.accel_horizontal),
+                "accel_vertical": gauss_markov(&c.mekf_model.accel_vertical),
+                "field": c.h.map(|_| gauss_markov(&c.mekf_model.field)),
+            },
             "reference_z_down": c.reference_z_down,
             "gates": {
                 "accel": finite(gates.accel),
@@ -222,4 +230,9 @@ impl Study {
         }
         csv
     }
+}
+
+/// A Gauss–Markov process as `--json` gives it: standard deviation and correlation time in seconds.
+fn gauss_markov(p: &crate::estimate::mekf::GaussMarkov) -> serde_json::Value {
+    serde_json::json!({ "sd": p.var.sqrt(), "tau_s": p.tau })
 }
