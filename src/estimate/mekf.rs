@@ -14,7 +14,7 @@
 //!   segment orientation", IEEE TNSRE 13(3)). The magnetometer is referred to the compensated field b of Madgwick's
 //!   eqs. 45–46 (the measured dip and strength, the estimated north), whose misfit with the reading lies along one
 //!   direction alone, u = up × b, horizontal and across the field: the filter takes that one component,
-//!   y = (C(q̂)u)ᵀ m = d + uᵀ[b]× δθ + v. The other two components are zero by construction and carry nothing.
+//!   y = (C(q̂)u)ᵀ m = d + uᵀ \[b\]× δθ + v. The other two components are zero by construction and carry nothing.
 //! - The gyro drives the prediction: q̂ ← q̂ ⊗ exp(ω Tₑ), δθ ← δθ − C(q̂)ᵀ δω Tₑ, so Q_θ = σ_g² Tₑ² I.
 //!
 //! State x = [δθ (3, navigation frame); a (3, body frame); d (1)], P its 7 × 7 covariance. Every correction returns
