@@ -6,7 +6,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::estimate::attitude::{from_euler, rotation as quat_rotation, transition};
+use crate::estimate::attitude::{from_euler, rotation as quat_rotation, turn};
 use crate::estimate::bvp::{self, BvpError, Constraint, End};
 use crate::geom::{rotation, GRAVITY};
 use crate::imu_csv::ImuRecording;
@@ -64,7 +64,7 @@ pub fn attitudes(rec: &ImuRecording, initial: Option<Vector3<f64>>) -> Vec<Matri
     let mut out = vec![quat_rotation(&q)];
     for k in 1..rec.t.len() {
         let w = (rec.gyro[k - 1] + rec.gyro[k]) * 0.5;
-        q = (transition(&w, rec.t[k] - rec.t[k - 1]) * q).normalize();
+        q = turn(&q, &w, rec.t[k] - rec.t[k - 1]);
         out.push(quat_rotation(&q));
     }
     out

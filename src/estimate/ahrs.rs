@@ -179,7 +179,7 @@ impl Ahrs for Mahony {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::estimate::attitude::{angle_between, from_euler, transition};
+    use crate::estimate::attitude::{angle_between, from_euler, turn};
 
     const G: Vector3<f64> = Vector3::new(0.0, 0.0, -9.81);
 
@@ -200,7 +200,7 @@ mod tests {
             let (f, _) = rotate_to_body(&q, &-G);
             let (m, _) = rotate_to_body(&q, &field());
             out.push((q, [w + bias, f, m]));
-            q = (transition(&w, dt) * q).normalize();
+            q = turn(&q, &w, dt);
         }
         out
     }
@@ -227,7 +227,7 @@ mod tests {
         let last = data.last().unwrap().0;
         // The last sample's update moved the estimate one step past `last`.
         let w = data.last().unwrap().1[0];
-        let next = (transition(&w, 0.01) * last).normalize();
+        let next = turn(&last, &w, 0.01);
         for (name, q) in [("madgwick", mad.q), ("mahony", mah.q)] {
             let e = angle_between(&q, &next).to_degrees();
             assert!(e < 0.5, "{name}: {e}° after 60 s");
@@ -243,7 +243,7 @@ mod tests {
         let mut worst = [0f64; 2];
         for (i, (truth, [w, f, m])) in data.iter().enumerate() {
             let true_w = w - bias;
-            let next = (transition(&true_w, 0.01) * truth).normalize();
+            let next = turn(truth, &true_w, 0.01);
             mad.update(w, Some(f), Some(m), &G, &field(), 0.01);
             mah.update(w, Some(f), Some(m), &G, &field(), 0.01);
             if i > 3000 {
@@ -267,7 +267,7 @@ mod tests {
         let mut mah = Mahony::new(data[0].0, MAHONY_KP, MAHONY_KI);
         let mut worst = [0f64; 2];
         for (truth, [w, f, m]) in &data {
-            let next = (transition(w, 0.01) * truth).normalize();
+            let next = turn(truth, w, 0.01);
             mad.update(w, Some(f), Some(m), &G, &wrong, 0.01);
             mah.update(w, Some(f), Some(m), &G, &wrong, 0.01);
             worst[0] = worst[0].max(angle_between(&mad.q, &next).to_degrees());
@@ -287,7 +287,7 @@ mod tests {
             mah.update(w, Some(f), None, &G, &field(), 0.01);
         }
         let (last, [w, _, _]) = data.last().unwrap();
-        let next = (transition(w, 0.01) * last).normalize();
+        let next = turn(last, w, 0.01);
         for (name, q) in [("madgwick", mad.q), ("mahony", mah.q)] {
             // Tilt: the angle between the predicted and true "up" in the body frame.
             let up = |q: &Vector4<f64>| rotate_to_body(q, &Vector3::z()).0;

@@ -50,6 +50,12 @@ pub fn transition(w: &Vector3<f64>, dt: f64) -> Matrix4<f64> {
     Matrix4::identity() * half.cos() + omega(w) * s
 }
 
+/// The attitude `q` turned by the angular rate `w` over `dt` (eq. of [`transition`]), renormalised against the
+/// rounding that would otherwise accumulate over many steps.
+pub fn turn(q: &Vector4<f64>, w: &Vector3<f64>, dt: f64) -> Vector4<f64> {
+    (transition(w, dt) * q).normalize()
+}
+
 /// Body-to-navigation rotation of a unit quaternion.
 pub fn rotation(q: &Vector4<f64>) -> Matrix3<f64> {
     let v = Vector3::new(q[1], q[2], q[3]);

@@ -256,7 +256,7 @@ fn unit(q: &Vector4<f64>) -> Option<UnitQuaternion<f64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::estimate::attitude::{from_euler, rotate_to_body, transition};
+    use crate::estimate::attitude::{from_euler, rotate_to_body, turn};
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
 
@@ -380,7 +380,7 @@ mod tests {
                 );
             d = d * fd + draw((m.field.var * (1.0 - fd * fd)).sqrt());
             let measured_w = w + Vector3::from_fn(|_, _| draw(m.gyro_var.sqrt()));
-            q = (transition(&w, dt) * q).normalize();
+            q = turn(&q, &w, dt);
             f.predict(&measured_w, dt).unwrap();
             let acc = rotate_to_body(&q, &(a_nav - G)).0 + Vector3::from_fn(|_, _| draw(m.accel_var.sqrt()));
             // The disturbance across the field, horizontal: along up × h.

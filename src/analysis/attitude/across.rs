@@ -11,7 +11,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3, Vector4};
 
 use super::sensor::Part;
-use crate::estimate::attitude::{rotation, transition};
+use crate::estimate::attitude::{rotation, turn};
 use crate::imu_csv::ImuRecording;
 
 /// What the fit takes: the recording, its start, the gyro bias already estimated, |g| and the gates' verdicts.
@@ -43,7 +43,7 @@ fn integrate(inp: &Input, db: &Vector3<f64>) -> Vec<Matrix3<f64>> {
     for k in 0..rec.t.len() {
         if k > 0 {
             let dt = rec.t[k] - rec.t[k - 1];
-            q = (transition(&(rec.gyro[k] - inp.bias - db), dt) * q).normalize();
+            q = turn(&q, &(rec.gyro[k] - inp.bias - db), dt);
         }
         out.push(rotation(&q));
     }

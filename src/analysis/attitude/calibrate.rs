@@ -141,7 +141,7 @@ pub fn fit(m: &[Vector3<f64>]) -> Result<Calibration, Refused> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::estimate::attitude::{rotate_to_body, transition};
+    use crate::estimate::attitude::{rotate_to_body, turn};
     use nalgebra::Vector4;
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
@@ -165,7 +165,7 @@ mod tests {
             };
             let e = Vector3::from_fn(|_, _| noise.sample(&mut rng));
             out.push(soft * rotate_to_body(&q, &h).0 + b + e);
-            q = (transition(&w, 0.01) * q).normalize();
+            q = turn(&q, &w, 0.01);
         }
         (out, soft, b)
     }
