@@ -13,7 +13,7 @@
 //! | [`model`] | the estimation models behind one trait: pose, attitude (quaternion EKF), linear — state, process, observation, sensing, scoring |
 //! | [`motion`] | analytic ground-truth trajectories shared by every node |
 //! | [`sensor`] | accelerometer/gyro (noise, bias, Wiener drift), magnetometer, pose fixes, linear measurements |
-//! | [`estimate`] | pure maths: Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKF and the multiplicative one, Madgwick and Mahony, the rigid-pair EKF, the FEM boundary-value solver |
+//! | [`estimate`] | pure maths: Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKF and the multiplicative one, Madgwick and Mahony (VQF through `vqf-rs`), the rigid-pair EKF, the FEM boundary-value solver |
 //! | [`estimators`] | the distributed schemes behind one [`estimators::Estimator`] trait — independent, centralized, KCF, ICF, HCMCI, diffusion, CI — pure, per node, one message per round; the node runs them over L consensus rounds |
 //! | [`wire`] | the datagram format: postcard + CRC-32, checked decode |
 //! | [`link`] | per-datagram rules (outage, Bernoulli / Gilbert–Elliott loss, duplication, delay and jitter, corruption), the egress queue, fault schedules |

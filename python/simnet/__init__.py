@@ -456,10 +456,12 @@ def attitude(
     rate: Optional[float] = None,
     gates: Optional[str] = None,
     calibrate_mag: bool = False,
+    compare: Optional[Dict[str, Union[str, os.PathLike]]] = None,
 ) -> Attitude:
-    """The EKF, Madgwick and Mahony on a recording, scored against its reference orientation, as
+    """The EKFs, Madgwick, Mahony, VQF and the gyro alone on a recording, scored against its reference orientation, as
     ``simnet attitude FILE [--reference REFERENCE]`` does; the options take the command line's values
-    (``columns="t=Counter/rate,ax=Acc_X"``, ``units="gyro=deg/s"``, ``gates="off"``). Bad input raises
+    (``columns="t=Counter/rate,ax=Acc_X"``, ``units="gyro=deg/s"``, ``gates="off"``). ``compare`` maps a name to
+    the file of a filter run elsewhere (``--compare NAME=FILE``), scored beside simnet's. Bad input raises
     :class:`ScenarioError` naming the option (``key``) with the command line's message."""
     raw = _simnet.attitude(
         os.fspath(file),
@@ -469,6 +471,7 @@ def attitude(
         rate,
         gates,
         calibrate_mag,
+        [(name, os.fspath(path)) for name, path in (compare or {}).items()],
     )
     return Attitude(json.loads(raw["json"]), _table(raw["csv"]))
 

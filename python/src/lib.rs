@@ -710,7 +710,7 @@ fn bounds<'py>(
 /// A recording studied by `simnet attitude`: its JSON text and `attitude.csv` bytes.
 #[pyfunction]
 #[pyo3(signature = (file, reference = None, columns = None, units = None, rate = None, gates = None,
-                    calibrate_mag = false))]
+                    calibrate_mag = false, compare = Vec::new()))]
 #[allow(clippy::too_many_arguments)]
 fn attitude<'py>(
     py: Python<'py>,
@@ -721,6 +721,7 @@ fn attitude<'py>(
     rate: Option<f64>,
     gates: Option<String>,
     calibrate_mag: bool,
+    compare: Vec<(String, std::path::PathBuf)>,
 ) -> PyResult<Bound<'py, PyDict>> {
     use simnet::analysis::attitude::{study, Gates, GATES};
     use simnet::imu_csv::layout;
@@ -755,22 +756,46 @@ fn attitude<'py>(
     };
     let (text, name) = read(&file)?;
     let reference = reference.as_deref().map(read).transpose()?;
+    let compared = compare
+        .iter()
+        .map(|(n, p)| read(p).map(|(text, file)| (n.as_str(), text, file)))
+        .collect::<PyResult<Vec<_>>>()?;
     let (json, csv) = py
         .detach(|| {
+            let outside: Vec<study::Outside> = compared
+                .iter()
+                .map(|(name, text, file)| study::Outside {
+                    name,
+                    source: study::Source { text, name: file },
+                })
+                .collect();
             study::study(
                 study::Source {
                     text: &text,
                     name: &name,
                 },
                 reference.as_ref().map(|(text, name)| study::Source { text, name }),
+                &outside,
                 &o,
                 calibrate_mag,
                 gates,
             )
             .map(|st| (st.json().to_string(), st.csv()))
-            .map_err(|e| e.to_string())
+            .map_err(|e| {
+                use simnet::analysis::attitude::AttitudeError::{Length, NameTaken};
+                use study::StudyError::{Attitude, OutsideName, OutsideRows, OutsideSpan};
+                let key = match e {
+                    OutsideName { .. } | OutsideRows { .. } | OutsideSpan { .. } => "compare",
+                    Attitude {
+                        source: NameTaken { .. } | Length { .. },
+                        ..
+                    } => "compare",
+                    _ => "file",
+                };
+                (key, e.to_string())
+            })
         })
-        .map_err(|e| bad("file", e))?;
+        .map_err(|(key, e)| bad(key, e))?;
     let d = PyDict::new(py);
     d.set_item("json", json)?;
     d.set_item("csv", PyBytes::new(py, csv.as_bytes()))?;

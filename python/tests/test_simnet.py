@@ -374,9 +374,77 @@ def test_attitude_is_what_simnet_attitude_prints(cli, tmp_path):
     assert math.isclose(a.samples["ekf_error_deg"].mean(), ekf["as_recorded"]["mean"], rel_tol=1e-9)
 
 
+def read_xsens():
+    """The Xsens recording as numpy arrays: accelerometer, gyro, magnetometer, reference quaternion."""
+    lines = [l for l in (RECORDINGS / "xsens-mti.txt").read_text().splitlines() if not l.startswith("//")]
+    names = lines[0].split()
+    d = np.array([[float(x) for x in l.split()] for l in lines[1:]])
+    cols = lambda *c: np.ascontiguousarray(d[:, [names.index(x) for x in c]])
+    xyz = lambda s: cols(*(f"{s}_{a}" for a in "XYZ"))
+    return xyz("Acc"), xyz("Gyr"), xyz("Mag"), cols("Quat_w", "Quat_x", "Quat_y", "Quat_z")
+
+
+def qmul(a, b):
+    w1, x1, y1, z1 = a.T
+    w2, x2, y2, z2 = b.T
+    return np.stack(
+        [
+            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+        ],
+        -1,
+    )
+
+
+def test_attitude_vqf_is_the_published_filter():
+    """simnet's `vqf` row (the `vqf-rs` port) against VQF's reference implementation (the `vqf` package, C++) fed
+    the same samples at the same sample time: the same attitudes, turned from VQF's east-north-up frame into
+    simnet's north-west-up one (−90° about z)."""
+    vqf = pytest.importorskip("vqf", reason="pip install vqf to check simnet's VQF against the reference")
+    acc, gyr, mag, _ = read_xsens()
+    a = simnet.attitude(RECORDINGS / "xsens-mti.txt")
+    q = vqf.VQF(1.0 / a.summary["rate_hz"]).updateBatch(gyr, acc, mag)["quat9D"]
+    rz = np.tile([math.cos(-math.pi / 4), 0, 0, math.sin(-math.pi / 4)], (len(q), 1))
+    want = qmul(rz, q)
+    got = a.samples[["vqf_qw", "vqf_qx", "vqf_qy", "vqf_qz"]].to_numpy()
+    assert np.abs(np.abs((got * want).sum(-1)) - 1).max() < 1e-12
+
+
+def test_attitude_scores_a_filter_run_elsewhere(tmp_path):
+    """VQF (Laidig & Seel 2023, the `vqf` package) run in Python on the Xsens recording and handed to simnet with
+    `compare`: simnet's scores equal numpy's, computed here from the quaternions alone."""
+    vqf = pytest.importorskip("vqf", reason="pip install vqf to compare with VQF")
+    acc, gyr, mag, ref = read_xsens()
+    q = vqf.VQF(0.02).updateBatch(gyr, acc, mag)["quat9D"]
+    path = tmp_path / "vqf.csv"
+    np.savetxt(path, q, delimiter=",", header="qw,qx,qy,qz", comments="")
+    a = simnet.attitude(RECORDINGS / "xsens-mti.txt", compare={"pyvqf": path})
+    assert not a.summary["reference_z_down"]
+    s = next(s for s in a.summary["scores"] if s["filter"] == "pyvqf")
+    assert s["outside"] and s["gated"] is None
+    unit = lambda x: x / np.linalg.norm(x, axis=1, keepdims=True)
+    q, ref = unit(q), unit(ref)
+    angle = lambda u, v: np.degrees(2 * np.arccos(np.clip(np.abs((u * v).sum(-1)), 0, 1)))
+    e = angle(q, ref)
+    assert math.isclose(e.mean(), s["as_recorded"]["mean"], rel_tol=1e-7)
+    assert math.isclose(e.max(), s["as_recorded"]["max"], rel_tol=1e-7)
+    # The heading offset: the circular mean of the rotations about z that take the reference to the estimate.
+    d = qmul(q, ref * np.array([1, -1, -1, -1]))
+    twist = 2 * np.arctan2(d[:, 3], d[:, 0])
+    off = np.arctan2(np.sin(twist).mean(), np.cos(twist).mean())
+    assert math.isclose(np.degrees(off), s["heading_offset_deg"], rel_tol=1e-7)
+    rz = np.tile([np.cos(off / 2), 0, 0, np.sin(off / 2)], (len(ref), 1))
+    assert math.isclose(angle(q, qmul(rz, ref)).mean(), s["offset_removed"]["mean"], rel_tol=1e-7)
+    assert math.isclose(a.samples["pyvqf_error_deg"].mean(), s["as_recorded"]["mean"], rel_tol=1e-9)
+
+
 def test_attitude_bad_input_names_the_option(cli):
     xsens = RECORDINGS / "xsens-mti.txt"
     for kwargs, key, says in [
+        (dict(compare={"vqf": xsens}), "compare", "is taken"),
+        (dict(compare={"a/b": xsens}), "compare", "letters, digits"),
         (dict(units="gyro=furlong/s"), "units", "not a unit of gyro"),
         (dict(gates="heading=1"), "gates", "not a gate"),
         (dict(rate=-1.0), "rate", "positive"),

@@ -1,4 +1,4 @@
-//! `simnet attitude FILE`: a recording as its maker wrote it, the EKF, Madgwick and Mahony run on it with the noise
+//! `simnet attitude FILE`: a recording as its maker wrote it, the EKFs, Madgwick, Mahony and VQF run on it with the noise
 //! levels and field estimated from the recording, each scored against the file's reference orientation.
 
 use std::io::Write;
@@ -10,8 +10,8 @@ use clap::Args;
 
 use super::out::write_atomic;
 use super::UsageError;
-use crate::analysis::attitude::study::{study, Source, Study};
-use crate::analysis::attitude::{Errors, Gates, GATES};
+use crate::analysis::attitude::study::{study, Outside, Source, Study};
+use crate::analysis::attitude::{error_angles, Errors, Gates, GATES};
 use crate::report::plot;
 
 #[derive(Args, Debug, Clone)]
@@ -23,6 +23,10 @@ pub struct AttitudeArgs {
     /// to the recording by time (interpolated; samples outside its time span are left out).
     #[arg(long, value_name = "FILE")]
     pub reference: Option<PathBuf>,
+    /// A filter run elsewhere, scored beside simnet's: NAME=FILE, FILE holding its attitude (quaternion or roll,
+    /// pitch, yaw) with a time column matched to the recording's, or a row per sample; repeatable.
+    #[arg(long, value_name = "NAME=FILE", value_parser = parse_compare)]
+    pub compare: Vec<(String, PathBuf)>,
     #[command(flatten)]
     pub read: super::args::ReadFlags,
     /// Calibrate the magnetometer's hard and soft iron from the recording (an ellipsoid fit) before the filters run;
@@ -54,12 +58,28 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
         None => None,
     };
     let gates = args.gates.unwrap_or(GATES);
+    let mut compared = Vec::new();
+    for (name, p) in &args.compare {
+        compared.push((
+            name.as_str(),
+            read(p, &p.display().to_string())?,
+            p.display().to_string(),
+        ));
+    }
+    let outside: Vec<Outside> = compared
+        .iter()
+        .map(|(name, text, file)| Outside {
+            name,
+            source: Source { text, name: file },
+        })
+        .collect();
     let st = study(
         Source {
             text: &text,
             name: &shown,
         },
         reference.as_ref().map(|(text, name)| Source { text, name }),
+        &outside,
         &args.read.options(),
         args.calibrate_mag,
         gates,
@@ -253,7 +273,8 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
         out,
         "\nekf: Lesecq's quaternion EKF; mekf: the multiplicative EKF with Gauss–Markov linear acceleration and field \
          disturbance (Markley 2003; Roetenberg et al. 2005); madgwick: β = {} (Madgwick et al. 2011); mahony: k_P = \
-         {}, k_I = {} (Mahony et al. 2008); gyro: the gyro alone, bias removed",
+         {}, k_I = {} (Mahony et al. 2008); gyro: the gyro alone, bias removed; vqf: VQF with its published defaults \
+         (Laidig & Seel 2023), which starts from its own first samples",
         if c.h.is_some() {
             crate::estimate::ahrs::MADGWICK_BETA_MARG
         } else {
@@ -262,6 +283,14 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
         crate::estimate::ahrs::MAHONY_KP,
         crate::estimate::ahrs::MAHONY_KI
     )?;
+    for (name, p) in &args.compare {
+        writeln!(
+            out,
+            "{name}: run outside simnet, read from {} (its north need not be the reference's: compare the errors with \
+             the offset removed)",
+            p.display()
+        )?;
+    }
     let nis = |n: &Option<crate::analysis::attitude::Nis>| {
         n.map_or("-".to_string(), |n| {
             let verdict = if n.per_dof < n.band[0] {
@@ -321,6 +350,14 @@ the EKF's noise model against the reference (per axis; R = mean square over the 
     Ok(ExitCode::SUCCESS)
 }
 
+/// `NAME=FILE` of `--compare`.
+fn parse_compare(s: &str) -> Result<(String, PathBuf), String> {
+    match s.split_once('=') {
+        Some((name, file)) if !file.is_empty() => Ok((name.to_string(), PathBuf::from(file))),
+        _ => Err(format!("`{s}`: expected NAME=FILE, e.g. vqf=vqf.csv")),
+    }
+}
+
 /// `attitude.csv` and `attitude.svg`.
 fn write_out(dir: &std::path::Path, title: &str, st: &Study) -> anyhow::Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
@@ -331,9 +368,23 @@ fn write_out(dir: &std::path::Path, title: &str, st: &Study) -> anyhow::Result<(
         .iter()
         .zip(st.error_angles())
         .zip(&c.scores)
-        .map(|(((name, _), e), s)| {
+        .map(|(((name, q), e), s)| {
+            // A filter run outside has a north of its own: its curve is drawn with its heading offset removed.
+            let e = if s.outside {
+                error_angles(q, &c.reference, s.heading_offset_deg.to_radians())
+            } else {
+                e
+            };
             let pts = t.iter().zip(e).map(|(t0, e)| (t0 - t[0], e[0].to_degrees())).collect();
-            (format!("{name}: mean {:.2}°", s.as_recorded.mean), pts)
+            let label = if s.outside {
+                format!(
+                    "{name}: mean {:.2}° ({:.0}° heading offset removed)",
+                    s.offset_removed.mean, s.heading_offset_deg
+                )
+            } else {
+                format!("{name}: mean {:.2}°", s.as_recorded.mean)
+            };
+            (label, pts)
         })
         .collect();
     let title = format!("attitude error against the on-board orientation, {title}");

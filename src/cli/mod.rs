@@ -92,8 +92,9 @@ pub enum Command {
     Reproduce(reproduce::Paper),
     /// Position from a recorded IMU file as a boundary value problem (FEM), beside the trapezoid rule.
     Reconstruct(reconstruct::ReconstructArgs),
-    /// Attitude from a recording as its maker wrote it: the EKF, Madgwick and Mahony, with noise estimated from the
-    /// file, scored against its reference orientation.
+    /// Attitude from a recording as its maker wrote it: the EKF and the multiplicative EKF with noise estimated from
+    /// the file, Madgwick, Mahony, VQF and the gyro alone, and any filter run elsewhere, scored against its reference
+    /// orientation.
     Attitude(attitude::AttitudeArgs),
 }
 

@@ -177,18 +177,17 @@ impl StepRecording {
     }
 }
 
-/// Samples of `rec` at the times of a reference recorded apart, `(t, q)`: the reference is interpolated (slerp)
-/// at each sample's time; samples outside the reference's time span are dropped. Returns how many were dropped.
-pub fn join_reference(rec: &mut ImuRecording, t: &[f64], q: &[nalgebra::Vector4<f64>]) -> usize {
+/// The attitudes `(t, q)` interpolated (slerp, along the shorter arc) at each of the times `at` (ascending); a time
+/// outside `t`'s span takes the nearer end.
+pub fn attitudes_at(t: &[f64], q: &[nalgebra::Vector4<f64>], at: &[f64]) -> Vec<nalgebra::Vector4<f64>> {
     use nalgebra::{Quaternion, UnitQuaternion};
     let unit = |v: &nalgebra::Vector4<f64>| UnitQuaternion::from_quaternion(Quaternion::new(v[0], v[1], v[2], v[3]));
-    let keep: Vec<usize> = (0..rec.t.len())
-        .filter(|&k| t.first().is_some_and(|a| rec.t[k] >= *a) && t.last().is_some_and(|b| rec.t[k] <= *b))
-        .collect();
-    let mut out = Vec::with_capacity(keep.len());
+    let mut out = Vec::with_capacity(at.len());
+    if t.is_empty() {
+        return out;
+    }
     let mut j = 0;
-    for &k in &keep {
-        let tk = rec.t[k];
+    for &tk in at {
         while j + 2 < t.len() && t[j + 1] < tk {
             j += 1;
         }
@@ -207,16 +206,25 @@ pub fn join_reference(rec: &mut ImuRecording, t: &[f64], q: &[nalgebra::Vector4<
         let u = a.try_slerp(&unit(&b), s, 1e-12).unwrap_or(a);
         out.push(nalgebra::Vector4::new(u.w, u.i, u.j, u.k));
     }
-    let dropped = rec.t.len() - keep.len();
+    out
+}
+
+/// Samples of `rec` at the times of a reference recorded apart, `(t, q)`: the reference is interpolated
+/// ([`attitudes_at`]) at each sample's time; samples outside the reference's time span are dropped. Returns the
+/// indices of the samples kept.
+pub fn join_reference(rec: &mut ImuRecording, t: &[f64], q: &[nalgebra::Vector4<f64>]) -> Vec<usize> {
+    let keep: Vec<usize> = (0..rec.t.len())
+        .filter(|&k| t.first().is_some_and(|a| rec.t[k] >= *a) && t.last().is_some_and(|b| rec.t[k] <= *b))
+        .collect();
     let pick = |v: &Vec<Vector3<f64>>| keep.iter().map(|&k| v[k]).collect::<Vec<_>>();
+    rec.t = keep.iter().map(|&k| rec.t[k]).collect();
+    rec.quat = Some(attitudes_at(t, q, &rec.t));
     rec.accel = pick(&rec.accel);
     rec.gyro = pick(&rec.gyro);
     rec.mag = rec.mag.as_ref().map(pick);
     rec.position = rec.position.as_ref().map(pick);
     rec.euler = None;
-    rec.t = keep.iter().map(|&k| rec.t[k]).collect();
-    rec.quat = Some(out);
-    dropped
+    keep
 }
 
 impl ImuRecording {
@@ -332,7 +340,7 @@ mod tests {
             gyro: vec![Vector3::zeros(); 5],
             ..Default::default()
         };
-        assert_eq!(join_reference(&mut rec, &t_ref, &q_ref), 2);
+        assert_eq!(join_reference(&mut rec, &t_ref, &q_ref), vec![1, 2, 3]);
         assert_eq!(rec.t, vec![0.5, 1.25, 2.0]);
         let q = rec.quat.unwrap();
         for (got, deg) in q.iter().zip([45.0, 112.5, 180.0]) {

@@ -207,6 +207,12 @@ fn real_recordings_run_as_they_come() {
         let m = score(&v, filter, "as_recorded")["mean"].as_f64().unwrap();
         assert!(m < bound, "xsens {filter}: {m}°");
     }
+    // VQF settles over its first 5 s from a start 8.8° off in heading: bounded with the offset removed, and its
+    // tilt, which is the best here (1.36°).
+    let vqf = score(&v, "vqf", "offset_removed");
+    assert!(vqf["mean"].as_f64().unwrap() < 3.6, "xsens vqf: {vqf}");
+    assert!(vqf["tilt_mean"].as_f64().unwrap() < 1.6, "xsens vqf: {vqf}");
+    assert!(score(&v, "vqf", "gated").is_null() && score(&v, "vqf", "consistency").is_null());
     // The filters that keep a covariance report their innovations' consistency, with the χ² band around 1.
     for filter in ["ekf", "mekf"] {
         for sensor in ["accel", "field"] {
@@ -274,7 +280,7 @@ fn real_recordings_run_as_they_come() {
     ]);
     assert_eq!(code, 0, "{err}");
     assert!(v["estimated"]["field"].is_null(), "no magnetometer");
-    for filter in ["ekf", "mekf", "madgwick", "mahony", "gyro"] {
+    for filter in ["ekf", "mekf", "madgwick", "mahony", "gyro", "vqf"] {
         // Without a magnetometer heading is the gyro's alone: scored with the constant offset removed.
         let e = score(&v, filter, "offset_removed");
         assert!(e["mean"].as_f64().unwrap() < 3.5, "xio3 {filter}: {e}");
@@ -288,10 +294,73 @@ fn real_recordings_run_as_they_come() {
         "--json",
     ]);
     assert_eq!(code, 0, "{err}");
-    for filter in ["ekf", "mekf", "madgwick", "mahony", "gyro"] {
+    for filter in ["ekf", "mekf", "madgwick", "mahony", "gyro", "vqf"] {
         let m = score(&v, filter, "offset_removed")["mean"].as_f64().unwrap();
         assert!(m < 13.0, "ngimu {filter}: {m}°");
     }
+}
+
+/// A filter run outside simnet is scored as simnet's own are: the EKF's attitudes, written to `attitude.csv` and
+/// given back row for row as `--compare mine=…`, score exactly the EKF's figures; the NGIMU's own quaternion file,
+/// turned z down (NED) and given with its time column, is matched by time and turned back, and scores zero.
+#[test]
+fn a_filter_run_elsewhere_is_scored_like_simnets_own() {
+    let dir = std::env::temp_dir().join(format!("simnet-test-{}-attitude-compare", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let xsens = recording("xsens-mti.txt");
+    let out = dir.join("out");
+    let (code, v, err) = attitude_cli(&[&xsens, "--json", "--out", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    let table = std::fs::read_to_string(out.join("attitude.csv")).unwrap();
+    let mut lines = table.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let at = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let cols = ["ekf_qw", "ekf_qx", "ekf_qy", "ekf_qz"].map(at);
+    let mut mine = String::from("W,X,Y,Z\n");
+    for line in lines {
+        let f: Vec<&str> = line.split(',').collect();
+        mine.push_str(&cols.map(|c| f[c]).join(","));
+        mine.push('\n');
+    }
+    let mine_path = dir.join("mine.csv");
+    std::fs::write(&mine_path, mine).unwrap();
+    let (code, w, err) = attitude_cli(&[&xsens, "--json", "--compare", &format!("mine={}", mine_path.display())]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(w["scores"].as_array().unwrap().len(), 7);
+    for which in ["as_recorded", "offset_removed"] {
+        for field in ["mean", "rms", "max", "heading_mean", "tilt_mean"] {
+            let (a, b) = (
+                score(&v, "ekf", which)[field].as_f64().unwrap(),
+                score(&w, "mine", which)[field].as_f64().unwrap(),
+            );
+            assert!((a - b).abs() < 1e-9, "{which}.{field}: ekf {a}, mine {b}");
+        }
+    }
+    assert_eq!(score(&w, "mine", "outside"), true);
+    assert_eq!(score(&w, "ekf", "outside"), false);
+
+    // The reference itself, z down: each (w, x, y, z) turned by π about x is (−x, w, −z, y) up to sign.
+    let (ngimu, ngimuq) = (recording("ngimu-sensors.csv"), recording("ngimu-quaternion.csv"));
+    let text = std::fs::read_to_string(&ngimuq).unwrap();
+    let mut ned = String::from("Time (s),W,X,Y,Z\n");
+    for line in text.lines().skip(1) {
+        let f: Vec<f64> = line.split(',').map(|x| x.trim().parse().unwrap()).collect();
+        ned.push_str(&format!("{},{},{},{},{}\n", f[0], -f[2], f[1], -f[4], f[3]));
+    }
+    let ned_path = dir.join("ned.csv");
+    std::fs::write(&ned_path, ned).unwrap();
+    let (code, n, err) = attitude_cli(&[
+        &ngimu,
+        "--reference",
+        &ngimuq,
+        "--json",
+        "--compare",
+        &format!("ned={}", ned_path.display()),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let m = score(&n, "ned", "as_recorded")["max"].as_f64().unwrap();
+    assert!(m < 1e-5, "the reference scored against itself: max {m}°");
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Bad input gets exit 2 and a message naming what is wrong.
@@ -313,6 +382,15 @@ fn attitude_bad_input_is_named() {
     .unwrap();
     let late = dir.join("late.csv");
     std::fs::write(&late, "t,qw,qx,qy,qz\n1000,1,0,0,0\n1001,1,0,0,0\n1002,1,0,0,0\n").unwrap();
+    let tiny = dir.join("tiny.csv");
+    std::fs::write(
+        &tiny,
+        "t,ax,ay,az,gx,gy,gz,qw,qx,qy,qz\n0,0,0,9.8,0,0,0,1,0,0,0\n1e-310,0,0,9.8,0,0,0,1,0,0,0\n\
+         2e-310,0,0,9.8,0,0,0,1,0,0,0\n",
+    )
+    .unwrap();
+    let few = dir.join("few.csv");
+    std::fs::write(&few, "qw,qx,qy,qz\n1,0,0,0\n1,0,0,0\n1,0,0,0\n").unwrap();
     let xsens = recording("xsens-mti.txt");
     let (xio3, xio3q) = (recording("xio3-inertial.csv"), recording("xio3-quaternion.csv"));
     let bare_s = bare.to_str().unwrap();
@@ -335,7 +413,31 @@ fn attitude_bad_input_is_named() {
         ),
         (vec![&xsens, "--gates", "accel=0"], "not a positive number"),
         (vec![&xsens, "--gates", "heading=0.1"], "not a gate"),
+        (vec![tiny.to_str().unwrap()], "sample rate (inf Hz)"),
     ];
+    let c = |name: &str, file: &str| vec![xsens.clone(), "--compare".into(), format!("{name}={file}")];
+    let few_s = few.to_str().unwrap();
+    let compared: Vec<(Vec<String>, &str)> = vec![
+        (
+            vec![xsens.clone(), "--compare".into(), "vqf".into()],
+            "expected NAME=FILE",
+        ),
+        (c("ekf", &xsens), "`ekf` is taken"),
+        (c("a b", late_s), "letters, digits"),
+        (
+            [c("x", late_s), c("x", late_s)[1..].to_vec()].concat(),
+            "`x` is given twice",
+        ),
+        (c("x", late_s), "do not cover the recording's"),
+        (c("x", few_s), "3 rows and no time column"),
+        (c("x", missing.to_str().unwrap()), "cannot read"),
+        (c("x", bare_s), "no reference orientation columns"),
+    ];
+    let cases = cases.into_iter().chain(
+        compared
+            .iter()
+            .map(|(a, says)| (a.iter().map(String::as_str).collect(), *says)),
+    );
     for (args, says) in cases {
         let (code, _, err) = attitude_cli(&args);
         assert_eq!(code, 2, "{args:?}: {err}");

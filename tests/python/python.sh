@@ -13,7 +13,7 @@ PY="$VENV/bin/python"
 start=$(date +%s)
 "$PY" -m pip install -q --disable-pip-version-check ./python
 echo "pip install ./python: $(($(date +%s) - start)) s (the wheel built in release mode)"
-"$PY" -m pip install -q --disable-pip-version-check pytest pyarrow nbclient nbformat ipykernel matplotlib
+"$PY" -m pip install -q --disable-pip-version-check pytest pyarrow nbclient nbformat ipykernel matplotlib vqf
 
 # The check of the issue that asked for the package, from outside the source tree.
 (cd "$VENV" && bin/python -c "import simnet; print(simnet.run('ring3', loss=0.2).nodes)")

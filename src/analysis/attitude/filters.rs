@@ -1,8 +1,8 @@
 //! The filters `compare` runs, each behind [`Filter`]: the quaternion EKF and the multiplicative EKF with the
 //! recording's noise model and gates (and the NIS of their corrections), Madgwick's and Mahony's filters as
-//! published, and the gyro alone.
+//! published, VQF as published, and the gyro alone.
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector4};
+use nalgebra::{DMatrix, DVector, Matrix3, Quaternion, UnitQuaternion, Vector3, Vector4};
 
 use super::Characterised;
 use crate::estimate::ahrs::{compensated_field, Ahrs};
@@ -329,5 +329,70 @@ impl<F: Ahrs> Filter for Open<F> {
 
     fn q(&self) -> Vector4<f64> {
         self.filter.attitude()
+    }
+}
+
+/// VQF (Laidig & Seel 2023, "VQF: Highly accurate IMU orientation estimation with bias estimation and magnetic
+/// disturbance rejection", Information Fusion 91) through `vqf-rs`, a port of its reference C++, with the published
+/// defaults: its own rest detection, gyro bias estimation and magnetic disturbance rejection, at the recording's
+/// nominal sample time, and none of simnet's estimates or gates.
+pub struct Vqf {
+    vqf: vqf_rs::VQF,
+    mag: bool,
+    /// From VQF's earth frame into the navigation frame: with a magnetometer VQF's frame is east-north-up, so −90°
+    /// about z takes its north (y) to the navigation frame's (x); without one its heading is its own, and the first
+    /// sample turns it onto the other filters' start.
+    turn: Option<UnitQuaternion<f64>>,
+    start: Vector4<f64>,
+}
+
+impl Vqf {
+    /// At the sample time `ts` (s); `mag`: whether the magnetometer's samples are used.
+    pub fn new(q0: Vector4<f64>, ts: f64, mag: bool) -> Vqf {
+        Vqf {
+            vqf: vqf_rs::VQF::new(ts, None, None, None),
+            mag,
+            turn: mag.then(|| UnitQuaternion::from_axis_angle(&Vector3::z_axis(), -std::f64::consts::FRAC_PI_2)),
+            start: q0,
+        }
+    }
+
+    fn own(&self) -> UnitQuaternion<f64> {
+        let q = if self.mag {
+            self.vqf.quat_9d()
+        } else {
+            self.vqf.quat_6d()
+        };
+        UnitQuaternion::from_quaternion(Quaternion::new(q.0, q.1, q.2, q.3))
+    }
+}
+
+impl Filter for Vqf {
+    fn name(&self) -> &'static str {
+        "vqf"
+    }
+
+    fn step(&mut self, s: &Sample) -> Result<(), EstimateError> {
+        let m = s.m.filter(|_| self.mag).map(|m| [m[0], m[1], m[2]]);
+        self.vqf.update([s.w[0], s.w[1], s.w[2]], [s.f[0], s.f[1], s.f[2]], m);
+        if self.turn.is_none() {
+            let start = UnitQuaternion::from_quaternion(Quaternion::new(
+                self.start[0],
+                self.start[1],
+                self.start[2],
+                self.start[3],
+            ));
+            let d = start * self.own().inverse();
+            self.turn = Some(UnitQuaternion::from_axis_angle(
+                &Vector3::z_axis(),
+                2.0 * d.k.atan2(d.w),
+            ));
+        }
+        Ok(())
+    }
+
+    fn q(&self) -> Vector4<f64> {
+        let u = self.turn.unwrap_or_default() * self.own();
+        Vector4::new(u.w, u.i, u.j, u.k)
     }
 }

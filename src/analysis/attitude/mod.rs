@@ -1,6 +1,7 @@
 //! Attitude from a recording, scored against the recording's own reference orientation: the quaternion EKF of
-//! Lesecq's slides beside Madgwick's and Mahony's filters on the same samples, with noise levels, gyro bias and the
-//! navigation-frame field estimated from the recording itself rather than set by hand.
+//! Lesecq's slides and the multiplicative EKF beside Madgwick's, Mahony's and VQF on the same samples (the filters
+//! in [`filters`]), with noise levels, gyro bias and the navigation-frame field estimated from the recording itself
+//! rather than set by hand; and any filter run elsewhere, scored the same way ([`Comparison::score_outside`]).
 //!
 //! The navigation frame is z up with x along the horizontal part of the field (magnetic north); a reference given
 //! z down (NED) is turned into it. Errors are split into heading (the rotation about the vertical between estimate
@@ -22,7 +23,7 @@ pub mod filters;
 pub mod sensor;
 pub mod study;
 
-pub use filters::{Consistency, Ekf, Filter, Gated, GyroOnly, MultiplicativeEkf, Nis, Open, Sample};
+pub use filters::{Consistency, Ekf, Filter, Gated, GyroOnly, MultiplicativeEkf, Nis, Open, Sample, Vqf};
 pub use sensor::{characterise, Characterised, Field, Gates, GATES};
 
 #[derive(Debug, thiserror::Error)]
@@ -31,8 +32,14 @@ pub enum AttitudeError {
     NoReference,
     #[error("the recording has {0} samples: at least 3 are needed")]
     TooShort(usize),
+    #[error("the recording's sample rate ({0} Hz) is not a positive finite number")]
+    Rate(f64),
     #[error("{0}")]
     Estimate(#[from] EstimateError),
+    #[error("{name}: {got} attitudes for the recording's {want} samples")]
+    Length { name: String, got: usize, want: usize },
+    #[error("--compare {name}=…: `{name}` is taken (simnet's own: {taken})")]
+    NameTaken { name: String, taken: String },
 }
 
 /// One filter's error against the reference, degrees.
@@ -47,7 +54,9 @@ pub struct Errors {
 
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Score {
-    pub filter: &'static str,
+    pub filter: String,
+    /// Run outside simnet and scored here ([`Comparison::score_outside`]).
+    pub outside: bool,
     pub as_recorded: Errors,
     /// With the constant heading offset (reported) removed.
     pub offset_removed: Errors,
@@ -118,10 +127,18 @@ pub fn reference_up(rec: &ImuRecording) -> Result<(Vec<Vector4<f64>>, bool), Att
         (None, Some(e)) => e.iter().map(from_euler).collect(),
         _ => return Err(AttitudeError::NoReference),
     };
-    let f = rec.accel[0].normalize();
-    let (up, _) = rotate_to_body(&q[0], &Vector3::z());
-    if up.dot(&f) >= 0.0 {
-        return Ok((q, false));
+    Ok(z_up(q, &rec.accel[0]))
+}
+
+/// `q` turned by π about x when its first attitude puts the specific force `f0` (up, at rest) along −z; and whether
+/// it was.
+fn z_up(q: Vec<Vector4<f64>>, f0: &Vector3<f64>) -> (Vec<Vector4<f64>>, bool) {
+    let Some(first) = q.first() else {
+        return (q, false);
+    };
+    let (up, _) = rotate_to_body(first, &Vector3::z());
+    if up.dot(&f0.normalize()) >= 0.0 {
+        return (q, false);
     }
     let flip = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI);
     let turned = q
@@ -131,7 +148,21 @@ pub fn reference_up(rec: &ImuRecording) -> Result<(Vec<Vector4<f64>>, bool), Att
             Vector4::new(u.w, u.i, u.j, u.k)
         })
         .collect();
-    Ok((turned, true))
+    (turned, true)
+}
+
+/// `q`'s errors against `reference`, as recorded and with the constant heading offset removed.
+fn score(name: &str, q: &[Vector4<f64>], reference: &[Vector4<f64>]) -> Score {
+    let off = heading_offset(q, reference);
+    Score {
+        filter: name.to_string(),
+        outside: false,
+        as_recorded: errors_of(q, reference, 0.0),
+        offset_removed: errors_of(q, reference, off),
+        heading_offset_deg: off.to_degrees(),
+        gated: None,
+        consistency: None,
+    }
 }
 
 /// Every filter's attitudes over the recording and its scores.
@@ -143,7 +174,7 @@ pub struct Comparison {
     pub g: Vector3<f64>,
     pub h: Option<Vector3<f64>>,
     pub scores: Vec<Score>,
-    pub attitudes: Vec<(&'static str, Vec<Vector4<f64>>)>,
+    pub attitudes: Vec<(String, Vec<Vector4<f64>>)>,
     /// The reference, z up.
     pub reference: Vec<Vector4<f64>>,
     /// The noise model held against the reference.
@@ -152,8 +183,8 @@ pub struct Comparison {
     pub mekf_model: MekfModel,
 }
 
-/// Run the EKF, Madgwick and Mahony on `rec`, each initialised from the first accelerometer and magnetometer
-/// samples, with the noise levels, field and gates of [`characterise`].
+/// Run the filters of [`filters`] on `rec`, each initialised from the first accelerometer and magnetometer samples
+/// (VQF from its own), the EKFs with the noise levels, field and gates of [`characterise`].
 pub fn compare(rec: &ImuRecording, rate_hz: f64) -> Result<Comparison, AttitudeError> {
     compare_with(rec, rate_hz, &GATES)
 }
@@ -163,6 +194,9 @@ pub fn compare_with(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Result<C
     let n = rec.t.len();
     if n < 3 {
         return Err(AttitudeError::TooShort(n));
+    }
+    if !(rate_hz.is_finite() && rate_hz > 0.0) {
+        return Err(AttitudeError::Rate(rate_hz));
     }
     let (reference, z_down) = reference_up(rec)?;
     let c = characterise(rec, rate_hz, gates);
@@ -179,6 +213,7 @@ pub fn compare_with(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Result<C
         Box::new(Open::new("madgwick", Madgwick::new(q0, beta), g, h)),
         Box::new(Open::new("mahony", Mahony::new(q0, MAHONY_KP, MAHONY_KI), g, h)),
         Box::new(GyroOnly::new(q0, c.gyro_bias)),
+        Box::new(Vqf::new(q0, 1.0 / rate_hz, h.is_some())),
     ];
     let mut out: Vec<Vec<Vector4<f64>>> = filters.iter().map(|_| Vec::with_capacity(n)).collect();
     for k in 0..n {
@@ -196,18 +231,15 @@ pub fn compare_with(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Result<C
             o.push(f.q());
         }
     }
-    let mut scores = Vec::new();
-    for (f, q) in filters.iter().zip(&out) {
-        let off = heading_offset(q, &reference);
-        scores.push(Score {
-            filter: f.name(),
-            as_recorded: errors_of(q, &reference, 0.0),
-            offset_removed: errors_of(q, &reference, off),
-            heading_offset_deg: off.to_degrees(),
+    let scores = filters
+        .iter()
+        .zip(&out)
+        .map(|(f, q)| Score {
             gated: f.gated(),
             consistency: f.consistency(),
-        });
-    }
+            ..score(f.name(), q, &reference)
+        })
+        .collect();
     let noise_check = check::check(rec, &reference, &c);
     Ok(Comparison {
         noise_check,
@@ -217,9 +249,44 @@ pub fn compare_with(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Result<C
         g,
         h,
         scores,
-        attitudes: filters.iter().map(|f| f.name()).zip(out).collect(),
+        attitudes: filters.iter().map(|f| f.name().to_string()).zip(out).collect(),
         reference,
     })
+}
+
+impl Comparison {
+    /// Score a filter run elsewhere the way simnet's own are: `q`, one unit quaternion (scalar first, body to
+    /// navigation) per sample of the recording, against the same reference. Its navigation frame may be z down
+    /// (turned as the reference is, read off the first sample) and its north anywhere: the offset-removed errors
+    /// do not see a constant heading.
+    pub fn score_outside(&mut self, rec: &ImuRecording, name: &str, q: Vec<Vector4<f64>>) -> Result<(), AttitudeError> {
+        if name == "ref" || self.attitudes.iter().any(|(n, _)| n == name) {
+            return Err(AttitudeError::NameTaken {
+                name: name.to_string(),
+                taken: self
+                    .attitudes
+                    .iter()
+                    .map(|(n, _)| n.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            });
+        }
+        let want = self.reference.len();
+        if q.len() != want {
+            return Err(AttitudeError::Length {
+                name: name.to_string(),
+                got: q.len(),
+                want,
+            });
+        }
+        let (q, _) = z_up(q, &rec.accel[0]);
+        self.scores.push(Score {
+            outside: true,
+            ..score(name, &q, &self.reference)
+        });
+        self.attitudes.push((name.to_string(), q));
+        Ok(())
+    }
 }
 
 #[cfg(test)]

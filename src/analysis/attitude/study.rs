@@ -14,6 +14,15 @@ pub struct Source<'a> {
     pub name: &'a str,
 }
 
+/// A filter run elsewhere, to be scored beside simnet's: its name in the table and the file of its attitudes
+/// (a quaternion or roll, pitch, yaw per row; with a time column it is matched to the recording by time, without
+/// one it has a row per sample of the recording).
+#[derive(Debug, Clone, Copy)]
+pub struct Outside<'a> {
+    pub name: &'a str,
+    pub source: Source<'a>,
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum StudyError {
     #[error("{0}")]
@@ -24,6 +33,48 @@ pub enum StudyError {
     NoMagnetometer(String),
     #[error("{name}: {source}")]
     Attitude { name: String, source: AttitudeError },
+    #[error("--compare {name}=…: {why}")]
+    OutsideName { name: String, why: String },
+    #[error(
+        "{file}: its times ({from:.3}–{to:.3} s) do not cover the recording's ({need_from:.3}–{need_to:.3} s): \
+             a filter compared needs an attitude at every sample"
+    )]
+    OutsideSpan {
+        file: String,
+        from: f64,
+        to: f64,
+        need_from: f64,
+        need_to: f64,
+    },
+    #[error("{file}: {rows} rows and no time column: without one it needs a row per sample of the recording ({want})")]
+    OutsideRows { file: String, rows: usize, want: usize },
+}
+
+/// The attitudes a reference-only reading holds, as quaternions.
+fn attitudes_of(r: &Reading) -> Vec<nalgebra::Vector4<f64>> {
+    match (&r.recording.quat, &r.recording.euler) {
+        (Some(q), _) => q.clone(),
+        (_, Some(e)) => e.iter().map(crate::estimate::attitude::from_euler).collect(),
+        _ => Vec::new(),
+    }
+}
+
+fn check_name(name: &str, before: &[Outside]) -> Result<(), StudyError> {
+    let why = if name.is_empty() || name.len() > 16 {
+        Some("a name is 1 to 16 characters".to_string())
+    } else if !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
+        Some("a name is letters, digits, `_` and `-` (it heads columns of attitude.csv)".to_string())
+    } else if before.iter().any(|o| o.name == name) {
+        Some(format!("`{name}` is given twice"))
+    } else {
+        None
+    };
+    why.map_or(Ok(()), |why| {
+        Err(StudyError::OutsideName {
+            name: name.to_string(),
+            why,
+        })
+    })
 }
 
 #[derive(Debug, Clone)]
@@ -36,27 +87,31 @@ pub struct Study {
     pub comparison: Comparison,
 }
 
-/// Read `file` (and `reference`), calibrate if asked, compare the filters behind `gates`.
+/// Read `file` (and `reference`), calibrate if asked, compare the filters behind `gates`, and score the filters
+/// run elsewhere (`outside`) beside them.
 pub fn study(
     file: Source,
     reference: Option<Source>,
+    outside: &[Outside],
     o: &ReadOptions,
     calibrate_mag: bool,
     gates: Gates,
 ) -> Result<Study, StudyError> {
+    for (i, x) in outside.iter().enumerate() {
+        check_name(x.name, &outside[..i])?;
+    }
     let mut reading = layout::read_any(file.text, file.name, o)?;
+    // The recording's times and, after a reference apart has dropped some, which of its rows are left.
+    let all_t = reading.recording.t.clone();
+    let mut kept: Vec<usize> = (0..all_t.len()).collect();
     if let Some(r) = reference {
         let ro = ReadOptions {
             columns: Vec::new(),
             ..o.clone()
         };
         let refr = layout::read_reference(r.text, r.name, &ro)?;
-        let q: Vec<_> = match (&refr.recording.quat, &refr.recording.euler) {
-            (Some(q), _) => q.clone(),
-            (_, Some(e)) => e.iter().map(crate::estimate::attitude::from_euler).collect(),
-            _ => unreachable!("read_reference returns a reference or an error"),
-        };
-        let dropped = crate::imu_csv::join_reference(&mut reading.recording, &refr.recording.t, &q);
+        kept = crate::imu_csv::join_reference(&mut reading.recording, &refr.recording.t, &attitudes_of(&refr));
+        let dropped = all_t.len() - kept.len();
         if reading.recording.t.len() < 3 {
             return Err(StudyError::NoOverlap {
                 name: r.name.to_string(),
@@ -90,11 +145,20 @@ pub fn study(
             }
         }));
     }
-    let comparison =
+    let mut comparison =
         compare_with(&reading.recording, reading.rate_hz, &gates).map_err(|source| StudyError::Attitude {
             name: file.name.to_string(),
             source,
         })?;
+    for x in outside {
+        let q = outside_attitudes(x.source, o, reading.rate_hz, &all_t, &kept, &reading.recording.t)?;
+        comparison
+            .score_outside(&reading.recording, x.name, q)
+            .map_err(|source| StudyError::Attitude {
+                name: x.source.name.to_string(),
+                source,
+            })?;
+    }
     Ok(Study {
         name: file.name.to_string(),
         reading,
@@ -102,6 +166,49 @@ pub fn study(
         gates,
         comparison,
     })
+}
+
+/// A filter's attitudes from its file, one per sample the comparison keeps: by time when the file has a time column
+/// (within half a sample of the recording's ends), else row for row with the recording (`all_t`), of which `kept`
+/// are left at the times `t`.
+fn outside_attitudes(
+    src: Source,
+    o: &ReadOptions,
+    rate_hz: f64,
+    all_t: &[f64],
+    kept: &[usize],
+    t: &[f64],
+) -> Result<Vec<nalgebra::Vector4<f64>>, StudyError> {
+    let ro = ReadOptions {
+        columns: Vec::new(),
+        rate_hz: Some(rate_hz),
+        ..o.clone()
+    };
+    let r = layout::read_reference(src.text, src.name, &ro)?;
+    let q = attitudes_of(&r);
+    if !r.columns.iter().any(|(target, _)| target == "t") {
+        if q.len() != all_t.len() {
+            return Err(StudyError::OutsideRows {
+                file: src.name.to_string(),
+                rows: q.len(),
+                want: all_t.len(),
+            });
+        }
+        return Ok(kept.iter().map(|&k| q[k]).collect());
+    }
+    let (from, to) = (r.recording.t[0], r.recording.t[r.recording.t.len() - 1]);
+    let (need_from, need_to) = (t[0], t[t.len() - 1]);
+    let slack = 0.5 / rate_hz;
+    if from > need_from + slack || to < need_to - slack {
+        return Err(StudyError::OutsideSpan {
+            file: src.name.to_string(),
+            from,
+            to,
+            need_from,
+            need_to,
+        });
+    }
+    Ok(crate::imu_csv::attitudes_at(&r.recording.t, &q, t))
 }
 
 /// An open gate (∞) as JSON null.
