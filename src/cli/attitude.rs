@@ -33,8 +33,8 @@ pub struct AttitudeArgs {
     /// refused, with the reason, when the recording does not turn the sensor enough.
     #[arg(long)]
     pub calibrate_mag: bool,
-    /// The gates: `off`, or `accel=F,field=F,dip=DEG` (fractions of |g| and |h|, degrees of dip; default
-    /// accel=0.1,field=0.1,dip=5.7).
+    /// The gates: `off`, or `accel=F,field=F,dip=DEG,settle=S` (fractions of |g| and |h|, degrees of dip, seconds the
+    /// field must pass on end before it corrects; default accel=0.1,field=0.1,dip=5.7,settle=0.5).
     #[arg(long, value_parser = Gates::parse)]
     pub gates: Option<Gates>,
     /// Write `attitude.csv` (every filter's attitude and error per sample, the gates' verdicts) and `attitude.svg`
@@ -172,9 +172,10 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
             match (g.field.is_finite(), g.dip.is_finite()) {
                 (false, false) => "open".to_string(),
                 _ => format!(
-                    "|m| within {:.0} %, dip within {:.1}°",
+                    "|m| within {:.0} %, dip within {:.1}°, for {} s on end",
                     100.0 * g.field,
-                    g.dip.to_degrees()
+                    g.dip.to_degrees(),
+                    g.settle
                 ),
             },
             100.0 * f.passed,

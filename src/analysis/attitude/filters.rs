@@ -376,16 +376,10 @@ impl Filter for Vqf {
         let m = s.m.filter(|_| self.mag).map(|m| [m[0], m[1], m[2]]);
         self.vqf.update([s.w[0], s.w[1], s.w[2]], [s.f[0], s.f[1], s.f[2]], m);
         if self.turn.is_none() {
-            let start = UnitQuaternion::from_quaternion(Quaternion::new(
-                self.start[0],
-                self.start[1],
-                self.start[2],
-                self.start[3],
-            ));
-            let d = start * self.own().inverse();
+            let d = super::unit(&self.start) * self.own().inverse();
             self.turn = Some(UnitQuaternion::from_axis_angle(
                 &Vector3::z_axis(),
-                2.0 * d.k.atan2(d.w),
+                super::swing_twist(&d).0,
             ));
         }
         Ok(())

@@ -469,6 +469,7 @@ mod tests {
             accel: f64::INFINITY,
             field: f64::INFINITY,
             dip: f64::INFINITY,
+            settle: 0.0,
         };
         let o = compare_with(&rec, 100.0, &open).unwrap();
         for filter in ["ekf", "mekf"] {
@@ -486,6 +487,24 @@ mod tests {
             assert!(during < 2.0, "{filter} through the disturbance: {during}°");
             assert!(ungated > during, "{filter}: ungated {ungated}° against gated {during}°");
             assert!(overall < 2.0, "{filter} over the recording: {overall}°");
+        }
+    }
+
+    /// A sample passes the settled gate only after `need` passing samples before it, counted anew after every
+    /// refusal; `settle=0` leaves the gate as it was, and `--gates` reads the duration in seconds.
+    #[test]
+    fn the_field_must_pass_for_a_while_before_it_corrects() {
+        let ok = [true, true, true, false, true, true, true, true, false, true];
+        let t = |v: &[bool]| v.iter().map(|&b| if b { '1' } else { '0' }).collect::<String>();
+        assert_eq!(t(&sensor::settled(&ok, 0)), t(&ok));
+        assert_eq!(t(&sensor::settled(&ok, 2)), "0010001100");
+        assert_eq!(t(&sensor::settled(&ok, 9)), "0000000000");
+        assert_eq!(Gates::parse("settle=0.25").unwrap().settle, 0.25);
+        assert_eq!(Gates::parse("settle=0").unwrap().settle, 0.0);
+        assert_eq!(Gates::parse("accel=0.2").unwrap().settle, GATES.settle);
+        assert_eq!(Gates::parse("off").unwrap(), Gates::OPEN);
+        for bad in ["settle=-1", "settle=inf", "settle=x"] {
+            assert!(Gates::parse(bad).unwrap_err().contains("not a duration"), "{bad}");
         }
     }
 

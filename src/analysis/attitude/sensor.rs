@@ -16,18 +16,23 @@ use crate::stats;
 /// magnitude by more than `field` of it, or whose dip departs by more than `dip` (rad), is taken as disturbed.
 /// The accelerometer's 0.1 is the magnitude error where Valenti, Dryanovski & Xiao (2015, "Keeping a good
 /// attitude", §5.1) start to lower their filter's gain; the field's are the same fraction and the dip it allows
-/// (asin 0.1 ≈ 5.7°).
+/// (asin 0.1 ≈ 5.7°). The field must pass for `settle` seconds on end, from the start and after every refusal,
+/// before its samples correct, since the first samples back within bounds are often the tail of a disturbance: 0.5 s
+/// is the minimum undisturbed time of VQF's magnetic disturbance rejection (Laidig & Seel 2023; the default of
+/// `magMinUndisturbedTime` in its reference implementation).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Gates {
     pub accel: f64,
     pub field: f64,
     pub dip: f64,
+    pub settle: f64,
 }
 
 pub const GATES: Gates = Gates {
     accel: 0.1,
     field: 0.1,
     dip: 0.1,
+    settle: 0.5,
 };
 
 impl Gates {
@@ -36,9 +41,11 @@ impl Gates {
         accel: f64::INFINITY,
         field: f64::INFINITY,
         dip: f64::INFINITY,
+        settle: 0.0,
     };
 
-    /// `off`, or `accel=F,field=F,dip=DEG` (any of them; the others keep [`GATES`]).
+    /// `off`, or `accel=F,field=F,dip=DEG,settle=S` (any of them; the others keep [`GATES`]; `settle=0` corrects
+    /// from the first sample back within bounds).
     pub fn parse(spec: &str) -> Result<Gates, String> {
         if spec.trim() == "off" {
             return Ok(Gates::OPEN);
@@ -47,18 +54,22 @@ impl Gates {
         for part in spec.split(',').filter(|p| !p.trim().is_empty()) {
             let (k, v) = part
                 .split_once('=')
-                .ok_or_else(|| format!("`{}`: write accel=F,field=F,dip=DEG or off", part.trim()))?;
+                .ok_or_else(|| format!("`{}`: write accel=F,field=F,dip=DEG,settle=S or off", part.trim()))?;
+            let (k, v) = (k.trim(), v.trim());
             let x: f64 = v
-                .trim()
                 .parse()
                 .ok()
-                .filter(|x: &f64| *x > 0.0)
-                .ok_or_else(|| format!("{}: `{}` is not a positive number", k.trim(), v.trim()))?;
-            match k.trim() {
+                .filter(|x: &f64| x.is_finite() && (*x > 0.0 || (k == "settle" && *x == 0.0)))
+                .ok_or_else(|| match k {
+                    "settle" => format!("settle: `{v}` is not a duration in seconds (0 or more)"),
+                    _ => format!("{k}: `{v}` is not a positive number"),
+                })?;
+            match k {
                 "accel" => g.accel = x,
                 "field" => g.field = x,
                 "dip" => g.dip = x.to_radians(),
-                other => return Err(format!("`{other}` is not a gate (accel, field, dip)")),
+                "settle" => g.settle = x,
+                other => return Err(format!("`{other}` is not a gate (accel, field, dip, settle)")),
             }
         }
         Ok(g)
@@ -332,6 +343,18 @@ pub fn field_passes(m: &Vector3<f64>, a: Option<&Vector3<f64>>, field: &Field, g
     }
 }
 
+/// `ok` with each run of passing samples refused for its first `need` samples: a sample passes once the `need`
+/// before it have (VQF counts its undisturbed time the same way, from the sample back within bounds).
+pub fn settled(ok: &[bool], need: usize) -> Vec<bool> {
+    let mut run = 0;
+    ok.iter()
+        .map(|&o| {
+            run = if o { run + 1 } else { 0 };
+            o && run > need
+        })
+        .collect()
+}
+
 /// Everything above, from the recording at `rate_hz`.
 pub fn characterise(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Characterised {
     let n = rec.t.len();
@@ -377,6 +400,7 @@ pub fn characterise(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Characte
             let ok: Vec<bool> = (0..n)
                 .map(|k| field_passes(&mag[k], Some(&rec.accel[k]).filter(|_| passes[k]), &f, gates))
                 .collect();
+            let ok = settled(&ok, (gates.settle * rate_hz).round() as usize);
             f.passed = ok.iter().filter(|p| **p).count() as f64 / n.max(1) as f64;
             let d: Vec<f64> = mag.iter().map(|m| m.norm() - magnitude).collect();
             (Some(f), Some((mean_square(&d), correlation_time(&d))), ok)

@@ -271,6 +271,7 @@ impl Study {
                 "accel": finite(gates.accel),
                 "field": finite(gates.field),
                 "dip_deg": finite(gates.dip.to_degrees()),
+                "settle_s": gates.settle,
             },
             "mag_calibration": self.calibration.as_ref().map(|r| match r {
                 Ok(c) => serde_json::json!({
