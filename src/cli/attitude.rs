@@ -270,6 +270,13 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
                 .map_or("-".to_string(), |g| format!("{} / {}", g.accel, g.field))
         )?;
     }
+    if let (Some(a), Some(b)) = (c.closest(false), c.closest(true)) {
+        writeln!(
+            out,
+            "closest to the reference: {} ({:.2}°) as recorded, {} ({:.2}°) with the offset removed",
+            a.filter, a.as_recorded.mean, b.filter, b.offset_removed.mean
+        )?;
+    }
     writeln!(
         out,
         "\nekf: Lesecq's quaternion EKF; mekf: the multiplicative EKF with Gauss–Markov linear acceleration and field \

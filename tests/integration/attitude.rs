@@ -373,6 +373,17 @@ fn a_filter_run_elsewhere_is_scored_like_simnets_own() {
     assert_eq!(code, 0, "{err}");
     let m = score(&n, "ned", "as_recorded")["max"].as_f64().unwrap();
     assert!(m < 1e-5, "the reference scored against itself: max {m}°");
+    // The table names it as the closest, both ways.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_simnet"))
+        .args(["attitude", &ngimu, "--reference", &ngimuq, "--compare"])
+        .arg(format!("ned={}", ned_path.display()))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("closest to the reference: ned (0.00°) as recorded, ned (0.00°) with the offset removed"),
+        "{text}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -255,6 +255,19 @@ pub fn compare_with(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Result<C
 }
 
 impl Comparison {
+    /// The score with the smallest mean error, as recorded or with the constant heading offset removed (a filter
+    /// run elsewhere included).
+    pub fn closest(&self, offset_removed: bool) -> Option<&Score> {
+        let mean = |s: &Score| {
+            if offset_removed {
+                s.offset_removed.mean
+            } else {
+                s.as_recorded.mean
+            }
+        };
+        self.scores.iter().min_by(|a, b| mean(a).total_cmp(&mean(b)))
+    }
+
     /// Score a filter run elsewhere the way simnet's own are: `q`, one unit quaternion (scalar first, body to
     /// navigation) per sample of the recording, against the same reference. Its navigation frame may be z down
     /// (turned as the reference is, read off the first sample) and its north anywhere: the offset-removed errors
