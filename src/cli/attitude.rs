@@ -172,10 +172,14 @@ pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
             match (g.field.is_finite(), g.dip.is_finite()) {
                 (false, false) => "open".to_string(),
                 _ => format!(
-                    "|m| within {:.0} %, dip within {:.1}°, for {} s on end",
+                    "|m| within {:.0} %, dip within {:.1}°{}",
                     100.0 * g.field,
                     g.dip.to_degrees(),
-                    g.settle
+                    if g.settle > 0.0 {
+                        format!(", for {} s on end", g.settle)
+                    } else {
+                        String::new()
+                    }
                 ),
             },
             100.0 * f.passed,

@@ -516,6 +516,7 @@ mod tests {
         assert_eq!(Gates::parse("settle=0").unwrap().settle, 0.0);
         assert_eq!(Gates::parse("accel=0.2").unwrap().settle, GATES.settle);
         assert_eq!(Gates::parse("off").unwrap(), Gates::OPEN);
+        assert_eq!(Gates::parse("accel=inf").unwrap().accel, f64::INFINITY);
         for bad in ["settle=-1", "settle=inf", "settle=x"] {
             assert!(Gates::parse(bad).unwrap_err().contains("not a duration"), "{bad}");
         }

@@ -59,7 +59,11 @@ impl Gates {
             let x: f64 = v
                 .parse()
                 .ok()
-                .filter(|x: &f64| x.is_finite() && (*x > 0.0 || (k == "settle" && *x == 0.0)))
+                .filter(|x: &f64| match k {
+                    "settle" => x.is_finite() && *x >= 0.0,
+                    // An infinite bound opens that gate alone.
+                    _ => *x > 0.0,
+                })
                 .ok_or_else(|| match k {
                     "settle" => format!("settle: `{v}` is not a duration in seconds (0 or more)"),
                     _ => format!("{k}: `{v}` is not a positive number"),
