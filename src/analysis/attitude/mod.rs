@@ -503,14 +503,15 @@ mod tests {
         }
     }
 
-    /// A sample passes the settled gate only after `need` passing samples before it, counted anew after every
-    /// refusal; `settle=0` leaves the gate as it was, and `--gates` reads the duration in seconds.
+    /// A sample passes the settled gate only as the `need`-th passing sample on end or later, counted anew after
+    /// every refusal; `settle=0` leaves the gate as it was, and `--gates` reads the duration in seconds.
     #[test]
     fn the_field_must_pass_for_a_while_before_it_corrects() {
         let ok = [true, true, true, false, true, true, true, true, false, true];
         let t = |v: &[bool]| v.iter().map(|&b| if b { '1' } else { '0' }).collect::<String>();
         assert_eq!(t(&sensor::settled(&ok, 0)), t(&ok));
-        assert_eq!(t(&sensor::settled(&ok, 2)), "0010001100");
+        assert_eq!(t(&sensor::settled(&ok, 1)), t(&ok));
+        assert_eq!(t(&sensor::settled(&ok, 2)), "0110011100");
         assert_eq!(t(&sensor::settled(&ok, 9)), "0000000000");
         assert_eq!(Gates::parse("settle=0.25").unwrap().settle, 0.25);
         assert_eq!(Gates::parse("settle=0").unwrap().settle, 0.0);

@@ -347,14 +347,15 @@ pub fn field_passes(m: &Vector3<f64>, a: Option<&Vector3<f64>>, field: &Field, g
     }
 }
 
-/// `ok` with each run of passing samples refused for its first `need` samples: a sample passes once the `need`
-/// before it have (VQF counts its undisturbed time the same way, from the sample back within bounds).
+/// `ok` with each run of passing samples refused until it is `need` samples long: the `need`-th passes, as in VQF,
+/// which adds each sample's period to the undisturbed time, itself included, and accepts once that time reaches
+/// the minimum.
 pub fn settled(ok: &[bool], need: usize) -> Vec<bool> {
     let mut run = 0;
     ok.iter()
         .map(|&o| {
             run = if o { run + 1 } else { 0 };
-            o && run > need
+            o && run >= need
         })
         .collect()
 }
