@@ -56,23 +56,21 @@ impl Gates {
                 .split_once('=')
                 .ok_or_else(|| format!("`{}`: write accel=F,field=F,dip=DEG,settle=S or off", part.trim()))?;
             let (k, v) = (k.trim(), v.trim());
-            let x: f64 = v
-                .parse()
-                .ok()
-                .filter(|x: &f64| match k {
-                    "settle" => x.is_finite() && *x >= 0.0,
-                    // An infinite bound opens that gate alone.
-                    _ => *x > 0.0,
-                })
-                .ok_or_else(|| match k {
-                    "settle" => format!("settle: `{v}` is not a duration in seconds (0 or more)"),
-                    _ => format!("{k}: `{v}` is not a positive number"),
-                })?;
+            let x: Option<f64> = v.parse().ok();
+            // An infinite bound opens that gate alone.
+            let bound = || {
+                x.filter(|x| *x > 0.0)
+                    .ok_or_else(|| format!("{k}: `{v}` is not a positive number"))
+            };
             match k {
-                "accel" => g.accel = x,
-                "field" => g.field = x,
-                "dip" => g.dip = x.to_radians(),
-                "settle" => g.settle = x,
+                "accel" => g.accel = bound()?,
+                "field" => g.field = bound()?,
+                "dip" => g.dip = bound()?.to_radians(),
+                "settle" => {
+                    g.settle = x
+                        .filter(|x| x.is_finite() && *x >= 0.0)
+                        .ok_or_else(|| format!("settle: `{v}` is not a duration in seconds (0 or more)"))?
+                }
                 other => return Err(format!("`{other}` is not a gate (accel, field, dip, settle)")),
             }
         }
