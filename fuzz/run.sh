@@ -10,7 +10,7 @@ if ! command -v cargo-fuzz >/dev/null 2>&1; then
 fi
 SECONDS_EACH=${SIMNET_FUZZ_SECONDS:-45}
 cargo fuzz build --sanitizer none >/dev/null 2>&1 || cargo fuzz build --sanitizer none
-for t in datagram topology imu_csv parts; do
+for t in datagram topology imu_csv parts campaign; do
   mkdir -p "corpus/$t"
   if ! cargo fuzz run --sanitizer none "$t" "corpus/$t" "seeds/$t" -- -max_total_time="$SECONDS_EACH" \
     > "corpus/$t.log" 2>&1; then

@@ -42,12 +42,55 @@ fn open(path: &Path, limit: u64) -> io::Result<std::fs::File> {
     }
     if meta.len() > limit {
         return Err(invalid(format!(
-            "{} bytes, more than the {} MiB such a file may have",
+            "{} bytes, more than the {} such a file may have",
             meta.len(),
-            limit >> 20
+            size_text(limit)
         )));
     }
     std::fs::File::open(path)
+}
+
+/// A piece of an untrusted file as an error quotes it: the first 40 characters, and how long it was beyond them
+/// (a message never carries a file's megabytes).
+pub fn quoted(s: &str) -> String {
+    const SHOWN: usize = 40;
+    match s.char_indices().nth(SHOWN) {
+        None => format!("`{s}`"),
+        Some((cut, _)) => format!("`{}…` ({} bytes)", &s[..cut], s.len()),
+    }
+}
+
+/// `limit` as a reader would say it: bytes below a MiB.
+fn size_text(limit: u64) -> String {
+    if limit < 1 << 20 {
+        format!("{limit} bytes")
+    } else {
+        format!("{} MiB", limit >> 20)
+    }
+}
+
+/// A network key file: a regular file of at most [`MAX_KEY`] bytes that its owner can read and no one else can (as
+/// ssh asks of a private key), holding one key line. The message names the file and says how to mend it.
+pub fn read_key(path: &Path) -> Result<crate::wire::secure::Key, String> {
+    let shown = path.display();
+    let meta = std::fs::metadata(path).map_err(|e| format!("cannot read {shown}: {e}"))?;
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = meta.permissions().mode() & 0o777;
+        if meta.is_file() && mode & 0o077 != 0 {
+            return Err(format!(
+                "{shown}: a network key must be readable by its owner alone, this one has mode {mode:04o}: \
+                 chmod 600 {shown}"
+            ));
+        }
+        if meta.is_file() && mode & 0o400 == 0 {
+            return Err(format!(
+                "{shown}: its owner cannot read it (mode {mode:04o}): chmod 600 {shown}"
+            ));
+        }
+    }
+    let text = read_text(path, MAX_KEY).map_err(|e| format!("cannot read {shown}: {e}"))?;
+    crate::wire::secure::Key::parse(&text).map_err(|e| format!("{shown}: {e}"))
 }
 
 /// The whole text of `path` (see the module's rules).
@@ -57,8 +100,8 @@ pub fn read_text(path: &Path, limit: u64) -> io::Result<String> {
     open(path, limit)?.take(limit + 1).read_to_end(&mut bytes)?;
     if bytes.len() as u64 > limit {
         return Err(invalid(format!(
-            "more than the {} MiB such a file may have",
-            limit >> 20
+            "more than the {} such a file may have",
+            size_text(limit)
         )));
     }
     String::from_utf8(bytes).map_err(|e| invalid(format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to())))
@@ -72,6 +115,16 @@ pub fn open_lines(path: &Path, limit: u64) -> io::Result<impl BufRead> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn quotes_are_short() {
+        assert_eq!(quoted("1.5x"), "`1.5x`");
+        let long = "9".repeat(63_000_000 / 1000);
+        let q = quoted(&long);
+        assert!(q.len() < 80 && q.ends_with("(63000 bytes)"), "{q}");
+        assert_eq!(size_text(4096), "4096 bytes");
+        assert_eq!(size_text(64 << 20), "64 MiB");
+    }
 
     #[test]
     fn only_bounded_regular_text_files_are_read() {

@@ -105,6 +105,13 @@ pub struct PlanFile {
 }
 
 impl PlanFile {
+    /// `plan.json` as read from a file, checked ([`PlanFile::check`]).
+    pub fn parse(text: &str) -> Result<PlanFile, String> {
+        let p: PlanFile = serde_json::from_str(text).map_err(|e| e.to_string())?;
+        p.check()?;
+        Ok(p)
+    }
+
     pub fn of(plan: &Plan) -> PlanFile {
         PlanFile {
             topology: plan.base.name().to_string(),
@@ -122,6 +129,55 @@ impl PlanFile {
                 })
                 .collect(),
         }
+    }
+
+    /// Whether this plan (as read from a file) is one simnet writes: seeds and runs within the bounds a campaign
+    /// has, each point the product of the axes at its index, each digest a SHA-256 — checked before anything is
+    /// allocated by its size, so that a crafted `plan.json` is an error naming what is wrong.
+    pub fn check(&self) -> Result<(), String> {
+        if self.seeds == 0 {
+            return Err("`seeds` is 0".into());
+        }
+        let mut points: usize = 1;
+        for (i, a) in self.axes.iter().enumerate() {
+            if a.values.is_empty() || a.values.len() > MAX_VALUES {
+                return Err(format!(
+                    "axis `{}` has {} values (1 to {MAX_VALUES})",
+                    a.key,
+                    a.values.len()
+                ));
+            }
+            if self.axes[..i].iter().any(|b| b.key == a.key) {
+                return Err(format!("axis `{}` is given twice", a.key));
+            }
+            points = points.saturating_mul(a.values.len());
+        }
+        if points != self.points.len() {
+            return Err(format!(
+                "its axes make {points} points, but it lists {}",
+                self.points.len()
+            ));
+        }
+        if (points as u128) * (self.seeds as u128) > MAX_RUNS as u128 {
+            return Err(format!(
+                "{points} points × {} seeds is more than {MAX_RUNS} runs",
+                self.seeds
+            ));
+        }
+        for (i, p) in self.points.iter().enumerate() {
+            if p.values != plan::combination(&self.axes, i) {
+                return Err(format!("point {i} does not hold the axes' values at its index"));
+            }
+            if p.digest.len() != 64 || !p.digest.bytes().all(|b| b.is_ascii_hexdigit()) {
+                return Err(format!("point {i}'s digest is not a SHA-256"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Every swept key's value at point `i`.
+    pub fn values(&self, i: usize) -> std::collections::BTreeMap<String, toml::Value> {
+        plan::values_by_key(&self.axes, &self.points[i].values)
     }
 
     /// Every run, point-major and seed-minor (the list [`Plan::runs`] gives).
@@ -244,7 +300,7 @@ pub fn run_missing(
             match summary {
                 // A run cut short by a stop is not a result: it is not stored.
                 Ok(s) if s.interrupted => Outcome::Stopped,
-                Ok(s) => match store.put(&RunRecord::of(&r.key, r.point, r.seed, &s)) {
+                Ok(s) => match store.put(&RunRecord::of(&r.key, r.point, plan.values(r.point), r.seed, &s)) {
                     Ok(()) => Outcome::Ran,
                     Err(e) => Outcome::Failed(e.to_string()),
                 },

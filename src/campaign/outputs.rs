@@ -60,12 +60,17 @@ pub struct Finished {
     pub stats: Vec<PointStat>,
 }
 
-/// Where each process of a sharded campaign leaves its [`ShardInfo`].
+/// Where a process that made runs of a campaign leaves its [`ShardInfo`]: a file of its own (a random name), so that
+/// every process of a campaign resumed after a kill, or of a shard run twice, stays listed.
 fn shard_file(dir: &Path, shard: &str) -> std::path::PathBuf {
-    dir.join("shards").join(format!("{}.json", shard.replace('/', "-of-")))
+    let mut b = [0u8; 6];
+    let _ = getrandom::getrandom(&mut b);
+    let token: String = b.iter().map(|x| format!("{x:02x}")).collect();
+    dir.join("shards")
+        .join(format!("{}.{token}.json", shard.replace('/', "-of-")))
 }
 
-/// Record how this process took part (`shards/I-of-N.json`).
+/// Record how this process took part (`shards/I-of-N.RANDOM.json`, `shards/all.RANDOM.json`).
 pub fn record_shard(dir: &Path, info: &ShardInfo) -> Result<(), CampaignError> {
     let path = shard_file(dir, &info.shard);
     std::fs::create_dir_all(path.parent().unwrap_or(dir)).map_err(|source| CampaignError::Io {
@@ -79,13 +84,17 @@ pub fn record_shard(dir: &Path, info: &ShardInfo) -> Result<(), CampaignError> {
 }
 
 /// Every record of `plan`'s runs in `store`; the files written from them into `store.dir`, or the runs still missing.
-/// `me` is this process; the shards that recorded themselves in the directory are listed beside it.
+/// `me` is this process: recorded in the directory when it made runs, and listed in `manifest.json` with every
+/// process recorded there before it.
 pub fn finish(store: &Store, plan: &PlanFile, me: &ShardInfo) -> Result<Finished, CampaignError> {
+    if me.ran > 0 {
+        record_shard(&store.dir, me)?;
+    }
     let runs = plan.runs();
     let mut records: Vec<RunRecord> = Vec::with_capacity(runs.len());
     let mut missing = Vec::new();
     for r in &runs {
-        match store.get(&r.key)? {
+        match store.get(r, plan)? {
             Some(rec) => records.push(rec),
             None => missing.push(r),
         }
@@ -114,7 +123,7 @@ pub fn finish(store: &Store, plan: &PlanFile, me: &ShardInfo) -> Result<Finished
     let svg = figure(plan, &stats)?;
     put("sweep.svg", svg.clone().into_bytes())?;
     let mut made_by = shards(dir)?;
-    if !made_by.iter().any(|s| s.shard == me.shard) {
+    if !made_by.contains(me) {
         made_by.push(me.clone());
     }
     let manifest = Manifest {
@@ -164,7 +173,7 @@ fn shards(dir: &Path) -> Result<Vec<ShardInfo>, CampaignError> {
             out.push(info);
         }
     }
-    out.sort_by(|a, b| a.shard.cmp(&b.shard));
+    out.sort_by(|a, b| (&a.shard, &a.started).cmp(&(&b.shard, &b.started)));
     Ok(out)
 }
 

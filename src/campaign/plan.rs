@@ -47,6 +47,14 @@ impl Axis {
         if values.is_empty() {
             return Err(format!("{key}: no value given"));
         }
+        // A value given twice would run its point twice and count its runs twice.
+        let number = |v: &toml::Value| v.as_float().or(v.as_integer().map(|i| i as f64));
+        for (i, v) in values.iter().enumerate() {
+            let same = |w: &toml::Value| w == v || number(w).is_some_and(|x| Some(x) == number(v));
+            if values[..i].iter().any(same) {
+                return Err(format!("{key}: the value {} is given twice", cell(v)));
+            }
+        }
         if values.len() > MAX_VALUES {
             return Err(format!("{key}: {} values, at most {MAX_VALUES}", values.len()));
         }
@@ -185,6 +193,16 @@ impl Plan {
                 .collect();
             let s = base.set_all(&keys).map_err(|e| at_point(e, &axes, &values))?;
             let digest = s.digest();
+            if let Some(p) = out.iter().find(|p: &&Point| p.digest == digest) {
+                return Err(invalid(
+                    &axes.iter().map(|a| a.key.as_str()).collect::<Vec<_>>().join(", "),
+                    format!(
+                        "{} and {} are the same scenario: each would be run and counted twice",
+                        describe(&axes, &p.values),
+                        describe(&axes, &values)
+                    ),
+                ));
+            }
             out.push(Point {
                 index,
                 values,
@@ -211,6 +229,11 @@ impl Plan {
             seed: Some(run.seed),
             ..Default::default()
         })
+    }
+
+    /// Every swept key's value at `point`.
+    pub fn values(&self, point: usize) -> std::collections::BTreeMap<String, toml::Value> {
+        values_by_key(&self.axes, &self.points[point].values)
     }
 
     /// `key = value` of each axis at `point`, for messages.
@@ -261,8 +284,13 @@ fn run_key(digest: &str, seed: u64) -> String {
     h.finalize()[..8].iter().map(|b| format!("{b:02x}")).collect()
 }
 
+/// `values` (one per axis, in axis order) by key.
+pub(super) fn values_by_key(axes: &[Axis], values: &[toml::Value]) -> std::collections::BTreeMap<String, toml::Value> {
+    axes.iter().map(|a| a.key.clone()).zip(values.iter().cloned()).collect()
+}
+
 /// The values of point `index`: the last axis varies fastest.
-fn combination(axes: &[Axis], mut index: usize) -> Vec<toml::Value> {
+pub(super) fn combination(axes: &[Axis], mut index: usize) -> Vec<toml::Value> {
     let mut values = vec![toml::Value::Boolean(false); axes.len()];
     for (i, a) in axes.iter().enumerate().rev() {
         values[i] = a.values[index % a.values.len()].clone();
@@ -320,6 +348,8 @@ mod tests {
             "x=0:1:0",
             "x=0:1e9:1e-3",
             "x=a:1:1",
+            "link.loss.p=0.1,0.1,0.2",
+            "estimators.rounds=1,2,1.0",
         ] {
             assert!(Axis::parse(bad).is_err(), "{bad}");
         }
@@ -355,10 +385,17 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("link.loss.p") && e.contains("at link.loss.p = 1.5"), "{e}");
-        let e = Plan::new(base, vec![Axis::parse("sim.rate_hzz=5").unwrap()], 1)
+        let e = Plan::new(base.clone(), vec![Axis::parse("sim.rate_hzz=5").unwrap()], 1)
             .unwrap_err()
             .to_string();
         assert!(e.contains("rate_hzz"), "{e}");
+        // Two points that are one scenario are refused, however their values were made.
+        let twice = Axis {
+            key: "link.loss.p".into(),
+            values: vec![toml::Value::Float(0.1), toml::Value::Float(0.1)],
+        };
+        let e = Plan::new(base, vec![twice], 1).unwrap_err().to_string();
+        assert!(e.contains("are the same scenario"), "{e}");
         for s in ["0/3", "4/3", "x", "1/0"] {
             assert!(parse_shard(s).is_err(), "{s}");
         }

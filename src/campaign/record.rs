@@ -29,7 +29,12 @@ pub const NETWORK_METRICS: [&str; 4] = ["loss_rate", "arrival_rate", "fused_erro
 pub struct RunRecord {
     /// [`super::RunSpec::key`].
     pub key: String,
+    /// The point's index in the plan that ran it: a reader takes the index from its own plan by `key`, and checks
+    /// `values` against that point's.
     pub point: usize,
+    /// Every swept key's value at the run's point (records of simnet before 0.1 carry none).
+    #[serde(default)]
+    pub values: BTreeMap<String, toml::Value>,
     pub seed: u64,
     /// The simnet that ran it (version, and the commit when the build knew it).
     pub simnet: String,
@@ -43,7 +48,7 @@ pub struct RunRecord {
 }
 
 impl RunRecord {
-    pub fn of(key: &str, point: usize, seed: u64, s: &Summary) -> RunRecord {
+    pub fn of(key: &str, point: usize, values: BTreeMap<String, toml::Value>, seed: u64, s: &Summary) -> RunRecord {
         let sent: u64 = s.links.iter().map(|l| l.sent).sum();
         let lost: u64 = s.links.iter().map(|l| l.lost).sum();
         let arrival: Vec<f64> = s.links.iter().filter_map(|l| l.arrival_rate).collect();
@@ -79,6 +84,7 @@ impl RunRecord {
         RunRecord {
             key: key.to_string(),
             point,
+            values,
             seed,
             simnet: super::simnet_build(),
             steps: s.steps,
@@ -86,6 +92,40 @@ impl RunRecord {
             network,
             estimators,
         }
+    }
+
+    /// This record, read back, checked to be `run` of `plan` (its key, its seed and, where it carries them, the
+    /// swept values of the run's point by key) and filed under the point `plan` gives the run, whatever index the
+    /// plan that wrote it used.
+    pub fn file_under(&mut self, run: &super::RunSpec, plan: &super::PlanFile) -> Result<(), String> {
+        if self.key != run.key {
+            return Err(format!("it holds run {}", crate::input::quoted(&self.key)));
+        }
+        if self.seed != run.seed {
+            return Err(format!(
+                "it holds seed {}, run {} is seed {}",
+                self.seed, run.key, run.seed
+            ));
+        }
+        let values = plan.values(run.point);
+        if !self.values.is_empty() && self.values != values {
+            let shown = |v: &BTreeMap<String, toml::Value>| {
+                v.iter()
+                    .map(|(k, x)| format!("{k} = {}", super::cell(x)))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            // The record's side is the file's: quoted short.
+            return Err(format!(
+                "it was run at {}, but run {} is at {}",
+                crate::input::quoted(&shown(&self.values)),
+                run.key,
+                shown(&values)
+            ));
+        }
+        self.point = run.point;
+        self.values = values;
+        Ok(())
     }
 
     /// A figure by table name: `loss_rate`, or `icf.mean_error`.

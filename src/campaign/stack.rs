@@ -19,9 +19,9 @@ pub struct StackOptions {
     pub topology_file: Option<String>,
 }
 
-/// A YAML string: double-quoted, with `\` and `"` escaped.
+/// A YAML string: double-quoted by a JSON serializer (every control character escaped; JSON strings are YAML).
 fn quoted(s: &str) -> String {
-    format!("\"{}\"", s.replace('\\', "\\\\").replace('"', "\\\""))
+    serde_json::Value::String(s.to_string()).to_string()
 }
 
 /// The stack file (compose format 3.8, which `docker stack deploy` reads).
@@ -52,7 +52,7 @@ pub fn stack_file(o: &StackOptions) -> String {
         writeln!(y, "version: \"3.8\"")?;
         writeln!(y, "services:")?;
         writeln!(y, "  sweep:")?;
-        writeln!(y, "    image: {}", o.image)?;
+        writeln!(y, "    image: {}", crate::compose::scalar(&o.image))?;
         writeln!(
             y,
             "    command: [{}]",

@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 
 use super::record::RunRecord;
-use super::{CampaignError, PlanFile};
+use super::{CampaignError, PlanFile, RunSpec};
 
 pub struct Store {
     pub dir: PathBuf,
@@ -22,9 +22,9 @@ impl Store {
         let path = dir.join("plan.json");
         match read_capped(&path) {
             Ok(text) => {
-                let theirs: PlanFile = serde_json::from_str(&text).map_err(|e| CampaignError::Damaged {
+                let theirs = PlanFile::parse(&text).map_err(|message| CampaignError::Damaged {
                     path: path.clone(),
-                    message: e.to_string(),
+                    message,
                 })?;
                 if let Some(why) = theirs.differs(plan) {
                     return Err(CampaignError::OtherCampaign {
@@ -54,23 +54,21 @@ impl Store {
         write_atomic(&self.record_path(&r.key), json.as_bytes())
     }
 
-    /// The record of run `key`, if it is there.
-    pub fn get(&self, key: &str) -> Result<Option<RunRecord>, CampaignError> {
-        let path = self.record_path(key);
+    /// The record of `run` of `plan`, if it is there: checked to be that run (its key, its seed and, where the
+    /// record carries them, the swept values of the run's point by key), and filed under the point `plan` gives the
+    /// run, whatever index the plan that wrote it used.
+    pub fn get(&self, run: &RunSpec, plan: &PlanFile) -> Result<Option<RunRecord>, CampaignError> {
+        let path = self.record_path(&run.key);
         if !path.is_file() {
             return Ok(None);
         }
         let text = read_capped(&path)?;
-        let r: RunRecord = serde_json::from_str(&text).map_err(|e| CampaignError::Damaged {
+        let mut r: RunRecord = serde_json::from_str(&text).map_err(|e| CampaignError::Damaged {
             path: path.clone(),
             message: e.to_string(),
         })?;
-        if r.key != key {
-            return Err(CampaignError::Damaged {
-                path,
-                message: format!("it holds run {}", r.key),
-            });
-        }
+        r.file_under(run, plan)
+            .map_err(|message| CampaignError::Damaged { path, message })?;
         Ok(Some(r))
     }
 }

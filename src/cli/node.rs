@@ -69,24 +69,51 @@ pub struct KeygenArgs {
 fn write_key(path: &std::path::Path, force: bool) -> anyhow::Result<()> {
     use std::io::Write;
     let key = crate::wire::secure::Key::generate().map_err(|e| anyhow::anyhow!("no random source: {e}"))?;
-    let mut o = std::fs::OpenOptions::new();
-    o.write(true);
-    if force {
-        o.create(true).truncate(true);
-    } else {
-        o.create_new(true);
-    }
-    #[cfg(unix)]
-    std::os::unix::fs::OpenOptionsExt::mode(&mut o, 0o600);
-    let mut f = o.open(path).map_err(|e| match e.kind() {
-        std::io::ErrorKind::AlreadyExists => anyhow::Error::from(UsageError::Option(format!(
+    if !force && std::fs::symlink_metadata(path).is_ok() {
+        return Err(UsageError::Option(format!(
             "{} exists: keep it, or replace it with --force (nodes holding the old key then reject the new one's datagrams)",
             path.display()
-        ))),
-        _ => anyhow::anyhow!("cannot write {}: {e}", path.display()),
-    })?;
-    f.write_all(key.to_file().as_bytes())?;
-    f.sync_all()?;
+        ))
+        .into());
+    }
+    // Always a new file of mode 0600 (a random name, never through a link), renamed over the path: `--force` neither
+    // keeps an old file's mode nor writes through a link planted under the name.
+    let mut b = [0u8; 8];
+    let _ = getrandom::getrandom(&mut b);
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = path.with_file_name(format!(
+        ".{name}.{}.tmp",
+        b.iter().map(|x| format!("{x:02x}")).collect::<String>()
+    ));
+    let mut o = std::fs::OpenOptions::new();
+    o.write(true).create_new(true);
+    std::os::unix::fs::OpenOptionsExt::mode(&mut o, 0o600);
+    let mut f = o
+        .open(&tmp)
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", path.display()))?;
+    let written = f.write_all(key.to_file().as_bytes()).and_then(|_| f.sync_all());
+    let placed = written.and_then(|_| {
+        if force {
+            std::fs::rename(&tmp, path)
+        } else {
+            // No --force: a file that appeared meanwhile is kept (link fails where the name exists).
+            std::fs::hard_link(&tmp, path).and_then(|_| std::fs::remove_file(&tmp))
+        }
+    });
+    if let Err(e) = placed {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(match e.kind() {
+            std::io::ErrorKind::AlreadyExists => UsageError::Option(format!(
+                "{} exists: keep it, or replace it with --force",
+                path.display()
+            ))
+            .into(),
+            _ => anyhow::anyhow!("cannot write {}: {e}", path.display()),
+        });
+    }
     Ok(())
 }
 
@@ -191,7 +218,7 @@ pub(super) fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode>
         )
         .into());
     }
-    let out_dir = args.run.out.as_deref().map(OutDir::prepare).transpose()?;
+    let out_dir = args.run.out.as_deref().map(PartDir::prepare).transpose()?;
     let steps = topo.sim().steps();
     let progress = (!quiet && !args.run.json).then(|| progress_bar(steps));
     let cfg = HostConfig {
@@ -240,14 +267,10 @@ pub(super) fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
         columns,
     } = read_parts(&args.dirs).map_err(|e| UsageError::Option(e.to_string()))?;
     let (s, mut observer) = merge(&parts, &estimates).map_err(|e| UsageError::Option(e.to_string()))?;
-    let d = OutDir::prepare(args.out.as_deref().unwrap_or(&args.dirs[0]))?;
+    let d = RunDir::open(args.out.as_deref().unwrap_or(&args.dirs[0]), &[])?;
     rows.sort_by_key(|r| (r.step, r.node, !r.networked));
     let dt = 1.0 / s.rate_hz;
-    let path = d.dir.join(TRACE_TMP);
-    let f = std::fs::File::create(&path)
-        .map_err(|e| UsageError::Option(format!("cannot write {}: {e}", path.display())))?;
-    let mut rec =
-        TraceWriter::new(columns, observer.layout(), dt, s.steps).to_writer(Box::new(std::io::BufWriter::new(f)));
+    let mut rec = TraceWriter::new(columns, observer.layout(), dt, s.steps).to_writer(d.create("trace.csv")?);
     // Fused rows go after the node rows of their step.
     let mut fused = observer.drain_rows().into_iter().peekable();
     for chunk in rows.chunk_by(|a, b| a.step == b.step) {
@@ -261,27 +284,28 @@ pub(super) fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
     }
     rec.fused(fused.collect());
     let (rows, fused) = d.finish_trace(Some(rec))?;
-    let wrote = write_files(&d.dir, &s, dt, &rows, &fused, Vec::new())?;
-    d.remove_stale(&wrote)?;
+    let wrote = write_files(&d.stage, &s, dt, &rows, &fused, Vec::new())?;
+    let dir = d.dir.clone();
+    d.commit(&wrote)?;
     print_summary(&s, args.json, None)?;
     if !args.json {
-        println!("\nwrote {}/{{{}}}", d.dir.display(), wrote.join(", "));
+        println!("\nwrote {}/{{{}}}", dir.display(), wrote.join(", "));
     }
     Ok(ExitCode::SUCCESS)
 }
 
 pub(super) fn compose(args: &ComposeArgs) -> anyhow::Result<ExitCode> {
     let topo = Scenario::resolve(&args.topology).map_err(UsageError::from)?;
+    for w in topo.warnings() {
+        eprintln!("warning: {}: {w}", topo.name());
+    }
     let builtin = builtin::get(&args.topology).is_some();
     let secret = if args.insecure {
         None
     } else {
         let path = &args.key_file;
         if path.exists() {
-            let text = crate::input::read_text(path, crate::input::MAX_KEY)
-                .map_err(|e| UsageError::Option(format!("cannot read {}: {e}", path.display())))?;
-            crate::wire::secure::Key::parse(&text)
-                .map_err(|e| UsageError::Option(format!("{}: {e}", path.display())))?;
+            crate::input::read_key(path).map_err(UsageError::Option)?;
         } else {
             write_key(path, false)?;
             eprintln!(
@@ -294,6 +318,7 @@ pub(super) fn compose(args: &ComposeArgs) -> anyhow::Result<ExitCode> {
     print!(
         "{}",
         crate::compose::compose_file(&topo, &args.topology, builtin, &args.image, secret.as_deref())
+            .map_err(UsageError::Option)?
     );
     Ok(ExitCode::SUCCESS)
 }

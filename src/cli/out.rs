@@ -1,26 +1,51 @@
-//! What commands write: an output directory checked before the run, files written whole (write, then rename),
-//! the summary on stdout, progress bars.
+//! What commands write: an output directory checked before the run; a whole run's files written into a fresh
+//! staging directory inside it and moved into place as a set, recorded in `.simnet-outputs` (so that a later run
+//! removes what an earlier one wrote and nothing else); the summary on stdout; progress bars.
 
 use super::*;
 
-/// An output directory checked before the run: it exists (or was made) and can be written.
-pub(super) struct OutDir {
-    pub(super) dir: PathBuf,
-}
-
-pub(super) const TRACE_TMP: &str = "trace.csv.tmp";
 /// Every sensing node's own measurements ([`crate::report::trace::MEASUREMENTS_HEADER`]).
 pub(super) const MEASUREMENTS: &str = "measurements.csv";
 /// Every distributed estimator's estimate at each node and step ([`crate::report::trace::ESTIMATORS_HEADER`]).
 pub(super) const ESTIMATORS: &str = "estimators.csv";
+/// The list of the files the last whole run wrote into a directory, and whether that set is complete.
+pub(crate) const OUTPUTS: &str = ".simnet-outputs";
+/// Held (`flock`) by the one process writing a whole run into a directory.
+const LOCK: &str = ".simnet-lock";
+/// Staging directories: `.simnet-stage-<random>`.
+const STAGE_PREFIX: &str = ".simnet-stage-";
 
 /// A bad output directory is a usage error found before any work (exit 2), for every command that writes one.
 pub(crate) fn check_out(dir: &Path) -> Result<(), UsageError> {
-    OutDir::prepare(dir).map(|_| ())
+    check_dir(dir).map(|_| ())
+}
+
+/// `dir` exists (or was made) and can be written: a file of a random name is created (never through a planted
+/// link: `create_new`) and removed again.
+fn check_dir(dir: &Path) -> Result<PathBuf, UsageError> {
+    let bad = |what: String| UsageError::Option(format!("--out {}: {what}", dir.display()));
+    if dir.exists() && !dir.is_dir() {
+        return Err(bad("exists and is not a directory".into()));
+    }
+    std::fs::create_dir_all(dir).map_err(|e| bad(format!("cannot create it: {e}")))?;
+    let probe = dir.join(format!(".simnet-write-check-{}", random_hex()));
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+        .map_err(|e| bad(format!("cannot write in it: {e}")))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(dir.to_path_buf())
+}
+
+fn random_hex() -> String {
+    let mut b = [0u8; 8];
+    let _ = getrandom::getrandom(&mut b);
+    b.iter().map(|x| format!("{x:02x}")).collect()
 }
 
 /// The files a whole run (`simnet run`, `simnet collect`) writes, whatever its options: with `imu-ID.csv` and the
-/// Parquet copies of the CSVs, the kinds [`OutDir::remove_stale`] may remove.
+/// Parquet copies of the CSVs, the only names a run ever removes (and only when `.simnet-outputs` lists them).
 const RUN_FILES: [&str; 10] = [
     "summary.json",
     "trace.csv",
@@ -34,8 +59,8 @@ const RUN_FILES: [&str; 10] = [
     ESTIMATORS,
 ];
 
-/// Whether `name` is a file a whole run writes.
-fn run_file(name: &str) -> bool {
+/// Whether `name` is a file a whole run may write.
+pub(crate) fn run_file(name: &str) -> bool {
     let csv = name.strip_suffix(".parquet").map(|b| format!("{b}.csv"));
     let name = csv.as_deref().unwrap_or(name);
     RUN_FILES.contains(&name)
@@ -45,38 +70,98 @@ fn run_file(name: &str) -> bool {
             .is_some_and(|id| !id.is_empty() && id.bytes().all(|b| b.is_ascii_digit()))
 }
 
-impl OutDir {
-    /// After a run wrote `wrote`: remove the files of a run's kinds it did not write (an earlier run's
-    /// `estimators.csv` beside a run without estimators), so that the directory holds one run's files as a set.
-    /// Done last, so that a run that fails leaves the earlier run's files whole.
-    pub(super) fn remove_stale(&self, wrote: &[String]) -> anyhow::Result<()> {
-        for e in std::fs::read_dir(&self.dir)?.flatten() {
-            let name = e.file_name().to_string_lossy().into_owned();
-            if run_file(&name) && !wrote.contains(&name) && e.file_type().is_ok_and(|t| t.is_file()) {
-                std::fs::remove_file(e.path())?;
+/// `.simnet-outputs`: what the last whole run wrote into the directory. `complete` is false while a run moves its
+/// files into place (a kill then leaves a mixed set, and says so); `files` then lists the old and the new names.
+#[derive(Debug, Default, serde::Serialize, serde::Deserialize)]
+pub(crate) struct Outputs {
+    pub complete: bool,
+    pub files: Vec<String>,
+}
+
+impl Outputs {
+    /// The list in `dir`, if there is a readable one; only plain names of a run's kinds are kept from it (a
+    /// crafted list names nothing else to remove).
+    pub(crate) fn read(dir: &Path) -> Option<Outputs> {
+        let text = crate::input::read_text(&dir.join(OUTPUTS), crate::input::MAX_JSON).ok()?;
+        let mut o: Outputs = serde_json::from_str(&text).ok()?;
+        o.files.retain(|n| run_file(n) && !n.contains(['/', '\\']));
+        Some(o)
+    }
+
+    fn write(&self, dir: &Path) -> std::io::Result<()> {
+        let json = serde_json::to_string_pretty(self).map_err(std::io::Error::other)?;
+        write_atomic(&dir.join(OUTPUTS), format!("{json}\n").as_bytes())
+    }
+}
+
+/// The directory a whole run writes into: its files go into a fresh staging directory inside it and
+/// [`RunDir::commit`] moves them into place as a set. Held by one process at a time (a lock file); dropped without
+/// a commit (an error), the staging directory is removed and the directory is as it was.
+pub(super) struct RunDir {
+    pub(super) dir: PathBuf,
+    /// Where this run's files are written until the commit: made with a random name that must not exist yet.
+    pub(super) stage: PathBuf,
+    committed: bool,
+    _lock: std::fs::File,
+}
+
+impl RunDir {
+    /// `dir`, checked and locked, with a fresh staging directory. `inputs` are the files the run reads: one in
+    /// `dir` under a name the run writes is refused (exit 2), the run would overwrite what it reads. Staging
+    /// directories a killed run left are removed.
+    pub(super) fn open(dir: &Path, inputs: &[(String, PathBuf)]) -> Result<RunDir, UsageError> {
+        let dir = check_dir(dir)?;
+        let bad = |what: String| UsageError::Option(format!("--out {}: {what}", dir.display()));
+        if let Ok(here) = dir.canonicalize() {
+            for (what, path) in inputs {
+                let (Ok(p), Some(name)) = (path.canonicalize(), path.file_name()) else {
+                    continue;
+                };
+                let name = name.to_string_lossy();
+                if p.parent() == Some(here.as_path()) && run_file(&name) {
+                    return Err(bad(format!(
+                        "`{name}` there is an input of this run ({what}) and a name a run writes: write the run \
+                         into another directory"
+                    )));
+                }
             }
         }
-        Ok(())
-    }
-
-    pub(super) fn prepare(dir: &Path) -> Result<OutDir, UsageError> {
-        let bad = |what: String| UsageError::Option(format!("--out {}: {what}", dir.display()));
-        if dir.exists() && !dir.is_dir() {
-            return Err(bad("exists and is not a directory".into()));
+        let lock = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(dir.join(LOCK))
+            .map_err(|e| bad(format!("cannot open {LOCK}: {e}")))?;
+        match lock.try_lock() {
+            Ok(()) => {}
+            Err(std::fs::TryLockError::WouldBlock) => {
+                return Err(bad("another simnet is writing a run into it".into()));
+            }
+            Err(std::fs::TryLockError::Error(e)) => return Err(bad(format!("cannot lock {LOCK}: {e}"))),
         }
-        std::fs::create_dir_all(dir).map_err(|e| bad(format!("cannot create it: {e}")))?;
-        let probe = dir.join(".simnet-write-check");
-        std::fs::write(&probe, b"").map_err(|e| bad(format!("cannot write in it: {e}")))?;
-        let _ = std::fs::remove_file(&probe);
-        Ok(OutDir { dir: dir.to_path_buf() })
+        // Holding the lock, any staging directory is a leftover of a process that died.
+        if let Ok(entries) = std::fs::read_dir(&dir) {
+            for e in entries.flatten() {
+                let n = e.file_name().to_string_lossy().into_owned();
+                if n.starts_with(STAGE_PREFIX) && e.file_type().is_ok_and(|t| t.is_dir()) {
+                    let _ = std::fs::remove_dir_all(e.path());
+                }
+            }
+        }
+        let stage = dir.join(format!("{STAGE_PREFIX}{}", random_hex()));
+        std::fs::create_dir(&stage).map_err(|e| bad(format!("cannot create {}: {e}", stage.display())))?;
+        Ok(RunDir {
+            dir,
+            stage,
+            committed: false,
+            _lock: lock,
+        })
     }
 
-    /// The recorder that streams `trace.csv` into this directory (under a temporary name until the run ends).
+    /// The recorder that streams `trace.csv` into the staging directory.
     pub(super) fn trace(&self, topo: &Scenario) -> Result<TraceWriter, UsageError> {
-        let path = self.dir.join(TRACE_TMP);
-        let f = std::fs::File::create(&path)
-            .map_err(|e| UsageError::Option(format!("--out: cannot write {}: {e}", path.display())))?;
-        Ok(TraceWriter::for_topology(topo).to_writer(Box::new(std::io::BufWriter::new(f))))
+        Ok(TraceWriter::for_topology(topo).to_writer(self.create("trace.csv")?))
     }
 
     /// Close the streamed `trace.csv`; the plot sample it kept.
@@ -85,43 +170,88 @@ impl OutDir {
         rec: Option<TraceWriter>,
     ) -> anyhow::Result<(Vec<crate::node::TraceRow>, Vec<crate::observe::fusion::FusedRow>)> {
         use anyhow::Context;
-        let path = self.dir.join("trace.csv");
-        let sample = rec
-            .map(TraceWriter::finish)
+        rec.map(TraceWriter::finish)
             .transpose()
-            .with_context(|| format!("cannot write {}", path.display()))?
-            .unwrap_or_default();
-        std::fs::rename(self.dir.join(TRACE_TMP), &path).with_context(|| format!("cannot write {}", path.display()))?;
-        Ok(sample)
+            .with_context(|| format!("cannot write {}", self.dir.join("trace.csv").display()))
+            .map(Option::unwrap_or_default)
     }
 
-    /// Opens `measurements.csv.tmp` for the recorder ([`OutDir::rename_tmp`] gives it its name at the end).
-    pub(super) fn measurements(&self) -> Result<Box<dyn Write + Send>, UsageError> {
-        self.tmp(MEASUREMENTS)
-    }
-
-    /// Opens `NAME.tmp` for a recorder ([`OutDir::rename_tmp`] gives it its name at the end).
-    pub(super) fn tmp(&self, name: &str) -> Result<Box<dyn Write + Send>, UsageError> {
-        let path = self.dir.join(format!("{name}.tmp"));
-        let f = std::fs::File::create(&path)
+    /// `NAME` in the staging directory, for a recorder.
+    pub(super) fn create(&self, name: &str) -> Result<Box<dyn Write + Send>, UsageError> {
+        let path = self.stage.join(name);
+        let f = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&path)
             .map_err(|e| UsageError::Option(format!("--out: cannot write {}: {e}", path.display())))?;
         Ok(Box::new(std::io::BufWriter::new(f)))
     }
 
-    /// Opens `imu-ID.csv.tmp` for the recorder ([`OutDir::rename_tmp`] gives it its name at the end).
+    /// Opens `imu-ID.csv` in the staging directory for the recorder.
     pub(super) fn imu_opener(&self) -> crate::report::trace::ImuOpener {
-        let dir = self.dir.clone();
+        let stage = self.stage.clone();
         Box::new(move |id| {
-            let f = std::fs::File::create(dir.join(format!("imu-{id}.csv.tmp")))?;
+            let f = std::fs::OpenOptions::new()
+                .write(true)
+                .create_new(true)
+                .open(stage.join(format!("imu-{id}.csv")))?;
             Ok(Box::new(std::io::BufWriter::new(f)) as Box<dyn Write + Send>)
         })
     }
 
-    pub(super) fn rename_tmp(&self, name: &str) -> anyhow::Result<()> {
+    /// Move the run's files (`wrote`, all in the staging directory) into place as a set and remove the files an
+    /// earlier run recorded in `.simnet-outputs` that this one did not write: the list first says the move is under
+    /// way (with both sets), then, once every file is in place, that this set is complete.
+    pub(super) fn commit(mut self, wrote: &[String]) -> anyhow::Result<()> {
         use anyhow::Context;
-        let path = self.dir.join(name);
-        std::fs::rename(self.dir.join(format!("{name}.tmp")), &path)
-            .with_context(|| format!("cannot write {}", path.display()))
+        let before = Outputs::read(&self.dir).map(|o| o.files).unwrap_or_default();
+        let mut both = before.clone();
+        both.extend(wrote.iter().filter(|n| !before.contains(n)).cloned());
+        let listed = |o: &Outputs| {
+            o.write(&self.dir)
+                .with_context(|| format!("cannot write {}", self.dir.join(OUTPUTS).display()))
+        };
+        listed(&Outputs {
+            complete: false,
+            files: both,
+        })?;
+        for name in wrote {
+            let to = self.dir.join(name);
+            std::fs::rename(self.stage.join(name), &to).with_context(|| format!("cannot write {}", to.display()))?;
+        }
+        for name in before.iter().filter(|n| !wrote.contains(n)) {
+            let path = self.dir.join(name);
+            if std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_file()) {
+                std::fs::remove_file(&path).with_context(|| format!("cannot remove {}", path.display()))?;
+            }
+        }
+        listed(&Outputs {
+            complete: true,
+            files: wrote.to_vec(),
+        })?;
+        self.committed = true;
+        let _ = std::fs::remove_dir_all(&self.stage);
+        Ok(())
+    }
+}
+
+impl Drop for RunDir {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_dir_all(&self.stage);
+        }
+    }
+}
+
+/// A directory a node writes its part into (`trace-ID.csv`, `estimates-ID.csv`, `node-ID.json`): several nodes may
+/// share it, so each file is written whole under its own name and nothing else is touched.
+pub(super) struct PartDir {
+    pub(super) dir: PathBuf,
+}
+
+impl PartDir {
+    pub(super) fn prepare(dir: &Path) -> Result<PartDir, UsageError> {
+        Ok(PartDir { dir: check_dir(dir)? })
     }
 
     pub(super) fn put(&self, name: &str, bytes: &[u8]) -> anyhow::Result<()> {
@@ -130,7 +260,6 @@ impl OutDir {
         write_atomic(&path, bytes).with_context(|| format!("cannot write {}", path.display()))
     }
 }
-
 /// summary.json or the table (with an optional note under it) on stdout.
 pub(super) fn print_summary(s: &summary::Summary, json: bool, note: Option<&str>) -> std::io::Result<()> {
     let mut stdout = std::io::stdout().lock();
@@ -172,7 +301,7 @@ pub(super) fn write_files(
     fused: &[crate::observe::fusion::FusedRow],
     extra: Vec<Plot>,
 ) -> anyhow::Result<Vec<String>> {
-    let d = OutDir { dir: dir.to_path_buf() };
+    let d = PartDir { dir: dir.to_path_buf() };
     d.put("summary.json", s.to_json().as_bytes())?;
     let mut buf = Vec::new();
     summary::write_links(&mut buf, &s.links)?;

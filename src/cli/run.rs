@@ -6,7 +6,11 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let parquet = args.format.check()? == Format::Parquet;
     let topo = Arc::new(args.topology()?);
     // A bad --out fails now, not after the run.
-    let out_dir = args.out.as_deref().map(OutDir::prepare).transpose()?;
+    let out_dir = args
+        .out
+        .as_deref()
+        .map(|d| RunDir::open(d, &inputs_of(&topo)))
+        .transpose()?;
     let steps = topo.sim().steps();
     tracing::info!(topology = %topo.name(), seed = topo.sim().seed, steps, "starting");
     let progress = (!quiet && !args.json).then(|| progress_bar(steps));
@@ -19,11 +23,11 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
                 let t = d
                     .trace(&topo)?
                     .with_imu(d.imu_opener())
-                    .with_measurements(d.measurements()?, obs);
+                    .with_measurements(d.create(MEASUREMENTS)?, obs);
                 Ok(if topo.estimators().run.is_empty() {
                     t
                 } else {
-                    t.with_estimators(d.tmp(ESTIMATORS)?)
+                    t.with_estimators(d.create(ESTIMATORS)?)
                 })
             })
             .transpose()?,
@@ -40,7 +44,8 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let s = out.summary_beside_clean()?;
     // Files first: a reader that closes stdout early (`| head`) loses nothing.
     let mut wrote = Vec::new();
-    if let Some(d) = &out_dir {
+    let mut shown = None;
+    if let Some(d) = out_dir {
         // Each sensing node's IMU samples with the true pose (input for `simnet reconstruct`), streamed too.
         let imu = out.trace.as_ref().map(|t| t.imu_nodes()).unwrap_or_default();
         let (rows, fused) = d.finish_trace(out.trace.take())?;
@@ -54,27 +59,36 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
                 plot::estimators(rows, topo.sim().dt(), s.model, &title)?,
             ));
         }
-        wrote = write_files(&d.dir, &s, topo.sim().dt(), &rows, &fused, extra)?;
-        for id in imu {
-            let name = format!("imu-{id}.csv");
-            d.rename_tmp(&name)?;
-            wrote.push(name);
-        }
-        d.rename_tmp(MEASUREMENTS)?;
+        wrote = write_files(&d.stage, &s, topo.sim().dt(), &rows, &fused, extra)?;
+        wrote.extend(imu.into_iter().map(|id| format!("imu-{id}.csv")));
         wrote.push(MEASUREMENTS.into());
         if schemes.is_some() {
-            d.rename_tmp(ESTIMATORS)?;
             wrote.push(ESTIMATORS.into());
         }
         if parquet {
-            let copies = parquet_copies(&d.dir, &wrote)?;
+            let copies = parquet_copies(&d.stage, &wrote)?;
             wrote.extend(copies);
         }
-        d.remove_stale(&wrote)?;
+        shown = Some(d.dir.clone());
+        d.commit(&wrote)?;
     }
     print_summary(&s, args.json, None)?;
-    if let (Some(d), false) = (&out_dir, args.json) {
-        println!("\nwrote {}/{{{}}}", d.dir.display(), wrote.join(", "));
+    if let (Some(dir), false) = (&shown, args.json) {
+        println!("\nwrote {}/{{{}}}", dir.display(), wrote.join(", "));
     }
     Ok(exit_code(s.interrupted))
+}
+
+/// The files a run reads, each with what names it: the topology file, the recordings its nodes replay, its key.
+pub(super) fn inputs_of(topo: &Scenario) -> Vec<(String, PathBuf)> {
+    let mut v = vec![("the topology".to_string(), PathBuf::from(topo.source()))];
+    for (i, n) in topo.nodes().iter().enumerate() {
+        if let Some(r) = &n.recording {
+            v.push((format!("node[{i}].imu_csv"), PathBuf::from(&r.path)));
+        }
+    }
+    if let Some(k) = &topo.security().key_source {
+        v.push(("the key file".to_string(), PathBuf::from(k)));
+    }
+    v
 }

@@ -128,6 +128,7 @@ pub(super) fn sweep(args: &SweepArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     // Every point is validated before the first run starts.
     let plan = Plan::new(base, axes, args.seeds).map_err(UsageError::from)?;
     if args.emit == Some(Emit::Stack) {
+        crate::compose::check_image(&args.image).map_err(UsageError::Option)?;
         print!("{}", stack(args, topology));
         return Ok(ExitCode::SUCCESS);
     }
@@ -197,9 +198,6 @@ pub(super) fn sweep(args: &SweepArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         cores: cores(),
         ran: ran.ran,
     };
-    if args.shard.is_some() {
-        campaign::record_shard(dir, &me).map_err(usage_or_run)?;
-    }
     if !quiet {
         eprintln!(
             "{} run now, {} already in {}{}{}",
@@ -273,7 +271,7 @@ fn merge(dirs: &[PathBuf], out: Option<&Path>, format: Format, quiet: bool) -> a
         let path = d.join("plan.json");
         let text =
             campaign::read_capped(&path).map_err(|e| UsageError::Option(format!("{e} (not a sweep's --out?)")))?;
-        let plan: PlanFile = serde_json::from_str(&text)
+        let plan = PlanFile::parse(&text)
             .map_err(|e| UsageError::Option(format!("{}: not a sweep's plan ({e})", path.display())))?;
         plans.push((d, plan));
     }
@@ -298,7 +296,7 @@ fn merge(dirs: &[PathBuf], out: Option<&Path>, format: Format, quiet: bool) -> a
             if store.has(&r.key) {
                 continue;
             }
-            if let Some(rec) = theirs.get(&r.key).map_err(usage_or_run)? {
+            if let Some(rec) = theirs.get(&r, &file).map_err(usage_or_run)? {
                 store.put(&rec).map_err(usage_or_run)?;
                 copied += 1;
             }

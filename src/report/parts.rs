@@ -61,11 +61,11 @@ pub fn read_estimates(r: impl BufRead, node: usize, file: &str) -> Result<Vec<St
         let f: Vec<&str> = line.split(',').collect();
         let num = |s: &str| {
             s.parse::<f64>()
-                .map_err(|_| bad(i + 1, &format!("`{s}` is not a number")))
+                .map_err(|_| bad(i + 1, &format!("{} is not a number", crate::input::quoted(s))))
         };
         let int = |s: &str| {
             s.parse::<u64>()
-                .map_err(|_| bad(i + 1, &format!("`{s}` is not an integer")))
+                .map_err(|_| bad(i + 1, &format!("{} is not an integer", crate::input::quoted(s))))
         };
         if f.len() < 3 {
             return Err(bad(i + 1, "too few fields"));
@@ -152,7 +152,8 @@ pub fn read_trace(r: impl BufRead, file: &str) -> Result<(Vec<String>, Vec<Trace
             if s.is_empty() {
                 Ok(f64::NAN)
             } else {
-                s.parse().map_err(|_| bad(i + 2, format!("`{s}` is not a number")))
+                s.parse()
+                    .map_err(|_| bad(i + 2, format!("{} is not a number", crate::input::quoted(s))))
             }
         };
         let vals = |a: usize, b: usize| -> Result<Vec<f64>, PartError> { f[a..b].iter().map(|s| num(s)).collect() };
@@ -429,7 +430,9 @@ pub fn read_parts(dirs: &[std::path::PathBuf]) -> Result<Parts, PartError> {
                 file: p.display().to_string(),
                 message,
             };
-            let id: u32 = id.parse().map_err(|_| bad(format!("`{id}` is not a node id")))?;
+            let id: u32 = id
+                .parse()
+                .map_err(|_| bad(format!("{} is not a node id", crate::input::quoted(id))))?;
             let text = crate::input::read_text(&p, crate::input::MAX_JSON).map_err(io_err(&p))?;
             let s: Summary = serde_json::from_str(&text).map_err(|e| bad(format!("not a node part: {e}")))?;
             let node_index = out.summaries.len();

@@ -79,6 +79,78 @@ fn put(doc: &mut toml::Value, key: &str, value: toml::Value) -> Result<(), Strin
     Ok(())
 }
 
+/// `simnet run`'s options that set a scenario value, each with the key of the file it sets. Given to `--set` (or a
+/// sweep axis, or Python's `set`) by its option name, a value means exactly what the option means — the same
+/// overrides, applied the same way (a new duration keeps the burn-in the file had, a new rate keeps a deadline of one
+/// period) — and by its key, what the key means in the file. Either way a `link.*` value is every link's: the
+/// `[link]` defaults and every `[[edge]]` that gives its own.
+pub const OPTION_KEYS: [(&str, &str); 9] = [
+    ("loss", "link.loss.p"),
+    ("delay", "link.delay_ms"),
+    ("jitter", "link.jitter_ms"),
+    ("duplicate", "link.duplicate"),
+    ("corrupt", "link.corrupt"),
+    ("duration", "sim.duration_s"),
+    ("rate", "sim.rate_hz"),
+    ("rounds", "estimators.rounds"),
+    ("estimators", "estimators.run"),
+];
+
+/// The overrides an option given by name as a key sets (`loss = 0.2` is `--loss 0.2`).
+fn option_override(o: &mut super::Overrides, name: &str, v: &toml::Value) -> Result<(), String> {
+    let number = || {
+        v.as_float()
+            .or(v.as_integer().map(|i| i as f64))
+            .ok_or_else(|| format!("expected a number, got {v}"))
+    };
+    match name {
+        "loss" => o.loss = Some(crate::link::LossModel::Bernoulli { p: number()? }),
+        "delay" => o.delay_ms = Some(number()?),
+        "jitter" => o.jitter_ms = Some(number()?),
+        "duplicate" => o.duplicate = Some(number()?),
+        "corrupt" => o.corrupt = Some(number()?),
+        "duration" => o.duration_s = Some(number()?),
+        "rate" => o.rate_hz = Some(number()?),
+        "rounds" => {
+            let r = v
+                .as_integer()
+                .filter(|r| (1..=super::MAX_ROUNDS as i64).contains(r))
+                .ok_or_else(|| format!("must be an integer 1 to {}, got {v}", super::MAX_ROUNDS))?;
+            o.rounds = Some(r as u64);
+        }
+        "estimators" => {
+            let names: Vec<String> = match v {
+                toml::Value::Array(a) => a.iter().map(|x| x.as_str().unwrap_or_default().to_string()).collect(),
+                toml::Value::String(s) => s.split(',').map(|x| x.trim().to_string()).collect(),
+                _ => return Err(format!("expected estimator names, got {v}")),
+            };
+            o.estimators = Some(crate::estimators::Kind::parse_list(&names)?);
+        }
+        _ => unreachable!("only names of OPTION_KEYS reach here"),
+    }
+    Ok(())
+}
+
+/// `link.REST` also set on every `[[edge]]` that gives its own value of REST's first part (an edge that gives none
+/// takes `[link]`'s).
+fn on_edges(doc: &mut toml::Value, key: &str, value: &toml::Value) -> Result<(), String> {
+    let Some(rest) = key.strip_prefix("link.") else {
+        return Ok(());
+    };
+    let field = rest.split(['.', '[']).next().unwrap_or(rest);
+    let count = doc
+        .get("edge")
+        .and_then(|e| e.as_array())
+        .map_or(0, |edges| edges.len());
+    for i in 0..count {
+        let has = doc["edge"][i].as_table().is_some_and(|t| t.contains_key(field));
+        if has {
+            put(doc, &format!("edge[{i}].{rest}"), value.clone())?;
+        }
+    }
+    Ok(())
+}
+
 impl Scenario {
     /// The TOML this scenario would be read from: the file as written with every change since (overrides, keys
     /// set), a `[generate]` table kept as one.
@@ -104,6 +176,24 @@ impl Scenario {
                 message,
             }],
         };
+        // Options given by name first, as the command line applies them before `--set`.
+        let mut o = super::Overrides::default();
+        let mut options = false;
+        for (key, value) in keys {
+            if OPTION_KEYS.iter().any(|(name, _)| name == key) {
+                option_override(&mut o, key, value).map_err(|m| invalid(key, m))?;
+                options = true;
+            }
+        }
+        if options {
+            let rest: Vec<(&str, toml::Value)> = keys
+                .iter()
+                .filter(|(k, _)| !OPTION_KEYS.iter().any(|(name, _)| name == k))
+                .cloned()
+                .collect();
+            let t = self.with(&o)?;
+            return if rest.is_empty() { Ok(t) } else { t.set_all(&rest) };
+        }
         let mut doc = toml::Value::try_from(&self.raw).map_err(|e| invalid("", e.to_string()))?;
         for (key, value) in keys {
             if *key == "sim.seed" {
@@ -113,6 +203,7 @@ impl Scenario {
                 ));
             }
             put(&mut doc, key, value.clone()).map_err(|m| invalid(key, m))?;
+            on_edges(&mut doc, key, value).map_err(|m| invalid(key, m))?;
         }
         let raw: RawTopology = doc.try_into().map_err(|e: toml::de::Error| {
             // The message names the field the file format does not take; the keys set say where.
@@ -194,6 +285,98 @@ mod tests {
         ] {
             let e = s.set(key, parse_value(value)).unwrap_err().to_string();
             assert!(e.contains(named), "{key} = {value}: {e}");
+        }
+    }
+
+    /// line4 with the middle edge's own loss and delay: what a `[link]`-only setting used to leave alone.
+    fn edges_override() -> Scenario {
+        let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/topologies/line4.toml"))
+            .unwrap()
+            .replace(
+                "nodes = [1, 2]",
+                "nodes = [1, 2]\nloss = { p = 0.05 }\ndelay_ms = 2.0\nduplicate = 0.01\ncorrupt = 0.02\njitter_ms = 1.0",
+            );
+        Scenario::from_toml(&text, "line4-edges.toml").unwrap()
+    }
+
+    /// Every option of `simnet run` that sets a scenario value sets it the same way given as the option (the
+    /// command line's path), by its name as a key, and by its key in the file: on every link, edges with their own
+    /// value included.
+    #[test]
+    fn an_option_by_name_or_by_key_sets_every_link() {
+        let base = edges_override();
+        let edge = crate::link::LossModel::Bernoulli { p: 0.05 };
+        assert_eq!(base.links().iter().filter(|l| l.config.loss == edge).count(), 2);
+        let values = [
+            ("loss", "0.3"),
+            ("delay", "7.5"),
+            ("jitter", "3"),
+            ("duplicate", "0.2"),
+            ("corrupt", "0.1"),
+            ("rounds", "3"),
+            ("estimators", "[\"icf\", \"kcf\"]"),
+        ];
+        assert_eq!(
+            OPTION_KEYS
+                .iter()
+                .filter(|(n, _)| values.iter().any(|(v, _)| v == n))
+                .count(),
+            values.len()
+        );
+        for (name, text) in values {
+            let key = OPTION_KEYS.iter().find(|(n, _)| *n == name).unwrap().1;
+            let v = parse_value(text);
+            let flags = crate::scenario::Flags {
+                loss: (name == "loss").then(|| v.as_float().unwrap()),
+                delay: (name == "delay").then(|| v.as_float().unwrap()),
+                jitter: (name == "jitter").then(|| v.as_integer().unwrap() as f64),
+                duplicate: (name == "duplicate").then(|| v.as_float().unwrap()),
+                corrupt: (name == "corrupt").then(|| v.as_float().unwrap()),
+                rounds: (name == "rounds").then(|| v.as_integer().unwrap() as u64),
+                estimators: (name == "estimators")
+                    .then(|| vec![crate::estimators::Kind::Icf, crate::estimators::Kind::Kcf]),
+                ..Default::default()
+            };
+            let by_option = flags.apply(&base).unwrap();
+            let by_name = base.set(name, v.clone()).unwrap();
+            let by_key = base.set(key, v.clone()).unwrap();
+            let configs = |s: &Scenario| s.links().iter().map(|l| format!("{:?}", l.config)).collect::<Vec<_>>();
+            assert_eq!(configs(&by_name), configs(&by_option), "{name}");
+            assert_eq!(configs(&by_key), configs(&by_option), "{key}");
+            assert_eq!(by_key.estimators().rounds, by_option.estimators().rounds, "{key}");
+            assert_eq!(by_key.estimators().run, by_option.estimators().run, "{key}");
+        }
+        // The measured case: a sweep over link.loss.p moves the edge with its own loss too.
+        let t = base.set("link.loss.p", parse_value("0.5")).unwrap();
+        assert!(t
+            .links()
+            .iter()
+            .all(|l| l.config.loss == crate::link::LossModel::Bernoulli { p: 0.5 }));
+        // Duration and rate by name are the options (the burn-in of the file kept); by key, the file's keys.
+        let d = base.set("duration", parse_value("4")).unwrap();
+        let o = base
+            .with(&crate::Overrides {
+                duration_s: Some(4.0),
+                ..Default::default()
+            })
+            .unwrap();
+        assert_eq!(d.to_toml(), o.to_toml());
+        assert_eq!(d.sim().burn_in_s, o.sim().burn_in_s);
+        let r = base.set("rate", parse_value("50")).unwrap();
+        let o = base
+            .with(&crate::Overrides {
+                rate_hz: Some(50.0),
+                ..Default::default()
+            })
+            .unwrap();
+        assert_eq!((r.to_toml(), r.sim().deadline_s), (o.to_toml(), o.sim().deadline_s));
+        for (name, text, says) in [
+            ("loss", "x", "expected a number"),
+            ("rounds", "0", "1 to 100"),
+            ("estimators", "nope", "nope"),
+        ] {
+            let e = base.set(name, parse_value(text)).unwrap_err().to_string();
+            assert!(e.contains(name) && e.contains(says), "{name} = {text}: {e}");
         }
     }
 

@@ -22,9 +22,7 @@ impl Checks {
         if let Some(path) = &raw.key_file {
             let resolved = beside(topology_file, path);
             let shown = resolved.display().to_string();
-            let key = crate::input::read_text(&resolved, crate::input::MAX_KEY)
-                .map_err(|e| format!("cannot read {shown}: {e}"))
-                .and_then(|t| crate::wire::secure::Key::parse(&t).map_err(|e| format!("{shown}: {e}")));
+            let key = crate::input::read_key(&resolved);
             return match key {
                 Ok(k) => super::SecurityConfig {
                     key: Some(k),

@@ -22,6 +22,7 @@ mod overrides;
 mod resolve;
 pub(crate) mod toml;
 mod validate;
+pub use validate::check_addr;
 
 use std::fmt;
 use std::sync::Arc;
@@ -35,7 +36,7 @@ use crate::sensor::SensorProfile;
 pub use crate::checks::{Checks, Problem};
 pub use builder::{LinkSpec, ScenarioBuilder};
 pub use flags::{parse_set, FlagError, Flags, LossKind, MAX_STEPS};
-pub use keys::parse_value;
+pub use keys::{parse_value, OPTION_KEYS};
 pub use overrides::Overrides;
 
 /// "1 node", "3 nodes".
@@ -367,6 +368,18 @@ impl Scenario {
                 "the run ({d} s) is shorter than the burn-in sim.burn_in_s = {asked} s: the means count from {} s",
                 self.sim.burn_in_s
             ));
+        }
+        for n in &self.nodes {
+            if let Some(a) = n
+                .addr
+                .as_deref()
+                .filter(|a| a.starts_with("0.0.0.0:") || a.starts_with("[::]:"))
+            {
+                w.push(format!(
+                    "node {}'s addr {a} binds every interface of its host: name the address its peers reach",
+                    n.id
+                ));
+            }
         }
         let late: Vec<f64> = self.faults.starts().filter(|t| *t >= d).collect();
         if !late.is_empty() {

@@ -157,10 +157,12 @@ impl Scenario {
         if o.key_file.is_some() || o.auth.is_some() {
             let s = raw.security.get_or_insert_with(Default::default);
             if let Some(f) = &o.key_file {
-                // A path given on the command line is the caller's, not relative to the topology file.
+                // A path given on the command line is the caller's (the working directory's), never the topology
+                // file's: made absolute whether or not it exists, so that an error names the file looked for.
                 s.key_file = Some(
                     std::path::Path::new(f)
                         .canonicalize()
+                        .or_else(|_| std::path::absolute(f))
                         .map_or(f.clone(), |p| p.display().to_string()),
                 );
             }

@@ -80,7 +80,7 @@ impl Key {
             .find(|l| !l.is_empty())
             .ok_or(KeyError::Format)?;
         let hex = line.strip_prefix(KEY_TAG).ok_or(KeyError::Format)?.trim();
-        if hex.len() != 32 || !hex.is_ascii() {
+        if hex.len() != 32 || !hex.bytes().all(|b| b.is_ascii_hexdigit()) {
             return Err(KeyError::Format);
         }
         let mut k = [0u8; 16];

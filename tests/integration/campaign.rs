@@ -210,7 +210,8 @@ fn the_confidence_interval_covers_the_true_loss_rate_at_its_nominal_rate() {
     .unwrap();
     let plan = Plan::new(base, vec![Axis::parse(&format!("link.loss.p={p}")).unwrap()], 2000).unwrap();
     let dir = tmp("coverage");
-    let store = Store::open(&dir, &PlanFile::of(&plan)).unwrap();
+    let file = PlanFile::of(&plan);
+    let store = Store::open(&dir, &file).unwrap();
     let runs = plan.runs();
     let ran = campaign::run_missing(
         &plan,
@@ -223,7 +224,7 @@ fn the_confidence_interval_covers_the_true_loss_rate_at_its_nominal_rate() {
     assert!(ran.failed.is_empty(), "{:?}", ran.failed);
     let rates: Vec<f64> = runs
         .iter()
-        .map(|r| store.get(&r.key).unwrap().unwrap().get("loss_rate").unwrap())
+        .map(|r| store.get(r, &file).unwrap().unwrap().get("loss_rate").unwrap())
         .collect();
     let covered = rates
         .chunks(10)
@@ -291,6 +292,8 @@ fn bad_sweeps_exit_2_naming_what_is_wrong() {
         (vec!["--set", "sim.seed=1,2"], "--seeds"),
         (vec!["--set", "link.loss.p=0.1", "--shard", "4/3"], "--shard"),
         (vec!["--set", "link.loss.p=0.1", "--seeds", "0"], "--seeds"),
+        (vec!["--set", "link.loss.p=0.1,0.1,0.2"], "given twice"),
+        (vec!["--set", "estimators.rounds=1,2,1.0"], "given twice"),
     ] {
         let out = simnet()
             .args(["sweep", "-t", "ring3", "--out", d.to_str().unwrap()])
@@ -319,5 +322,153 @@ fn bad_sweeps_exit_2_naming_what_is_wrong() {
     let again = Scenario::from_toml(&settings.scenario, "again.toml").unwrap();
     assert_eq!(again.digest(), settings.scenario_sha256);
     assert_eq!(again.sim().duration_s, 0.5);
+    let _ = std::fs::remove_dir_all(d);
+}
+
+/// A small sweep of ring3 over `axes` into `dir`, in memory.
+fn sweep_of(dir: &Path, axes: &[&str]) -> std::process::Output {
+    let mut a: Vec<String> = ["sweep", "-t", "ring3", "--duration", "1", "--seeds", "2", "--out"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    a.push(dir.to_str().unwrap().into());
+    for x in axes {
+        a.extend(["--set".to_string(), x.to_string()]);
+    }
+    simnet().args(&a).output().unwrap()
+}
+
+/// `runs.csv`'s rows as (swept values by column, measured loss rate).
+fn rows_of(dir: &Path) -> Vec<(std::collections::BTreeMap<String, String>, f64)> {
+    let text = read(dir, "runs.csv");
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let loss = head.iter().position(|h| *h == "loss_rate").unwrap();
+    lines
+        .map(|l| {
+            let cells: Vec<&str> = l.split(',').collect();
+            let values = head
+                .iter()
+                .zip(&cells)
+                .filter(|(h, _)| h.contains('.'))
+                .map(|(h, c)| (h.to_string(), c.to_string()))
+                .collect();
+            (values, cells[loss].parse().unwrap())
+        })
+        .collect()
+}
+
+/// The store files each record under the point its own plan gives the run, and checks what a record says against
+/// it: the same runs swept with the axes in another order (the plan removed) keep their values; a smaller campaign in
+/// the same directory takes the records it shares; a record or a plan that was altered is an error naming the file
+/// (exit 2), never a panic or an abort.
+#[test]
+fn records_are_filed_by_their_values_and_crafted_store_files_are_named() {
+    let d = tmp("reorder");
+    let out = sweep_of(&d, &["consensus.self=0.6,0.7", "link.loss.p=0,0.2"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let check = |dir: &Path| {
+        for (values, loss) in rows_of(dir) {
+            let p: f64 = values["link.loss.p"].parse().unwrap();
+            if p == 0.0 {
+                assert_eq!(loss, 0.0, "{values:?}");
+            } else {
+                assert!((loss - p).abs() < 0.1, "{values:?}: measured loss {loss}");
+            }
+        }
+    };
+    check(&d);
+    std::fs::remove_file(d.join("plan.json")).unwrap();
+    let out = sweep_of(&d, &["link.loss.p=0,0.2", "consensus.self=0.6,0.7"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("0 run now, 8 already"), "{err}");
+    check(&d);
+    // A smaller campaign, its one point the last of the first one's.
+    std::fs::remove_file(d.join("plan.json")).unwrap();
+    let out = sweep_of(&d, &["link.loss.p=0.2", "consensus.self=0.7"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(rows_of(&d).len(), 2);
+    check(&d);
+    // A record altered to claim another point, or another index.
+    let plan: serde_json::Value = serde_json::from_str(&read(&d, "plan.json")).unwrap();
+    let record = std::fs::read_dir(d.join("runs"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .find(|p| {
+            let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
+            r["values"]["link.loss.p"] == 0.2 && r["values"]["consensus.self"] == 0.7
+        })
+        .unwrap();
+    let text = std::fs::read_to_string(&record).unwrap();
+    let mut r: serde_json::Value = serde_json::from_str(&text).unwrap();
+    r["point"] = 999.into();
+    std::fs::write(&record, serde_json::to_string(&r).unwrap()).unwrap();
+    let out = sweep_of(&d, &["link.loss.p=0.2", "consensus.self=0.7"]);
+    assert!(
+        out.status.success(),
+        "the index is the plan's: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    r["values"]["link.loss.p"] = 0.0.into();
+    std::fs::write(&record, serde_json::to_string(&r).unwrap()).unwrap();
+    for out in [
+        sweep_of(&d, &["link.loss.p=0.2", "consensus.self=0.7"]),
+        simnet().args(["sweep", "merge"]).arg(&d).output().unwrap(),
+    ] {
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains(&record.display().to_string()) && err.contains("link.loss.p = 0"),
+            "{err}"
+        );
+    }
+    std::fs::write(&record, text).unwrap();
+    // Crafted plans: a seed count that would allocate terabytes, points that are not the axes' product.
+    let good = read(&d, "plan.json");
+    for (change, named) in [
+        (("seeds", serde_json::json!(1_000_000_000_000u64)), "seeds"),
+        (("seeds", serde_json::json!(0)), "seeds"),
+        (("points", serde_json::json!([])), "points"),
+        (("axes", serde_json::json!([])), "point 0"),
+    ] {
+        let mut p = plan.clone();
+        p[change.0] = change.1.clone();
+        std::fs::write(d.join("plan.json"), serde_json::to_string(&p).unwrap()).unwrap();
+        for out in [
+            sweep_of(&d, &["link.loss.p=0.2", "consensus.self=0.7"]),
+            simnet().args(["sweep", "merge"]).arg(&d).output().unwrap(),
+        ] {
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(2), "{change:?}: {err}");
+            assert!(err.contains("plan.json") && err.contains(named), "{change:?}: {err}");
+        }
+    }
+    std::fs::write(d.join("plan.json"), good).unwrap();
+    let _ = std::fs::remove_dir_all(d);
+}
+
+/// A campaign stopped and resumed lists every process that made its runs in `manifest.json`, their runs adding up.
+#[test]
+fn the_manifest_lists_every_process_that_made_runs() {
+    let d = tmp("processes");
+    let out = sweep_of(&d, &["link.loss.p=0"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // A second process with more seeds would be another campaign; remove one record so that a resume runs it.
+    let first = std::fs::read_dir(d.join("runs"))
+        .unwrap()
+        .flatten()
+        .next()
+        .unwrap()
+        .path();
+    std::fs::remove_file(first).unwrap();
+    let out = sweep_of(&d, &["link.loss.p=0"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let m: serde_json::Value = serde_json::from_str(&read(&d, "manifest.json")).unwrap();
+    let made_by = m["made_by"].as_array().unwrap();
+    assert_eq!(made_by.len(), 2, "{made_by:?}");
+    let ran: u64 = made_by.iter().map(|p| p["ran"].as_u64().unwrap()).sum();
+    assert_eq!(ran, 3, "2 runs, then the one removed");
     let _ = std::fs::remove_dir_all(d);
 }

@@ -437,11 +437,129 @@ fn committed_compose_file_is_generated() {
         "compose replaced the key"
     );
     // A key file that is not one is refused, not replaced.
-    std::fs::write(d.join("bad.key"), "hunter2\n").unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    let private = |name: &str, text: &str, mode: u32| {
+        std::fs::write(d.join(name), text).unwrap();
+        std::fs::set_permissions(d.join(name), std::fs::Permissions::from_mode(mode)).unwrap();
+    };
+    private("bad.key", "hunter2\n", 0o600);
     let bad = compose(&["--key-file", "bad.key"]);
     assert_eq!(bad.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("bad.key: not a simnet key file"));
     assert!(!String::from_utf8_lossy(&bad.stderr).contains("hunter2"));
+    // Keys as ssh takes them: readable by the owner alone, strict hex, sizes in bytes.
+    let good = std::fs::read_to_string(d.join("simnet.key")).unwrap();
+    for (name, text, mode, says) in [
+        ("open.key", good.clone(), 0o644, "mode 0644: chmod 600"),
+        ("all.key", good.clone(), 0o666, "mode 0666: chmod 600"),
+        (
+            "none.key",
+            good.clone(),
+            0o000,
+            "its owner cannot read it (mode 0000): chmod 600",
+        ),
+        (
+            "plus.key",
+            format!("simnet-key-v1 {}\n", "+f".repeat(16)),
+            0o600,
+            "not a simnet key file",
+        ),
+        (
+            "big.key",
+            format!("{good}{}", "#".repeat(5000)),
+            0o600,
+            "more than the 4096 bytes",
+        ),
+    ] {
+        private(name, &text, mode);
+        let out = compose(&["--key-file", name]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{name}: {err}");
+        assert!(err.contains(name) && err.contains(says), "{name}: {err}");
+        let out = Command::new(env!("CARGO_BIN_EXE_simnet"))
+            .current_dir(&d)
+            .args(["-t", "ring3", "--duration", "0.1", "--key-file", name])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "run with {name}: {err}");
+        assert!(err.contains(says), "run with {name}: {err}");
+    }
+    // A relative --key-file is the working directory's, and a missing one is named there.
+    let out = Command::new(env!("CARGO_BIN_EXE_simnet"))
+        .current_dir(&d)
+        .args(["-t", "ring3", "--duration", "0.1", "--key-file", "missing.key"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains(&d.join("missing.key").display().to_string()), "{err}");
+    // keygen --force makes a new file of mode 0600, and replaces a link rather than writing through it.
+    private("old.key", &good, 0o644);
+    let victim = d.join("victim.txt");
+    std::fs::write(&victim, "not a key").unwrap();
+    std::os::unix::fs::symlink(&victim, d.join("link.key")).unwrap();
+    for name in ["old.key", "link.key"] {
+        let out = Command::new(env!("CARGO_BIN_EXE_simnet"))
+            .current_dir(&d)
+            .args(["keygen", "--force", name])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let meta = std::fs::symlink_metadata(d.join(name)).unwrap();
+        assert!(meta.is_file(), "{name} is still a link");
+        assert_eq!(meta.permissions().mode() & 0o777, 0o600, "{name}");
+    }
+    assert_eq!(std::fs::read_to_string(&victim).unwrap(), "not a key");
+    // Crafted names never become YAML structure: an address is HOST:PORT or an error naming it; a topology path is
+    // a quoted string; an image is an image reference.
+    let ring = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/topologies/ring3.toml")).unwrap();
+    let crafted = ring.replacen(
+        "id = 0\n",
+        "id = 0\naddr = \"x, privileged: true, pid: host:7000\"\n",
+        1,
+    );
+    std::fs::write(d.join("crafted.toml"), crafted).unwrap();
+    let out = simnet()
+        .current_dir(&d)
+        .args(["compose", "--insecure", "--topology", "crafted.toml"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("node[0].addr") && err.contains("is not HOST:PORT"),
+        "{err}"
+    );
+    std::fs::write(d.join("a b'\"#x.toml"), &ring).unwrap();
+    let out = simnet()
+        .current_dir(&d)
+        .args(["compose", "--insecure", "--topology", "a b'\"#x.toml"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let yaml = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        yaml.contains(r##"    - "./a b'\"#x.toml:/topology.toml:ro""##),
+        "{yaml}"
+    );
+    assert!(!yaml.contains("privileged"));
+    let out = compose(&["--insecure", "--image", "x\n    privileged: true"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--image"));
+    let wide = ring.replacen("id = 0\n", "id = 0\naddr = \"0.0.0.0:7000\"\n", 1);
+    std::fs::write(d.join("wide.toml"), wide).unwrap();
+    let out = simnet()
+        .current_dir(&d)
+        .args(["compose", "--insecure", "--topology", "wide.toml"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("binds every interface"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let open = String::from_utf8(compose(&["--insecure"]).stdout).unwrap();
     assert_eq!(open.matches("\"--insecure\"").count(), 3);
     assert!(!open.contains("secrets"));

@@ -168,17 +168,31 @@ fn a_closed_stdout_loses_no_file_and_is_not_success() {
 #[test]
 fn ctrl_c_keeps_partial_results_and_exits_130() {
     let d = tmp("sigint");
-    let child = simnet()
+    let mut child = simnet()
         .args(["-t", "ring3", "--duration", "100000", "-q", "--out"])
         .arg(&d)
         .stdout(Stdio::null())
         .spawn()
         .unwrap();
     // Wait for rows on disk (the run is under way and its signal handler installed), not for a time.
-    let tmp_trace = d.join("trace.csv.tmp");
+    // The run streams `trace.csv` into its staging directory until the end.
+    let streamed = || -> u64 {
+        std::fs::read_dir(&d)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .filter(|e| e.file_name().to_string_lossy().starts_with(".simnet-stage-"))
+            .filter_map(|e| e.path().join("trace.csv").metadata().ok())
+            .map(|m| m.len())
+            .sum()
+    };
     let start = Instant::now();
-    while tmp_trace.metadata().map(|m| m.len()).unwrap_or(0) < 100_000 {
-        assert!(start.elapsed() < Duration::from_secs(300), "no rows streamed");
+    while streamed() < 100_000 {
+        if start.elapsed() > Duration::from_secs(300) {
+            // A run of 100 000 s left behind would fill the disk.
+            let _ = child.kill();
+            panic!("no rows streamed");
+        }
         std::thread::sleep(Duration::from_millis(20));
     }
     let ok = Command::new("kill")
@@ -198,7 +212,7 @@ fn ctrl_c_keeps_partial_results_and_exits_130() {
         .filter(|l| l.contains(",networked,") || l.contains(",independent,"))
         .count() as u64;
     assert_eq!(rows, steps * 3 * 2, "every step run is in trace.csv");
-    assert!(!tmp_trace.exists());
+    assert_eq!(streamed(), 0, "the staging directory is gone");
     let _ = std::fs::remove_dir_all(&d);
 }
 
@@ -409,10 +423,11 @@ fn measurements_csv_recomputes_the_independent_filter() {
 }
 
 /// An output directory holds one run's files as a set: a run without estimators into the directory of a run with
-/// them leaves no `estimators.csv` behind, nor an IMU file of a node it does not have; files of other kinds stay, and
-/// a run refused for bad input changes nothing.
+/// them leaves no `estimators.csv` behind; files simnet did not write stay (an IMU file of a node the run does not
+/// have, notes), and a run refused for bad input changes nothing. `.simnet-outputs` lists the set and says it is
+/// complete.
 #[test]
-fn a_rerun_leaves_no_stale_file_of_its_kinds() {
+fn a_rerun_removes_only_what_an_earlier_run_wrote() {
     let d = tmp("stale");
     let run = |extra: &[&str]| {
         simnet()
@@ -428,25 +443,26 @@ fn a_rerun_leaves_no_stale_file_of_its_kinds() {
     }
     std::fs::write(d.join("imu-99.csv"), "an earlier, larger network's node\n").unwrap();
     std::fs::write(d.join("notes.txt"), "mine\n").unwrap();
-    let before: Vec<_> = std::fs::read_dir(&d)
-        .unwrap()
-        .flatten()
-        .map(|e| e.file_name())
-        .collect();
+    let listing = || {
+        let mut v: Vec<_> = std::fs::read_dir(&d)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    };
+    let before = listing();
     let refused = run(&["--loss", "2"]);
     assert_eq!(refused.status.code(), Some(2));
-    let after: Vec<_> = std::fs::read_dir(&d)
-        .unwrap()
-        .flatten()
-        .map(|e| e.file_name())
-        .collect();
-    assert_eq!(before.len(), after.len(), "a refused run changed the directory");
+    assert_eq!(before, listing(), "a refused run changed the directory");
     assert!(run(&[]).status.success());
-    for gone in ["estimators.csv", "estimators.svg", "imu-99.csv"] {
+    for gone in ["estimators.csv", "estimators.svg"] {
         assert!(!d.join(gone).exists(), "{gone} was left behind");
     }
     for kept in [
         "notes.txt",
+        "imu-99.csv",
         "imu-0.csv",
         "summary.json",
         "trace.csv",
@@ -455,5 +471,128 @@ fn a_rerun_leaves_no_stale_file_of_its_kinds() {
     ] {
         assert!(d.join(kept).exists(), "{kept} is missing");
     }
+    assert_eq!(
+        std::fs::read_to_string(d.join("imu-99.csv")).unwrap(),
+        "an earlier, larger network's node\n"
+    );
+    let list: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join(".simnet-outputs")).unwrap()).unwrap();
+    assert_eq!(list["complete"], true);
+    let files: Vec<&str> = list["files"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f.as_str().unwrap())
+        .collect();
+    assert!(files.contains(&"trace.csv") && !files.contains(&"imu-99.csv") && !files.contains(&"estimators.csv"));
+    // No staging directory or temporary file is left.
+    assert!(
+        listing()
+            .iter()
+            .all(|n| !n.contains(".tmp") && !n.starts_with(".simnet-stage-")),
+        "{:?}",
+        listing()
+    );
+    let _ = std::fs::remove_dir_all(d);
+}
+
+/// The recordings a run reads are never its outputs: a folder holding `imu-0.csv` … `imu-5.csv` and a topology that
+/// replays `imu-0.csv` refuses `--out` into that folder (exit 2, every file as it was); into another folder the run
+/// goes, and a later run there removes none of the recordings it did not write.
+#[test]
+fn a_run_never_removes_or_overwrites_the_recordings_it_reads() {
+    let made = tmp("recordings-made");
+    let out = simnet()
+        .args(["-q", "-t", "attitude3", "--duration", "2", "--out"])
+        .arg(&made)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let d = tmp("recordings");
+    std::fs::create_dir_all(&d).unwrap();
+    for i in 0..6 {
+        std::fs::copy(made.join(format!("imu-{}.csv", i % 3)), d.join(format!("imu-{i}.csv"))).unwrap();
+    }
+    let toml = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/topologies/attitude3.toml"))
+        .unwrap()
+        .replacen("id = 0\n", "id = 0\nimu_csv = \"imu-0.csv\"\n", 1);
+    assert!(toml.contains("imu_csv"));
+    std::fs::write(d.join("two.toml"), toml).unwrap();
+    let bytes = |p: &std::path::Path| std::fs::read(p).unwrap();
+    let originals: Vec<Vec<u8>> = (0..6).map(|i| bytes(&d.join(format!("imu-{i}.csv")))).collect();
+    let run = |out: &std::path::Path| {
+        simnet()
+            .current_dir(&d)
+            .args(["-q", "-t", "two.toml", "--duration", "2", "--out"])
+            .arg(out)
+            .output()
+            .unwrap()
+    };
+    let refused = run(std::path::Path::new("."));
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(2), "{err}");
+    assert!(err.contains("imu-0.csv") && err.contains("node[0].imu_csv"), "{err}");
+    for (i, b) in originals.iter().enumerate() {
+        assert_eq!(&bytes(&d.join(format!("imu-{i}.csv"))), b, "imu-{i}.csv changed");
+    }
+    // Into a subfolder: the run goes; twice, and the recordings beside it stay as they were.
+    for _ in 0..2 {
+        let ok = run(std::path::Path::new("out"));
+        assert!(ok.status.success(), "{}", String::from_utf8_lossy(&ok.stderr));
+    }
+    assert!(
+        !d.join("out/imu-0.csv").exists(),
+        "a node fed from a file writes no IMU file"
+    );
+    assert!(d.join("out/imu-1.csv").exists());
+    for (i, b) in originals.iter().enumerate() {
+        assert_eq!(&bytes(&d.join(format!("imu-{i}.csv"))), b, "imu-{i}.csv changed");
+    }
+    for dir in [made, d] {
+        let _ = std::fs::remove_dir_all(dir);
+    }
+}
+
+/// What a killed run leaves is cleared by the next one without following a planted link: a staging directory of a
+/// run that died (with its temporary files) is removed; a link planted under a name simnet writes is replaced, its
+/// target untouched; two runs into one directory at once are refused, not mixed.
+#[test]
+fn leftovers_are_cleared_and_links_are_not_followed() {
+    let d = tmp("leftovers");
+    std::fs::create_dir_all(d.join(".simnet-stage-0123456789abcdef")).unwrap();
+    std::fs::write(d.join(".simnet-stage-0123456789abcdef/trace.csv"), "half a run").unwrap();
+    let victim = tmp("victim");
+    std::fs::write(&victim, "not simnet's").unwrap();
+    std::os::unix::fs::symlink(&victim, d.join("trace.csv")).unwrap();
+    std::os::unix::fs::symlink(&victim, d.join("trace.csv.tmp")).unwrap();
+    let out = simnet()
+        .args(["-q", "-t", "ring3", "--duration", "1", "--out"])
+        .arg(&d)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(std::fs::read_to_string(&victim).unwrap(), "not simnet's");
+    assert!(!d.join(".simnet-stage-0123456789abcdef").exists());
+    assert!(std::fs::symlink_metadata(d.join("trace.csv")).unwrap().is_file());
+    assert!(std::fs::read_to_string(d.join("trace.csv"))
+        .unwrap()
+        .starts_with("step,"));
+    // Another process holding the directory: refused with exit 2, nothing written.
+    let lock = std::fs::OpenOptions::new()
+        .write(true)
+        .open(d.join(".simnet-lock"))
+        .unwrap();
+    lock.lock().unwrap();
+    let summary = std::fs::read(d.join("summary.json")).unwrap();
+    let out = simnet()
+        .args(["-q", "-t", "ring3", "--duration", "1", "--seed", "7", "--out"])
+        .arg(&d)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("another simnet is writing"));
+    assert_eq!(std::fs::read(d.join("summary.json")).unwrap(), summary);
+    drop(lock);
+    let _ = std::fs::remove_file(victim);
     let _ = std::fs::remove_dir_all(d);
 }

@@ -40,6 +40,12 @@ pub enum AttitudeError {
     Length { name: String, got: usize, want: usize },
     #[error("--compare {name}=…: `{name}` is taken (simnet's own: {taken})")]
     NameTaken { name: String, taken: String },
+    #[error(
+        "the recording's {sensor} shows no noise (its white-noise variance, measured at rest or from second \
+         differences, is {var:e}): simnet's EKFs take their noise covariances from the recording, and a noiseless \
+         (simulated or constant) {sensor} leaves them singular; give a recording whose {sensor} has its sensor noise"
+    )]
+    Noiseless { sensor: &'static str, var: f64 },
 }
 
 /// One filter's error against the reference, degrees.
@@ -200,6 +206,16 @@ pub fn compare_with(rec: &ImuRecording, rate_hz: f64, gates: &Gates) -> Result<C
     }
     let (reference, z_down) = reference_up(rec)?;
     let c = characterise(rec, rate_hz, gates);
+    let vars = [
+        ("gyro", Some(c.gyro_var)),
+        ("accelerometer", Some(c.accel_var)),
+        ("magnetometer", c.mag_var),
+    ];
+    for (sensor, var) in vars {
+        if let Some(var) = var.filter(|v| !(v.is_finite() && *v > 0.0)) {
+            return Err(AttitudeError::Noiseless { sensor, var });
+        }
+    }
     let (g, h, q0) = (sensor::gravity(c.g), c.field.map(|f| f.nav()), c.start);
     let mekf_model = c.mekf_model(g, h, rate_hz);
     let beta = if h.is_some() {
@@ -311,6 +327,26 @@ mod tests {
     use rand_distr::{Distribution, Normal};
 
     const DT: f64 = 0.01;
+
+    /// A noiseless recording (a simulation without noise) is an error that names the sensor, not a failed
+    /// decomposition deep in a filter.
+    #[test]
+    fn a_noiseless_recording_is_named_as_such() {
+        let n = 500;
+        let rec = ImuRecording {
+            t: (0..n).map(|k| k as f64 * DT).collect(),
+            gyro: vec![Vector3::zeros(); n],
+            accel: vec![Vector3::new(0.0, 0.0, 9.81); n],
+            mag: Some(vec![Vector3::new(0.25, 0.0, 0.43); n]),
+            quat: Some(vec![Vector4::new(1.0, 0.0, 0.0, 0.0); n]),
+            ..Default::default()
+        };
+        let e = compare_with(&rec, 1.0 / DT, &GATES).unwrap_err().to_string();
+        assert!(
+            e.contains("gyro shows no noise") && e.contains("give a recording"),
+            "{e}"
+        );
+    }
 
     /// A simulated recording at 100 Hz: 3 s at rest, then turning about a slowly changing axis with bursts of linear
     /// acceleration; white noise on every sensor, a gyro bias, and from 20 s to 30 s the field disturbed by a

@@ -120,6 +120,11 @@ impl Checks {
                     );
                 }
             }
+            if let Some(a) = &n.addr {
+                if let Err(m) = check_addr(a) {
+                    self.bad(format!("{key}.addr"), m);
+                }
+            }
             nodes.push(NodeConfig {
                 id: id.clamp(0, u32::MAX as i64) as u32,
                 role,
@@ -587,5 +592,64 @@ mod tests {
         assert!(s.contains("sim.rate_hz") && s.contains("node[0].role"), "{s}");
         let err = Scenario::from_toml("[sim]\nrat_hz = 1\n", "x.toml").unwrap_err();
         assert!(err.to_string().contains("rat_hz"), "{err}");
+    }
+}
+
+/// `HOST:PORT` as a node's `addr`: an IPv4 address, `[IPv6]`, or a host name (letters, digits, `-` and `.`, labels
+/// of at most 63, 253 in all: what DNS and Docker's service names take), and a port 1 to 65535. Nothing else reaches
+/// a socket or a generated compose file.
+pub fn check_addr(a: &str) -> Result<(), String> {
+    let bad = |why: &str| Err(format!("`{}` is not HOST:PORT ({why})", a.escape_debug()));
+    let Some((host, port)) = a.rsplit_once(':') else {
+        return bad("no `:PORT`");
+    };
+    if !port.parse::<u16>().is_ok_and(|p| p > 0) || !port.bytes().all(|b| b.is_ascii_digit()) {
+        return bad("the port must be 1 to 65535");
+    }
+    if let Some(v6) = host.strip_prefix('[').and_then(|h| h.strip_suffix(']')) {
+        return if v6.parse::<std::net::Ipv6Addr>().is_ok() {
+            Ok(())
+        } else {
+            bad("not an IPv6 address in brackets")
+        };
+    }
+    if host.parse::<std::net::Ipv4Addr>().is_ok() {
+        return Ok(());
+    }
+    let label_ok = |l: &str| {
+        !l.is_empty()
+            && l.len() <= 63
+            && l.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-')
+            && !l.starts_with('-')
+            && !l.ends_with('-')
+    };
+    if host.is_empty() || host.len() > 253 || !host.split('.').all(label_ok) {
+        return bad("a host is an IP address or a name of letters, digits, `-` and `.`");
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod addr_tests {
+    #[test]
+    fn addresses_follow_a_strict_grammar() {
+        for ok in ["node0:7000", "127.0.0.1:9", "[::1]:7000", "a-b.c:65535", "0.0.0.0:7000"] {
+            assert!(super::check_addr(ok).is_ok(), "{ok}");
+        }
+        for bad in [
+            "node0",
+            "node0:0",
+            "node0:70000",
+            "node0:+7",
+            "x\n    privileged: true:7000",
+            "x, pid: host:7000",
+            "-x:1",
+            "a..b:1",
+            "[zz]:1",
+            ":7000",
+            "a b:1",
+        ] {
+            assert!(super::check_addr(bad).is_err(), "{bad:?}");
+        }
     }
 }
