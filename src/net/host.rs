@@ -301,10 +301,16 @@ pub async fn run_node(
     let mut next_hello = Instant::now();
     let mut interrupted = false;
     let mut schedule = crate::report::summary::Schedule::default();
+    // Where this host's own clock stands: the step joined, and when. A catch-up goes no further than the clock has
+    // run since, plus the window of steps a neighbour may be ahead — so that datagrams claiming later and later steps
+    // (unauthenticated, or a neighbour gone wrong) cannot walk the node to the end of the run.
+    let (joined_step, joined_at) = (k, Instant::now());
+    let window = node.step_window();
     while k < steps {
         // A neighbour is ahead: run the steps in between at once and continue from its step.
-        if let Some(ahead) = node.max_peer_step().filter(|&m| m > k) {
-            let target = ahead.min(steps);
+        let own_clock = || joined_step + (joined_at.elapsed().as_secs_f64() / dt.as_secs_f64()) as u64 + window;
+        if let Some(ahead) = node.max_peer_step().filter(|&m| m > k && own_clock() > k) {
+            let target = ahead.min(own_clock()).min(steps);
             tracing::info!(from = k, to = target, "catching up with a neighbour");
             while k < target {
                 crate::sim::begin_step(&mut node, k);

@@ -542,12 +542,15 @@ pub(super) async fn run(
         out_rx,
     ));
     let mut sockets = sockets.into_iter();
+    // Every run seals under its own epoch: no nonce of an earlier run under the same key comes again.
+    let epoch = crate::wire::secure::fresh_epoch();
     let mut handles = Vec::with_capacity(workers);
     for ((w, block), control) in blocks.into_iter().enumerate().zip(controls) {
         let slots: Vec<Slot> = block
             .filter_map(|i| {
                 let socket = sockets.next()?;
-                let node = Node::new(topo.clone(), i, record);
+                let mut node = Node::new(topo.clone(), i, record);
+                node.boot(epoch);
                 let mut ins: Vec<usize> = topo.in_links(i).map(|l| l.from).collect();
                 ins.sort_unstable();
                 ins.dedup();

@@ -249,6 +249,8 @@ pub(super) async fn run(
         out_rx,
     ));
     let mut sockets = sockets.into_iter();
+    // Every run seals under its own epoch: no nonce of an earlier run under the same key comes again.
+    let epoch = crate::wire::secure::fresh_epoch();
     let mut handles = Vec::with_capacity(workers);
     for (w, block) in blocks.into_iter().enumerate() {
         let mut slots = Vec::with_capacity(block.len());
@@ -256,10 +258,9 @@ pub(super) async fn run(
             let Some(socket) = sockets.next() else { break };
             // The socket leaves tokio's reactor for this worker's poll set (it stays non-blocking).
             let socket = UdpSocket::from_std(socket.into_std().map_err(NetError::Bind)?);
-            slots.push(Slot {
-                node: Node::new(topo.clone(), i, record),
-                socket,
-            });
+            let mut node = Node::new(topo.clone(), i, record);
+            node.boot(epoch);
+            slots.push(Slot { node, socket });
         }
         let (sh, out) = (sh.clone(), out_tx.clone());
         handles.push(tokio::task::spawn_blocking(move || worker(w, slots, sh, out)));

@@ -107,8 +107,13 @@ impl Node {
     /// A step is believed only inside the run and no further ahead of this node's own than a neighbour can be —
     /// two seconds of steps, at least 32: one datagram must not end the run or make the node skip to its end.
     pub(super) fn plausible_step(&self, s: u64) -> bool {
-        let window = (2.0 * self.topo.sim().rate_hz).ceil().max(32.0) as u64;
+        let window = self.step_window();
         s < self.topo.sim().steps() && self.last_step.is_none_or(|k| s <= k.saturating_add(window))
+    }
+
+    /// How many steps a neighbour may be ahead of this node: two seconds of steps, at least 32.
+    pub fn step_window(&self) -> u64 {
+        (2.0 * self.topo.sim().rate_hz).ceil().max(32.0) as u64
     }
 
     fn seen(&self, from: Option<usize>) -> Seen {

@@ -68,8 +68,14 @@ impl Sim {
         scenario.check_recordings()?;
         let scenario = Arc::new(scenario.clone());
         let record = opts.trace.is_some();
+        // Every run seals under its own epoch: no nonce of an earlier run under the same key comes again.
+        let epoch = crate::wire::secure::fresh_epoch();
         let mut nodes: Vec<Node> = (0..scenario.nodes().len())
-            .map(|i| Node::new(scenario.clone(), i, record))
+            .map(|i| {
+                let mut n = Node::new(scenario.clone(), i, record);
+                n.boot(epoch);
+                n
+            })
             .collect();
         if opts.record_lmi {
             nodes.iter_mut().for_each(Node::record_lmi);
@@ -257,5 +263,30 @@ pub(crate) fn observer_for(scenario: &Scenario, record: bool) -> Observer {
         o
     } else {
         o.with_schemes(crate::observe::schemes::SchemeObserver::new(scenario, record))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    /// Two runs of one scenario under one key seal under different epochs: no (source, epoch, counter) of the first
+    /// is used again by the second (every in-process run was sealed under epoch 0, so two runs shared every nonce).
+    #[test]
+    fn every_run_seals_under_its_own_epoch() {
+        let topo = crate::Scenario::resolve("ring3")
+            .unwrap()
+            .with(&crate::Overrides {
+                auth: Some(true),
+                ..Default::default()
+            })
+            .unwrap();
+        let epochs: Vec<u64> = (0..2)
+            .map(|_| {
+                let sim = super::Sim::new(&topo).unwrap();
+                let e: Vec<(u64, u64)> = sim.nodes.iter().map(|n| n.next_nonce().unwrap()).collect();
+                assert!(e.iter().all(|n| *n == e[0] && n.1 == 0), "{e:?}");
+                e[0].0
+            })
+            .collect();
+        assert_ne!(epochs[0], epochs[1]);
     }
 }

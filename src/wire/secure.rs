@@ -108,6 +108,21 @@ impl Key {
     }
 }
 
+/// A fresh epoch for the boots of a run in one process (`simnet run`, [`crate::Sim`]): random, its top bit clear so
+/// that restarts (the next epoch each) never wrap. Two runs under one key then never seal under one key and nonce —
+/// the rule a node process follows with its boot time ([`Sealer::new`]'s epoch).
+pub fn fresh_epoch() -> u64 {
+    let mut b = [0u8; 8];
+    if getrandom::getrandom(&mut b).is_err() {
+        // No random source: the time, which a later run does not repeat either.
+        let t = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos() as u64);
+        b = t.to_le_bytes();
+    }
+    u64::from_le_bytes(b) >> 1
+}
+
 /// The 13-byte CCM nonce: the sender's id and the counter (unique under a boot's key).
 fn nonce(src: u32, counter: u64) -> [u8; 13] {
     let mut n = [0u8; 13];

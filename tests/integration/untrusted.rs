@@ -361,6 +361,84 @@ fn a_step_jump_or_a_huge_handshake_cannot_end_a_multi_host_run() {
     let _ = std::fs::remove_dir_all(d);
 }
 
+/// Without a key, a step can still not be walked: datagrams from node 1's address, each claiming a step 190 ahead of
+/// the one node 0 is on (read from its own datagrams), moved it by a window at a time and ended a 5 s run in about
+/// 2 s. A catch-up goes no further than node 0's own clock plus one window (2 s of steps), so the run takes at least
+/// the rest of its length in real time — a lower bound that load only lengthens.
+#[test]
+fn a_walk_of_plausible_steps_cannot_end_a_run_early() {
+    use simnet::wire::{Datagram, Header, Payload};
+    let d = tmp("step-walk");
+    let fake = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    fake.set_read_timeout(Some(std::time::Duration::from_millis(20)))
+        .unwrap();
+    let p1 = fake.local_addr().unwrap().port();
+    let p0 = std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let p2 = std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let mut node = simnet();
+    node.args([
+        "node",
+        "-v",
+        "-t",
+        "ring3",
+        "--id",
+        "0",
+        "--insecure",
+        "--duration",
+        "5",
+    ])
+    .args(["--handshake-timeout", "0.3", "--bind", &format!("127.0.0.1:{p0}")])
+    .args([
+        "--peer",
+        &format!("1=127.0.0.1:{p1}"),
+        "--peer",
+        &format!("2=127.0.0.1:{p2}"),
+    ])
+    .arg("--out")
+    .arg(&d);
+    let (mut child, drain) = super::common::spawn_until(&mut node, "stepping");
+    let started = std::time::Instant::now();
+    let to = format!("127.0.0.1:{p0}");
+    let (mut buf, mut spoofed, mut last) = (vec![0u8; 2048], 0u32, 0u64);
+    while child.try_wait().unwrap().is_none() && spoofed < 60 {
+        let Ok((n, _)) = fake.recv_from(&mut buf) else { continue };
+        let Ok(dg) = Datagram::decode(&buf[..n]) else { continue };
+        let step = dg.header.step;
+        if matches!(dg.payload, Payload::Measurement { .. }) && (spoofed == 0 || step >= last + 150) {
+            last = step;
+            let claim = (step + 190).min(499);
+            let bytes = Datagram {
+                header: Header::new(1, 1000 + spoofed, claim),
+                payload: Payload::measurement(0b111, vec![0.0; 3]),
+            }
+            .encode()
+            .unwrap();
+            fake.send_to(&bytes, &to).unwrap();
+            spoofed += 1;
+        }
+    }
+    assert!(child.wait().unwrap().success());
+    let ran = started.elapsed();
+    drain.join().unwrap();
+    assert!(spoofed >= 2, "the attack sent {spoofed} datagrams");
+    let part: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("node-0.json")).unwrap()).unwrap();
+    assert_eq!(part["part"]["steps_done"], 500, "node 0 did not run every step");
+    // 500 steps of 10 ms, at most a window of 200 skipped: at least 3 s of the run on the clock.
+    assert!(
+        ran.as_secs_f64() > 2.9,
+        "the run ended after {ran:?} ({spoofed} datagrams)"
+    );
+    let _ = std::fs::remove_dir_all(d);
+}
+
 /// Sealing changes no fate: ring3 with loss, delay, jitter, duplication and corruption, the nodes running ICF over
 /// two rounds, gives the same nodes, links, fused estimate and estimators with `--auth` as without, in memory and
 /// over UDP — and over UDP it counts no datagram between the nodes as refused.
