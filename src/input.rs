@@ -50,13 +50,22 @@ fn open(path: &Path, limit: u64) -> io::Result<std::fs::File> {
     std::fs::File::open(path)
 }
 
-/// A piece of an untrusted file as an error quotes it: the first 40 characters, and how long it was beyond them
-/// (a message never carries a file's megabytes).
+/// A piece of an untrusted file as a message shows it: its first 24 characters, `…` where it goes on (a message
+/// never carries a file's megabytes).
+pub fn clip(s: &str) -> String {
+    match s.char_indices().nth(24) {
+        Some((i, _)) => format!("{}…", &s[..i]),
+        None => s.to_string(),
+    }
+}
+
+/// [`clip`] in backquotes, with the length of what was cut.
 pub fn quoted(s: &str) -> String {
-    const SHOWN: usize = 40;
-    match s.char_indices().nth(SHOWN) {
-        None => format!("`{s}`"),
-        Some((cut, _)) => format!("`{}…` ({} bytes)", &s[..cut], s.len()),
+    let c = clip(s);
+    if c.len() < s.len() {
+        format!("`{c}` ({} bytes)", s.len())
+    } else {
+        format!("`{c}`")
     }
 }
 

@@ -45,38 +45,62 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     // Files first: a reader that closes stdout early (`| head`) loses nothing.
     let mut wrote = Vec::new();
     let mut shown = None;
+    let mut failed = None;
     if let Some(d) = out_dir {
-        // Each sensing node's IMU samples with the true pose (input for `simnet reconstruct`), streamed too.
-        let imu = out.trace.as_ref().map(|t| t.imu_nodes()).unwrap_or_default();
-        let (rows, fused) = d.finish_trace(out.trace.take())?;
-        let schemes = out.observer.as_ref().and_then(|o| o.schemes()).map(|s| s.rows());
-        let mut extra = Vec::new();
-        if let Some(rows) = schemes {
-            let title = format!("{} — every estimator's error (seed {})", s.topology, s.seed);
-            extra.push((
-                "estimators.svg",
-                "every estimator's median-over-nodes error, the centralized reference in black".to_string(),
-                plot::estimators(rows, topo.sim().dt(), s.model, &title)?,
-            ));
-        }
-        wrote = write_files(&d.stage, &s, topo.sim().dt(), &rows, &fused, extra)?;
-        wrote.extend(imu.into_iter().map(|id| format!("imu-{id}.csv")));
-        wrote.push(MEASUREMENTS.into());
-        if schemes.is_some() {
-            wrote.push(ESTIMATORS.into());
-        }
-        if parquet {
-            let copies = parquet_copies(&d.stage, &wrote)?;
-            wrote.extend(copies);
-        }
         shown = Some(d.dir.clone());
-        d.commit(&wrote)?;
+        match write_run(d, &mut out, &s, &topo, parquet) {
+            Ok(w) => wrote = w,
+            // The table is still printed: a full disk loses the files, not the result (the directory is as it was).
+            Err(e) => failed = Some(e),
+        }
+    }
+    if let Some(e) = failed {
+        print_summary(&s, args.json, None)?;
+        return Err(e.context(format!(
+            "the run's files were not written ({} is as it was)",
+            shown.map(|d| d.display().to_string()).unwrap_or_default()
+        )));
     }
     print_summary(&s, args.json, None)?;
     if let (Some(dir), false) = (&shown, args.json) {
         println!("\nwrote {}/{{{}}}", dir.display(), wrote.join(", "));
     }
     Ok(exit_code(s.interrupted))
+}
+
+/// Every file of a whole run into `d`'s staging directory, then moved into place as a set; the names written.
+fn write_run(
+    d: RunDir,
+    out: &mut net::RunResults,
+    s: &summary::Summary,
+    topo: &Scenario,
+    parquet: bool,
+) -> anyhow::Result<Vec<String>> {
+    // Each sensing node's IMU samples with the true pose (input for `simnet reconstruct`), streamed too.
+    let imu = out.trace.as_ref().map(|t| t.imu_nodes()).unwrap_or_default();
+    let (rows, fused) = d.finish_trace(out.trace.take())?;
+    let schemes = out.observer.as_ref().and_then(|o| o.schemes()).map(|s| s.rows());
+    let mut extra = Vec::new();
+    if let Some(rows) = schemes {
+        let title = format!("{} — every estimator's error (seed {})", s.topology, s.seed);
+        extra.push((
+            "estimators.svg",
+            "every estimator's median-over-nodes error, the centralized reference in black".to_string(),
+            plot::estimators(rows, topo.sim().dt(), s.model, &title)?,
+        ));
+    }
+    let mut wrote = write_files(&d.stage, s, topo.sim().dt(), &rows, &fused, extra)?;
+    wrote.extend(imu.into_iter().map(|id| format!("imu-{id}.csv")));
+    wrote.push(MEASUREMENTS.into());
+    if schemes.is_some() {
+        wrote.push(ESTIMATORS.into());
+    }
+    if parquet {
+        let copies = parquet_copies(&d.stage, &wrote)?;
+        wrote.extend(copies);
+    }
+    d.commit(&wrote)?;
+    Ok(wrote)
 }
 
 /// The files a run reads, each with what names it: the topology file, the recordings its nodes replay, its key.

@@ -6,6 +6,7 @@
 
 use nalgebra::Vector3;
 
+use crate::input::clip;
 use crate::sensor::ImuSample;
 
 pub mod layout;
@@ -50,14 +51,6 @@ const GROUPS: [(&str, [&str; 3]); 5] = [
     ("reference position", ["x", "y", "z"]),
     ("reference attitude", ["roll", "pitch", "yaw"]),
 ];
-
-/// A cell as an error shows it: at most 24 characters.
-fn clip(s: &str) -> String {
-    match s.char_indices().nth(24) {
-        Some((i, _)) => format!("{}…", &s[..i]),
-        None => s.to_string(),
-    }
-}
 
 pub fn parse(text: &str, file: &str) -> Result<ImuRecording, CsvError> {
     let err = |line: usize, message: String| CsvError {

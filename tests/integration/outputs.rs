@@ -596,3 +596,60 @@ fn leftovers_are_cleared_and_links_are_not_followed() {
     let _ = std::fs::remove_file(victim);
     let _ = std::fs::remove_dir_all(d);
 }
+
+/// A full disk (a 2 MB tmpfs the test mounts, as root) fails the run with exit 1 after its table is printed, and
+/// leaves the directory as it was: the earlier run's files whole, no staging directory, no temporary file.
+#[test]
+fn a_full_disk_leaves_the_earlier_run_whole() {
+    let d = tmp("full-disk");
+    std::fs::create_dir_all(&d).unwrap();
+    let mounted = Command::new("mount")
+        .args(["-t", "tmpfs", "-o", "size=2m", "tmpfs"])
+        .arg(&d)
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !mounted {
+        eprintln!("SKIPPED a_full_disk_leaves_the_earlier_run_whole: cannot mount a tmpfs here (needs root)");
+        let _ = std::fs::remove_dir_all(&d);
+        return;
+    }
+    let out_dir = d.join("run");
+    let run = |duration: &str| {
+        simnet()
+            .args(["-t", "ring3", "--duration", duration, "--out"])
+            .arg(&out_dir)
+            .output()
+            .unwrap()
+    };
+    let first = run("0.3");
+    assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
+    let listing = || {
+        let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(&out_dir)
+            .unwrap()
+            .flatten()
+            .map(|e| {
+                (
+                    e.file_name().to_string_lossy().into_owned(),
+                    std::fs::read(e.path()).unwrap(),
+                )
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    let before = listing();
+    let full = run("30");
+    let err = String::from_utf8_lossy(&full.stderr);
+    let stdout = String::from_utf8_lossy(&full.stdout);
+    let after = listing();
+    let _ = Command::new("umount").arg(&d).status();
+    assert_eq!(full.status.code(), Some(1), "{err}");
+    assert!(err.contains("No space left") && err.contains("is as it was"), "{err}");
+    assert!(stdout.contains("fused"), "the table is printed: {stdout}");
+    assert_eq!(
+        before.iter().map(|(n, _)| n).collect::<Vec<_>>(),
+        after.iter().map(|(n, _)| n).collect::<Vec<_>>()
+    );
+    assert!(before == after, "the earlier run's files changed");
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -275,14 +275,9 @@ fn every_bad_input_exits_2_naming_it() {
     let _ = std::fs::remove_dir_all(d);
 }
 
-/// One datagram must not end or freeze a multi-host run. The test holds node 1's address of an unauthenticated
-/// node 0 and, once node 0 is stepping, sends it measurements claiming the run's last step and a step past the run,
-/// and hellos running at 2⁶⁴ − 2: node 0 runs every step of its 5 s in real time and counts each as implausible.
-/// The same node's datagrams from another address are counted as from an unknown address.
-#[test]
-fn a_step_jump_or_a_huge_handshake_cannot_end_a_multi_host_run() {
-    use simnet::wire::{Datagram, Header, Payload};
-    let d = tmp("step-jump");
+/// `simnet node` 0 of ring3 without a key for 5 s, writing its part into `d`: its neighbour 1 is the returned socket
+/// (the attacker, at node 1's address), neighbour 2 a port no one listens on; and node 0's own port.
+fn insecure_node_0(d: &std::path::Path) -> (std::process::Command, std::net::UdpSocket, u16) {
     let fake = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     let p1 = fake.local_addr().unwrap().port();
     let free = || {
@@ -313,7 +308,19 @@ fn a_step_jump_or_a_huge_handshake_cannot_end_a_multi_host_run() {
         &format!("2=127.0.0.1:{p2}"),
     ])
     .arg("--out")
-    .arg(&d);
+    .arg(d);
+    (node, fake, p0)
+}
+
+/// One datagram must not end or freeze a multi-host run. The test holds node 1's address of an unauthenticated
+/// node 0 and, once node 0 is stepping, sends it measurements claiming the run's last step and a step past the run,
+/// and hellos running at 2⁶⁴ − 2: node 0 runs every step of its 5 s in real time and counts each as implausible.
+/// The same node's datagrams from another address are counted as from an unknown address.
+#[test]
+fn a_step_jump_or_a_huge_handshake_cannot_end_a_multi_host_run() {
+    use simnet::wire::{Datagram, Header, Payload};
+    let d = tmp("step-jump");
+    let (mut node, fake, p0) = insecure_node_0(&d);
     let (mut child, drain) = super::common::spawn_until(&mut node, "stepping");
     let started = std::time::Instant::now();
     let steps = 500;
@@ -369,41 +376,9 @@ fn a_step_jump_or_a_huge_handshake_cannot_end_a_multi_host_run() {
 fn a_walk_of_plausible_steps_cannot_end_a_run_early() {
     use simnet::wire::{Datagram, Header, Payload};
     let d = tmp("step-walk");
-    let fake = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let (mut node, fake, p0) = insecure_node_0(&d);
     fake.set_read_timeout(Some(std::time::Duration::from_millis(20)))
         .unwrap();
-    let p1 = fake.local_addr().unwrap().port();
-    let p0 = std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
-    let p2 = std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
-    let mut node = simnet();
-    node.args([
-        "node",
-        "-v",
-        "-t",
-        "ring3",
-        "--id",
-        "0",
-        "--insecure",
-        "--duration",
-        "5",
-    ])
-    .args(["--handshake-timeout", "0.3", "--bind", &format!("127.0.0.1:{p0}")])
-    .args([
-        "--peer",
-        &format!("1=127.0.0.1:{p1}"),
-        "--peer",
-        &format!("2=127.0.0.1:{p2}"),
-    ])
-    .arg("--out")
-    .arg(&d);
     let (mut child, drain) = super::common::spawn_until(&mut node, "stepping");
     let started = std::time::Instant::now();
     let to = format!("127.0.0.1:{p0}");

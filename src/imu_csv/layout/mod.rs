@@ -7,7 +7,8 @@
 
 use nalgebra::{Vector3, Vector4};
 
-use super::{clip, CsvError, ImuRecording};
+use super::{CsvError, ImuRecording};
+use crate::input::clip;
 
 mod names;
 

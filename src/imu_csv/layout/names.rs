@@ -2,7 +2,7 @@
 //! usual names makers give them, their units and the factors into simnet's units, and the `--columns`/`--units`
 //! flags that name what the usual names miss.
 
-use super::super::clip;
+use crate::input::clip;
 
 /// Standard gravity, m/s² per g.
 pub const G0: f64 = 9.80665;
