@@ -2,10 +2,12 @@
 //! itself by its own monotonic clock. No clock is shared between hosts: steps follow the step numbers carried by the
 //! datagrams.
 //!
-//! - **Handshake.** The node sends a hello to every neighbour every 100 ms. If a neighbour reports a running step,
-//!   the network is already up and the node joins at the step after the highest it has seen, with fresh filters.
-//!   Otherwise it starts step 0 once it has heard from every neighbour, after a short grace so that they hear it
-//!   too; after `handshake_timeout` it starts alone.
+//! - **Handshake.** The node sends a hello to every neighbour every 100 ms, carrying its boot epoch and echoing the
+//!   neighbour's (answered at once when a neighbour has not heard this boot). Only a hello that echoes this node's
+//!   own boot counts — nothing recorded in an earlier run carries it: if such a hello reports a running step, the
+//!   network is already up and the node joins at the step after, with fresh filters. Otherwise it starts step 0
+//!   once every neighbour has sent one, after a short grace so that they hear it too; after `handshake_timeout` it
+//!   starts alone. A neighbour's measurements and rounds are used only from the boot such a hello came from.
 //! - **Catch-up.** Whenever a neighbour is ahead, the node runs the missing steps at once (its own measurements only;
 //!   their datagrams still go out and arrive late) and continues from the neighbour's step.
 //! - **Rounds.** With distributed estimators, round r of L closes at its sub-deadline t_k + D(r+1)/L on this host's
@@ -127,6 +129,8 @@ impl HostOutput {
 
 const HELLO_PERIOD: Duration = Duration::from_millis(100);
 const GRACE: Duration = Duration::from_millis(300);
+/// The least time between two hellos sent at once in answer to a neighbour that has not heard this boot.
+const REPLY_GAP: Duration = Duration::from_millis(50);
 /// Fraction of the measured phase offset corrected per step.
 const PHASE_GAIN: f64 = 0.2;
 
@@ -236,6 +240,7 @@ pub async fn run_node(
     let started = std::time::Instant::now();
     let mut node = Node::new(topo.clone(), index, cfg.record_trace);
     node.boot(cfg.boot_epoch);
+    node.handshake();
     let mut peers = Peers {
         names: cfg.peers.clone(),
         addrs: HashMap::new(),
@@ -255,6 +260,8 @@ pub async fn run_node(
     let t_start = Instant::now();
     let mut heard_all_at: Option<Instant> = None;
     let mut next_hello = Instant::now();
+    // A neighbour that has not heard this boot is answered at once, at most once per REPLY_GAP.
+    let mut last_hello = Instant::now() - REPLY_GAP;
     let first_step = loop {
         if *stop.borrow() {
             return Ok(finish(node, Vec::new(), 0, true, started, Default::default()));
@@ -281,11 +288,15 @@ pub async fn run_node(
             for tx in node.hello(None) {
                 peers.send(&socket, tx.to, &tx.bytes).await;
             }
-            next_hello = Instant::now() + HELLO_PERIOD;
+            last_hello = Instant::now();
+            next_hello = last_hello + HELLO_PERIOD;
         }
         tokio::select! {
             r = socket.recv_from(&mut buf) => if let Ok((len, from)) = r {
                 deliver(&mut node, &mut peers, from, &buf[..len]);
+                if node.take_hello_due() {
+                    next_hello = next_hello.min((last_hello + REPLY_GAP).max(Instant::now()));
+                }
             },
             _ = tokio::time::sleep_until(next_hello.min(t_start + cfg.handshake_timeout)) => {}
             _ = stop.changed() => {}
@@ -359,6 +370,7 @@ pub async fn run_node(
                 for tx in node.hello(Some(k)) {
                     peers.send(&socket, tx.to, &tx.bytes).await;
                 }
+                last_hello = now;
                 next_hello = now + Duration::from_millis(500);
             }
             if now >= close {
@@ -373,7 +385,11 @@ pub async fn run_node(
             tokio::select! {
                 r = socket.recv_from(&mut buf) => if let Ok((len, from)) = r {
                     let arrived = Instant::now();
-                    if let Some((step, true)) = deliver(&mut node, &mut peers, from, &buf[..len]) {
+                    let got = deliver(&mut node, &mut peers, from, &buf[..len]);
+                    if node.take_hello_due() {
+                        next_hello = next_hello.min((last_hello + REPLY_GAP).max(arrived));
+                    }
+                    if let Some((step, true)) = got {
                         // Where the sender's step `step` began, seen from here (transit included).
                         let local = base + dt * step as u32;
                         let off = if arrived >= local { (arrived - local).as_secs_f64() } else { -(local - arrived).as_secs_f64() };

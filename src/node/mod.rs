@@ -115,6 +115,13 @@ pub struct Node {
     /// The run this node takes part in (one node per process): its boot epoch, then the smallest one a neighbour's
     /// hello carried, so that the parts of one run share it and `simnet collect` refuses to mix runs.
     run: u64,
+    /// This boot's epoch (0 before [`Node::boot`]): neighbours echo it in their hellos to show them fresh.
+    booted: u64,
+    /// One node per process ([`Node::handshake`]): a neighbour's data is used only from the boot a fresh hello of
+    /// it vouched for.
+    handshake: bool,
+    /// A neighbour's hello did not echo this node's boot: it has not heard this boot yet ([`Node::take_hello_due`]).
+    hello_due: bool,
     /// The attacks around this node and its innovation gate.
     trust: trust::Trust,
 }
@@ -207,6 +214,9 @@ impl Node {
                 && topo.estimators().run.contains(&crate::estimators::Kind::CentralizedNet),
             last_step: None,
             run: u64::MAX,
+            booted: 0,
+            handshake: false,
+            hello_due: false,
             trust,
             topo,
         };
@@ -288,6 +298,20 @@ impl Node {
     pub fn boot(&mut self, epoch: u64) {
         self.wire.boot(epoch);
         self.run = self.run.min(epoch);
+        self.booted = epoch;
+    }
+
+    /// This node runs in its own process and starts by the handshake of hellos: its neighbours' measurements and
+    /// rounds count only from the boot that a hello echoing this node's boot came from.
+    pub fn handshake(&mut self) {
+        self.handshake = true;
+    }
+
+    /// Whether a neighbour has not heard this boot yet (its hello did not echo it): the shell then sends hellos at
+    /// once rather than at the next period, so that a node joining a running network is vouched for before its
+    /// first measurements arrive.
+    pub fn take_hello_due(&mut self) -> bool {
+        std::mem::take(&mut self.hello_due)
     }
 
     /// The run this node takes part in (see the field).
@@ -529,7 +553,7 @@ impl Node {
             topo.index_of(id)
                 .is_some_and(|j| session.neighbours.binary_search(&j).is_ok())
         };
-        let dg = match self.wire.decode(bytes, known) {
+        let (dg, epoch) = match self.wire.decode(bytes, known) {
             Ok(d) => d,
             Err(Refused::Corrupted) if from.is_some() => {
                 // A peer's datagram damaged on the way: the link layer's corruption, caught.
@@ -574,11 +598,26 @@ impl Node {
             self.counters.implausible_step += 1;
             return None;
         }
-        self.session.heard_from(src, peer_step);
-        if let Payload::Hello { run, .. } = dg.payload {
-            // Min-consensus over every hello, also while running: one hop per hello period.
-            self.run = self.run.min(run);
+        if let Payload::Hello { run, boot, echo, .. } = dg.payload {
+            // Fresh: sent after this boot began (it echoes it). Only a fresh hello names a running step or a run:
+            // one recorded in an earlier run, replayed, neither starts, joins nor renames this one.
+            let fresh = self.booted != 0 && echo == self.booted;
+            let new = self
+                .session
+                .hello_from(src, boot, fresh.then_some(epoch.unwrap_or(boot)));
+            // The neighbour has not heard this boot, or this node has not yet echoed its boot: answer at once.
+            self.hello_due |= !fresh || new;
+            if fresh {
+                // Min-consensus over fresh hellos, also while running: one hop per hello period.
+                self.run = self.run.min(run);
+            }
+        } else if self.handshake && !self.session.vouched(src, epoch) {
+            // A measurement or round of a boot no fresh hello vouched for: an earlier run's, replayed (or a
+            // neighbour's new boot before its first fresh hello). Never used.
+            self.wire.rejected.too_old += 1;
+            return None;
         }
+        self.session.heard_from(src, peer_step);
         let arrival = Arrival {
             src,
             step: dg.header.step,
@@ -798,21 +837,20 @@ impl Node {
     /// Hello datagrams for every neighbour (control traffic of the start handshake: not subject to the link layer).
     pub fn hello(&mut self, running: Option<u64>) -> Vec<Transmit> {
         let id = self.id;
-        match self
-            .wire
-            .encode(|seq| Header::hello(id, seq), Payload::Hello { running, run: self.run })
-        {
-            Ok(bytes) => self
-                .session
-                .neighbours
-                .iter()
-                .map(|&to| Transmit {
-                    to,
-                    bytes: bytes.clone(),
-                })
-                .collect(),
-            Err(_) => Vec::new(),
+        let mut out = Vec::new();
+        // One per neighbour: each echoes that neighbour's boot.
+        for (to, echo) in self.session.echoes() {
+            let payload = Payload::Hello {
+                running,
+                run: self.run,
+                boot: self.booted,
+                echo,
+            };
+            if let Ok(bytes) = self.wire.encode(|seq| Header::hello(id, seq), payload) {
+                out.push(Transmit { to, bytes });
+            }
         }
+        out
     }
 
     /// The node's own measurements recorded since the last call.

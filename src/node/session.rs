@@ -1,5 +1,7 @@
-//! The multi-host handshake's view of a node: its neighbours, which of them it has heard from, and the highest
-//! step any of them reported (a node that starts late or restarts joins at that step).
+//! The multi-host handshake's view of a node: its neighbours, each one's boot as its hellos give it, which of them
+//! have shown themselves fresh (a hello that echoes this node's boot), and the highest step a fresh one reported (a
+//! node that starts late or restarts joins at that step). Nothing a neighbour not yet fresh claims counts: a datagram
+//! recorded in an earlier run and replayed can neither start this node, nor make it join at its step.
 
 use crate::scenario::Scenario;
 
@@ -7,8 +9,12 @@ use crate::scenario::Scenario;
 pub(super) struct Session {
     /// Neighbours in either direction (node indices).
     pub neighbours: Vec<usize>,
-    heard: Vec<bool>,
-    /// The highest step a neighbour reported (in a measurement or a hello).
+    /// Each neighbour's boot epoch, as its last hello gave it (echoed in this node's hellos to it).
+    boots: Vec<Option<u64>>,
+    /// The neighbour's boot (its sealing epoch, or its boot unauthenticated) of the last hello that echoed this
+    /// node's boot.
+    fresh: Vec<Option<u64>>,
+    /// The highest step a fresh neighbour reported (in a measurement or a hello).
     pub max_peer_step: Option<u64>,
 }
 
@@ -22,23 +28,56 @@ impl Session {
         neighbours.sort_unstable();
         neighbours.dedup();
         Session {
-            heard: vec![false; neighbours.len()],
+            boots: vec![None; neighbours.len()],
+            fresh: vec![None; neighbours.len()],
             neighbours,
             max_peer_step: None,
         }
     }
 
-    /// A datagram from `src` (a neighbour) that reported `step`, if any.
-    pub fn heard_from(&mut self, src: usize, step: Option<u64>) {
-        if let Ok(i) = self.neighbours.binary_search(&src) {
-            self.heard[i] = true;
+    /// A hello from `src` (a neighbour) of boot `boot`; `fresh`: it echoed this node's boot, and came sealed under
+    /// this epoch (its boot, unauthenticated). Whether its boot is new here (no hello of this node echoed it yet).
+    pub fn hello_from(&mut self, src: usize, boot: u64, fresh: Option<u64>) -> bool {
+        let Ok(i) = self.neighbours.binary_search(&src) else {
+            return false;
+        };
+        let new = self.boots[i] != Some(boot);
+        self.boots[i] = Some(boot);
+        if fresh.is_some() {
+            self.fresh[i] = fresh;
         }
-        if let Some(p) = step {
+        new
+    }
+
+    /// Whether a datagram of `src` sealed under `epoch` (none unauthenticated) comes from the boot a fresh hello of
+    /// it vouched for.
+    pub fn vouched(&self, src: usize, epoch: Option<u64>) -> bool {
+        self.neighbours
+            .binary_search(&src)
+            .is_ok_and(|i| self.fresh[i].is_some_and(|b| epoch.is_none_or(|e| e == b)))
+    }
+
+    /// A datagram from `src` that reported `step`, if any: counted when `src` has shown itself fresh.
+    pub fn heard_from(&mut self, src: usize, step: Option<u64>) {
+        let fresh = self
+            .neighbours
+            .binary_search(&src)
+            .is_ok_and(|i| self.fresh[i].is_some());
+        if let (Some(p), true) = (step, fresh) {
             self.max_peer_step = Some(self.max_peer_step.map_or(p, |m| m.max(p)));
         }
     }
 
+    /// Every neighbour has shown itself fresh.
     pub fn heard_all(&self) -> bool {
-        self.heard.iter().all(|h| *h)
+        self.fresh.iter().all(Option::is_some)
+    }
+
+    /// (neighbour, the boot to echo to it: 0 before its first hello).
+    pub fn echoes(&self) -> impl Iterator<Item = (usize, u64)> + '_ {
+        self.neighbours
+            .iter()
+            .zip(&self.boots)
+            .map(|(&j, b)| (j, b.unwrap_or(0)))
     }
 }

@@ -180,6 +180,8 @@ fn implausible_steps_are_counted_not_used() {
             payload: Payload::Hello {
                 running: Some(running),
                 run: 1,
+                boot: 3,
+                echo: 0,
             },
         }
         .encode()

@@ -105,15 +105,16 @@ impl Wire {
         }
     }
 
-    /// Checked (and, when authenticated, opened) bytes from a source `known(src)` accepts.
-    pub fn decode(&mut self, bytes: &[u8], known: impl Fn(u32) -> bool) -> Result<Datagram, Refused> {
+    /// Checked (and, when authenticated, opened) bytes from a source `known(src)` accepts, with the epoch the
+    /// source sealed them under (none unauthenticated).
+    pub fn decode(&mut self, bytes: &[u8], known: impl Fn(u32) -> bool) -> Result<(Datagram, Option<u64>), Refused> {
         let Some(o) = &mut self.opener else {
-            return Datagram::decode(bytes).map_err(|e| match e {
+            return Datagram::decode(bytes).map(|d| (d, None)).map_err(|e| match e {
                 WireError::Checksum => Refused::Corrupted,
                 e => Refused::Malformed(e),
             });
         };
-        o.open(bytes, known).map(|(d, _, _)| d).map_err(|r| {
+        o.open(bytes, known).map(|(d, epoch, _)| (d, Some(epoch))).map_err(|r| {
             let c = &mut self.rejected;
             match r {
                 Rejected::Corrupted(_) => return Refused::Corrupted,

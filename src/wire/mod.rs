@@ -110,9 +110,17 @@ pub const MAX_STATES: usize = 15;
 pub enum Payload {
     /// Some rows of one measurement vector: bit i of `rows` set means row i is present; `values` in row order.
     Measurement { rows: u64, values: Vec<f64> },
-    /// Start handshake of separate processes: "I am here", the step I am running, if any (`header.step` is 0), and
-    /// the run I take part in (the smallest boot epoch heard: every node of one run ends on the same one).
-    Hello { running: Option<u64>, run: u64 },
+    /// Start handshake of separate processes: "I am here", the step I am running, if any (`header.step` is 0), the
+    /// run I take part in (the smallest boot epoch heard: every node of one run ends on the same one), `boot`: this
+    /// process's boot epoch, and `echo`: the boot epoch of the node the hello is sent to, as last heard from it (0:
+    /// none yet). A hello that echoes a node's own boot was sealed after that boot began: nothing recorded in an
+    /// earlier run carries it, so only such a hello may start or join a run.
+    Hello {
+        running: Option<u64>,
+        run: u64,
+        boot: u64,
+        echo: u64,
+    },
     /// One estimator's message of consensus round `round` of `header.step`; `scheme` is its index in
     /// `simnet estimators`.
     Round { round: u8, scheme: u8, body: Body },
@@ -327,6 +335,8 @@ pub(crate) mod tests {
                 payload: Payload::Hello {
                     running: Some(40),
                     run: 7,
+                    boot: 9,
+                    echo: 11,
                 },
             },
             information_round(),
@@ -431,12 +441,19 @@ pub(crate) mod tests {
             payload: Payload::Hello {
                 running: Some(77),
                 run: 5,
+                boot: 6,
+                echo: 0,
             },
         };
         assert_eq!(Datagram::decode(&h.encode().unwrap()).unwrap(), h);
         let bad = Datagram {
             header: Header::new(4, 1, 0),
-            payload: Payload::Hello { running: None, run: 5 },
+            payload: Payload::Hello {
+                running: None,
+                run: 5,
+                boot: 6,
+                echo: 0,
+            },
         };
         assert!(bad.encode().is_err());
     }

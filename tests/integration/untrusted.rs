@@ -335,6 +335,8 @@ fn a_step_jump_or_a_huge_handshake_cannot_end_a_multi_host_run() {
                 Payload::Hello {
                     run: 0,
                     running: Some(u64::MAX - 1),
+                    boot: 1,
+                    echo: 0,
                 },
             ),
         ] {
@@ -382,12 +384,26 @@ fn a_walk_of_plausible_steps_cannot_end_a_run_early() {
     let (mut child, drain) = super::common::spawn_until(&mut node, "stepping");
     let started = std::time::Instant::now();
     let to = format!("127.0.0.1:{p0}");
-    let (mut buf, mut spoofed, mut last) = (vec![0u8; 2048], 0u32, 0u64);
+    let (mut buf, mut spoofed, mut last, mut fresh) = (vec![0u8; 2048], 0u32, 0u64, false);
     while child.try_wait().unwrap().is_none() && spoofed < 60 {
         let Ok((n, _)) = fake.recv_from(&mut buf) else { continue };
         let Ok(dg) = Datagram::decode(&buf[..n]) else { continue };
         let step = dg.header.step;
-        if matches!(dg.payload, Payload::Measurement { .. }) && (spoofed == 0 || step >= last + 150) {
+        // Without a key the attacker answers node 0's hello as node 1 would (echoing its boot): then its steps count.
+        if let Payload::Hello { boot, .. } = dg.payload {
+            let hello = Datagram {
+                header: Header::hello(1, 900),
+                payload: Payload::Hello {
+                    running: None,
+                    run: u64::MAX,
+                    boot: 1,
+                    echo: boot,
+                },
+            };
+            fake.send_to(&hello.encode().unwrap(), &to).unwrap();
+            fresh = true;
+        }
+        if fresh && matches!(dg.payload, Payload::Measurement { .. }) && (spoofed == 0 || step >= last + 150) {
             last = step;
             let claim = (step + 190).min(499);
             let bytes = Datagram {
@@ -410,6 +426,88 @@ fn a_walk_of_plausible_steps_cannot_end_a_run_early() {
     assert!(
         ran.as_secs_f64() > 2.9,
         "the run ended after {ran:?} ({spoofed} datagrams)"
+    );
+    let _ = std::fs::remove_dir_all(d);
+}
+
+/// Traffic recorded from a real earlier run, replayed at a node as it starts, neither starts it, nor makes it join at
+/// the recording's steps, nor gives it the earlier run's id: node 0 of ring3 runs 3 s with a key, its datagrams to
+/// node 1 recorded; then a fresh node 1 (the same key), whose neighbour 0 is at the recorder's address, gets the whole
+/// recording as it starts. Before, the replayed step 299 made it join at step 300 and run 0 steps, its part named
+/// with the earlier run's id; now nothing but a hello that echoes its own boot starts or joins it, so it starts alone
+/// after its handshake timeout and runs every step, and uses none of the recording's measurements (counted
+/// `too_old`: another boot's).
+#[test]
+fn an_earlier_runs_traffic_neither_starts_nor_joins_nor_renames_a_run() {
+    let d = tmp("replay-run");
+    std::fs::create_dir_all(&d).unwrap();
+    let key = super::common::network_key(&d);
+    let free = || {
+        std::net::UdpSocket::bind("127.0.0.1:0")
+            .unwrap()
+            .local_addr()
+            .unwrap()
+            .port()
+    };
+    let recorder = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    recorder
+        .set_read_timeout(Some(std::time::Duration::from_millis(20)))
+        .unwrap();
+    let at = recorder.local_addr().unwrap().port();
+    let node = |id: u32, own: u16, peers: [(u32, u16); 2], out: &str| {
+        let mut c = simnet();
+        c.args(["node", "-v", "-t", "ring3", "--id", &id.to_string(), "--duration", "3"])
+            .arg("--key-file")
+            .arg(&key)
+            .args(["--handshake-timeout", "0.5", "--bind", &format!("127.0.0.1:{own}")]);
+        for (j, p) in peers {
+            c.args(["--peer", &format!("{j}=127.0.0.1:{p}")]);
+        }
+        c.arg("--out").arg(d.join(out));
+        c
+    };
+    // The earlier run, recorded.
+    let mut a = node(0, free(), [(1, at), (2, free())], "a");
+    let (mut child, drain) = super::common::spawn_until(&mut a, "listening");
+    let mut recorded: Vec<Vec<u8>> = Vec::new();
+    let mut buf = vec![0u8; 2048];
+    while child.try_wait().unwrap().is_none() {
+        if let Ok((n, _)) = recorder.recv_from(&mut buf) {
+            recorded.push(buf[..n].to_vec());
+        }
+    }
+    assert!(child.wait().unwrap().success());
+    drain.join().unwrap();
+    while let Ok((n, _)) = recorder.recv_from(&mut buf) {
+        recorded.push(buf[..n].to_vec());
+    }
+    assert!(recorded.len() > 250, "{} datagrams recorded", recorded.len());
+    // The new run: node 1, its neighbour 0 at the recorder's address.
+    let own = free();
+    let mut b = node(1, own, [(0, at), (2, free())], "b");
+    let (mut child, drain) = super::common::spawn_until(&mut b, "listening");
+    for bytes in &recorded {
+        recorder.send_to(bytes, ("127.0.0.1", own)).unwrap();
+    }
+    assert!(child.wait().unwrap().success());
+    drain.join().unwrap();
+    let part = |dir: &str, id: u32| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(d.join(dir).join(format!("node-{id}.json"))).unwrap()).unwrap()
+    };
+    let (earlier, now) = (part("a", 0), part("b", 1));
+    assert_eq!(now["part"]["first_step"], 0, "{}", now["part"]);
+    assert_eq!(now["part"]["steps_done"], 300, "{}", now["part"]);
+    assert_ne!(
+        now["part"]["run"], earlier["part"]["run"],
+        "the earlier run's id was taken"
+    );
+    // The replayed datagrams open (the key is the same), but none is used: no fresh hello vouched for their boot.
+    assert_eq!(now["part"]["rx"][0][1]["delivered"], 0, "{}", now["part"]["rx"]);
+    let refused = now["nodes"][0]["rejected"]["too_old"].as_u64().unwrap();
+    assert!(
+        refused > 250,
+        "{refused} refused as another boot's: {}",
+        now["nodes"][0]
     );
     let _ = std::fs::remove_dir_all(d);
 }
