@@ -126,6 +126,10 @@ impl RunDir {
                 }
             }
         }
+        // A link or a fifo planted under the lock's name is never followed or opened (a fifo would block).
+        if std::fs::symlink_metadata(dir.join(LOCK)).is_ok_and(|m| !m.is_file()) {
+            return Err(bad(format!("{LOCK} there is not a regular file: remove it")));
+        }
         let lock = std::fs::OpenOptions::new()
             .read(true)
             .write(true)

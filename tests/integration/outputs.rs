@@ -593,6 +593,20 @@ fn leftovers_are_cleared_and_links_are_not_followed() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("another simnet is writing"));
     assert_eq!(std::fs::read(d.join("summary.json")).unwrap(), summary);
     drop(lock);
+    // A fifo planted as the lock would block an open: refused, exit 2, naming it.
+    std::fs::remove_file(d.join(".simnet-lock")).unwrap();
+    assert!(Command::new("mkfifo")
+        .arg(d.join(".simnet-lock"))
+        .status()
+        .unwrap()
+        .success());
+    let out = simnet()
+        .args(["-q", "-t", "ring3", "--duration", "1", "--out"])
+        .arg(&d)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains(".simnet-lock there is not a regular file"));
     let _ = std::fs::remove_file(victim);
     let _ = std::fs::remove_dir_all(d);
 }
