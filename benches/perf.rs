@@ -620,19 +620,19 @@ fn auth_ratios() {
         black_box(black_box(&d).encode().unwrap());
     });
     let seal = time_per_call(|| {
-        black_box(sealer.seal(black_box(&d)).unwrap());
+        black_box(sealer.seal(black_box(&d), 4, 9).unwrap());
     });
     let dec = time_per_call(|| {
         black_box(Datagram::decode(black_box(&plain)).unwrap());
     });
     // A fresh opener each call: every sealed datagram opens once.
     let mut fresh = Sealer::new(&key, 3, 2);
-    let sealed: Vec<_> = (0..64).map(|_| fresh.seal(&d).unwrap()).collect();
+    let sealed: Vec<_> = (0..64).map(|_| fresh.seal(&d, 4, 9).unwrap()).collect();
     let mut i = 0;
-    let mut opener = Opener::new(&key);
+    let mut opener = Opener::new(&key, 4, 9);
     let open = time_per_call(|| {
         if i % 64 == 0 {
-            opener = Opener::new(&key);
+            opener = Opener::new(&key, 4, 9);
         }
         black_box(opener.open(black_box(&sealed[i % 64]), |_| true).unwrap());
         i += 1;

@@ -48,6 +48,7 @@ mod cli;
 mod compose;
 pub mod estimate;
 pub mod estimators;
+pub mod fresh;
 pub mod geom;
 pub mod imu_csv;
 pub mod input;

@@ -9,7 +9,8 @@ use simnet::wire::{Datagram, FrameView, Nack};
 fuzz_target!(|data: &[u8]| {
     let key = Key::from_bytes([7; 16]);
     // Forged bytes: the tag cannot verify, whatever else they claim.
-    let mut opener = Opener::new(&key);
+    // Node 9 in boot 5 (the seeds are sealed for it).
+    let mut opener = Opener::new(&key, 9, 5);
     let _ = opener.open(data, |src| src < 4);
     if let Ok(d) = Datagram::decode(data) {
         let again = d.encode().expect("a decoded datagram encodes");
@@ -19,8 +20,12 @@ fuzz_target!(|data: &[u8]| {
             "encode then decode changed the datagram"
         );
         let mut sealer = Sealer::new(&key, d.header.src, 1);
-        if let Ok(sealed) = sealer.seal(&d) {
-            let mut opener = Opener::new(&key);
+        if let Ok(sealed) = sealer.seal(&d, 9, 5) {
+            assert!(
+                Opener::new(&key, 8, 5).open(&sealed, |_| true).is_err(),
+                "a datagram opened at a node it was not sealed for"
+            );
+            let mut opener = Opener::new(&key, 9, 5);
             let (opened, epoch, counter) = opener.open(&sealed, |_| true).expect("a sealed datagram opens");
             assert_eq!((opened.payload, epoch, counter), (d.payload.clone(), 1, 0));
             assert!(opener.open(&sealed, |_| true).is_err(), "a replay opened");

@@ -54,12 +54,12 @@ fn a_tampered_sealed_datagram_keeps_its_checksum_and_fails_its_tag() {
         header: Header::new(11, 0, 150),
         payload: Payload::measurement(0b111, vec![1.0, 2.0, 3.0]),
     };
-    let sealed = Sealer::new(&key, 11, 1).seal(&d).unwrap();
+    let sealed = Sealer::new(&key, 11, 1).seal(&d, 12, 3).unwrap();
     let out = air(attack(AttackKind::Tamper)).on_arrival(1.5, Some(1), &sealed);
     assert_eq!(out.len(), 1);
     assert_ne!(out[0].bytes, sealed);
     assert!(crate::wire::peek_header(&out[0].bytes).is_ok(), "the checksum holds");
-    let mut o = Opener::new(&key);
+    let mut o = Opener::new(&key, 12, 3);
     assert_eq!(o.open(&out[0].bytes, |_| true).unwrap_err(), Rejected::BadTag);
     // The original still opens: a rejected forgery moves no replay window.
     assert_eq!(o.open(&sealed, |_| true).unwrap().0, d);

@@ -63,9 +63,7 @@ pub struct Finished {
 /// Where a process that made runs of a campaign leaves its [`ShardInfo`]: a file of its own (a random name), so that
 /// every process of a campaign resumed after a kill, or of a shard run twice, stays listed.
 fn shard_file(dir: &Path, shard: &str) -> std::path::PathBuf {
-    let mut b = [0u8; 6];
-    let _ = getrandom::getrandom(&mut b);
-    let token: String = b.iter().map(|x| format!("{x:02x}")).collect();
+    let token = crate::fresh::token();
     dir.join("shards")
         .join(format!("{}.{token}.json", shard.replace('/', "-of-")))
 }

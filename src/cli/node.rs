@@ -78,16 +78,11 @@ fn write_key(path: &std::path::Path, force: bool) -> anyhow::Result<()> {
     }
     // Always a new file of mode 0600 (a random name, never through a link), renamed over the path: `--force` neither
     // keeps an old file's mode nor writes through a link planted under the name.
-    let mut b = [0u8; 8];
-    let _ = getrandom::getrandom(&mut b);
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let tmp = path.with_file_name(format!(
-        ".{name}.{}.tmp",
-        b.iter().map(|x| format!("{x:02x}")).collect::<String>()
-    ));
+    let tmp = path.with_file_name(format!(".{name}.{}.tmp", crate::fresh::token()));
     let mut o = std::fs::OpenOptions::new();
     o.write(true).create_new(true);
     std::os::unix::fs::OpenOptionsExt::mode(&mut o, 0o600);
@@ -129,17 +124,6 @@ pub(super) fn keygen(args: &KeygenArgs) -> anyhow::Result<ExitCode> {
         );
     }
     Ok(ExitCode::SUCCESS)
-}
-
-/// This boot's epoch: milliseconds since 1970 in the high bits, 16 random bits below — larger than any earlier
-/// boot's as long as the clock does not step back, and two boots in one millisecond still differ.
-fn boot_epoch() -> u64 {
-    let ms = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_millis() as u64);
-    let mut r = [0u8; 2];
-    let _ = getrandom::getrandom(&mut r);
-    (ms << 16) | u64::from(u16::from_le_bytes(r))
 }
 
 pub(super) fn peer(s: &str) -> Result<(u32, String), String> {
@@ -229,7 +213,7 @@ pub(super) fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode>
         progress: progress
             .clone()
             .map(|pb| -> net::Progress { Arc::new(move |d, _| pb.set_position(d)) }),
-        boot_epoch: boot_epoch(),
+        boot_epoch: crate::fresh::boot_epoch(),
     };
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)

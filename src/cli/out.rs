@@ -28,7 +28,7 @@ fn check_dir(dir: &Path) -> Result<PathBuf, UsageError> {
         return Err(bad("exists and is not a directory".into()));
     }
     std::fs::create_dir_all(dir).map_err(|e| bad(format!("cannot create it: {e}")))?;
-    let probe = dir.join(format!(".simnet-write-check-{}", random_hex()));
+    let probe = dir.join(format!(".simnet-write-check-{}", crate::fresh::token()));
     std::fs::OpenOptions::new()
         .write(true)
         .create_new(true)
@@ -36,12 +36,6 @@ fn check_dir(dir: &Path) -> Result<PathBuf, UsageError> {
         .map_err(|e| bad(format!("cannot write in it: {e}")))?;
     let _ = std::fs::remove_file(&probe);
     Ok(dir.to_path_buf())
-}
-
-fn random_hex() -> String {
-    let mut b = [0u8; 8];
-    let _ = getrandom::getrandom(&mut b);
-    b.iter().map(|x| format!("{x:02x}")).collect()
 }
 
 /// The files a whole run (`simnet run`, `simnet collect`) writes, whatever its options: with `imu-ID.csv` and the
@@ -126,17 +120,25 @@ impl RunDir {
                 }
             }
         }
-        // A link or a fifo planted under the lock's name is never followed or opened (a fifo would block).
-        if std::fs::symlink_metadata(dir.join(LOCK)).is_ok_and(|m| !m.is_file()) {
-            return Err(bad(format!("{LOCK} there is not a regular file: remove it")));
+        // A link or a fifo planted under the lock's name is never followed (O_NOFOLLOW) or waited on (O_NONBLOCK),
+        // in the one call that opens it: nothing can be swapped in between a check and the open.
+        let not_regular = || bad(format!("{LOCK} there is not a regular file: remove it"));
+        let lock = std::os::unix::fs::OpenOptionsExt::custom_flags(
+            std::fs::OpenOptions::new()
+                .read(true)
+                .write(true)
+                .create(true)
+                .truncate(false),
+            libc::O_NOFOLLOW | libc::O_NONBLOCK,
+        )
+        .open(dir.join(LOCK))
+        .map_err(|e| match e.raw_os_error() {
+            Some(libc::ELOOP) | Some(libc::ENXIO) => not_regular(),
+            _ => bad(format!("cannot open {LOCK}: {e}")),
+        })?;
+        if !lock.metadata().is_ok_and(|m| m.is_file()) {
+            return Err(not_regular());
         }
-        let lock = std::fs::OpenOptions::new()
-            .read(true)
-            .write(true)
-            .create(true)
-            .truncate(false)
-            .open(dir.join(LOCK))
-            .map_err(|e| bad(format!("cannot open {LOCK}: {e}")))?;
         match lock.try_lock() {
             Ok(()) => {}
             Err(std::fs::TryLockError::WouldBlock) => {
@@ -153,7 +155,7 @@ impl RunDir {
                 }
             }
         }
-        let stage = dir.join(format!("{STAGE_PREFIX}{}", random_hex()));
+        let stage = dir.join(format!("{STAGE_PREFIX}{}", crate::fresh::token()));
         std::fs::create_dir(&stage).map_err(|e| bad(format!("cannot create {}: {e}", stage.display())))?;
         Ok(RunDir {
             dir,

@@ -75,6 +75,11 @@ impl Egress {
     }
 
     /// How many outgoing links.
+    /// The node out-link `link` goes to.
+    pub fn to(&self, link: usize) -> usize {
+        self.links[link].to
+    }
+
     pub fn len(&self) -> usize {
         self.links.len()
     }

@@ -131,16 +131,23 @@ const HELLO_PERIOD: Duration = Duration::from_millis(100);
 const GRACE: Duration = Duration::from_millis(300);
 /// The least time between two hellos sent at once in answer to a neighbour that has not heard this boot.
 const REPLY_GAP: Duration = Duration::from_millis(50);
+/// How long a probe of a neighbour's new address waits for its answer before another may be sent.
+const PROBE_RENEW: Duration = Duration::from_secs(1);
 /// Fraction of the measured phase offset corrected per step.
 const PHASE_GAIN: f64 = 0.2;
 
 /// Neighbour addresses: resolved by name in a task of their own ([`resolver`]: containers come up in any order, and
-/// a restarted one may come back with another address), and, in an authenticated run, learnt from the source
-/// address of a datagram that authenticated — never from one that did not.
+/// a restarted one may come back with another address), and, in an authenticated run, moved to a new address only
+/// when a hello from there answers a probe sent there — never on a datagram alone, which anyone who captured it can
+/// send again from anywhere.
 struct Peers {
     names: HashMap<usize, String>,
     addrs: HashMap<usize, SocketAddr>,
     resolved: tokio::sync::mpsc::UnboundedReceiver<(usize, SocketAddr)>,
+    /// By neighbour: the address a probe went to, the probe, and when.
+    probes: HashMap<usize, (SocketAddr, u64, Instant)>,
+    /// Probes to send: (address, bytes).
+    outbox: Vec<(SocketAddr, bytes::Bytes)>,
 }
 
 /// Resolve every neighbour's name off the node's loop (a lookup can take seconds where a name is gone): a missing
@@ -196,6 +203,15 @@ impl Peers {
         self.addrs.iter().find(|(_, x)| *x == a).map(|(j, _)| *j)
     }
 
+    /// Send the probes [`deliver`] queued.
+    async fn flush(&mut self, socket: &UdpSocket) {
+        for (a, bytes) in std::mem::take(&mut self.outbox) {
+            if let Err(e) = socket.send_to(&bytes, a).await {
+                tracing::debug!("send_to {a} failed: {e}");
+            }
+        }
+    }
+
     async fn send(&self, socket: &UdpSocket, to: usize, bytes: &[u8]) {
         if let Some(a) = self.addrs.get(&to) {
             if let Err(e) = socket.send_to(bytes, a).await {
@@ -205,9 +221,11 @@ impl Peers {
     }
 }
 
-/// Hand a datagram to the node. From an address that is not a neighbour's it is used only if it authenticates (a
-/// neighbour that came back with another address, which is then learnt); without authentication it is counted and
-/// dropped, so that no datagram re-points a neighbour. Returns (step, is a measurement) of an accepted datagram.
+/// Hand a datagram to the node. From an address that is not a neighbour's it is used only if it authenticates;
+/// without authentication it is counted and dropped. An authenticated one is probed (a hello with a random
+/// challenge, sent to that address), and the neighbour's address moves there when a hello from there answers the
+/// probe (a neighbour that came back with another address). Returns (step, is a measurement) of an accepted
+/// datagram.
 fn deliver(node: &mut Node, peers: &mut Peers, from: SocketAddr, bytes: &[u8]) -> Option<(u64, bool)> {
     let index = peers.index_of(&from);
     if index.is_none() && !node.authenticates() {
@@ -216,8 +234,23 @@ fn deliver(node: &mut Node, peers: &mut Peers, from: SocketAddr, bytes: &[u8]) -
     }
     let a = node.handle_datagram(index, bytes)?;
     if index != Some(a.src) && peers.names.contains_key(&a.src) {
-        tracing::info!(peer = a.src, %from, "peer address learnt from its authenticated datagram");
-        peers.addrs.insert(a.src, from);
+        match peers.probes.get(&a.src) {
+            Some((at, probe, _)) if *at == from && a.answer == *probe => {
+                tracing::info!(peer = a.src, %from, "peer address moved: it answered a probe sent there");
+                peers.addrs.insert(a.src, from);
+                peers.probes.remove(&a.src);
+            }
+            // One probe per neighbour at a time, renewed (lost, or a new address) at most every PROBE_RENEW.
+            Some((_, _, sent)) if sent.elapsed() < PROBE_RENEW => {}
+            _ => {
+                let probe = u64::from_le_bytes(crate::fresh::token_bytes()) | 1;
+                if let Some(tx) = node.probe(a.src, None, probe) {
+                    tracing::debug!(peer = a.src, %from, "authenticated datagram from a new address: probing it");
+                    peers.outbox.push((from, tx.bytes));
+                    peers.probes.insert(a.src, (from, probe, Instant::now()));
+                }
+            }
+        }
     }
     Some((a.step, a.measurement))
 }
@@ -245,6 +278,8 @@ pub async fn run_node(
         names: cfg.peers.clone(),
         addrs: HashMap::new(),
         resolved: resolver(cfg.peers.clone()),
+        probes: HashMap::new(),
+        outbox: Vec::new(),
     };
     let mut buf = vec![0u8; MAX_DATAGRAM + 1];
     let steps = topo.sim().steps();
@@ -294,6 +329,7 @@ pub async fn run_node(
         tokio::select! {
             r = socket.recv_from(&mut buf) => if let Ok((len, from)) = r {
                 deliver(&mut node, &mut peers, from, &buf[..len]);
+                peers.flush(&socket).await;
                 if node.take_hello_due() {
                     next_hello = next_hello.min((last_hello + REPLY_GAP).max(Instant::now()));
                 }
@@ -386,6 +422,7 @@ pub async fn run_node(
                 r = socket.recv_from(&mut buf) => if let Ok((len, from)) = r {
                     let arrived = Instant::now();
                     let got = deliver(&mut node, &mut peers, from, &buf[..len]);
+                    peers.flush(&socket).await;
                     if node.take_hello_due() {
                         next_hello = next_hello.min((last_hello + REPLY_GAP).max(arrived));
                     }

@@ -250,7 +250,7 @@ pub(super) async fn run(
     ));
     let mut sockets = sockets.into_iter();
     // Every run seals under its own epoch: no nonce of an earlier run under the same key comes again.
-    let epoch = crate::wire::secure::fresh_epoch();
+    let epoch = crate::fresh::boot_epoch();
     let mut handles = Vec::with_capacity(workers);
     for (w, block) in blocks.into_iter().enumerate() {
         let mut slots = Vec::with_capacity(block.len());

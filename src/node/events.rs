@@ -13,6 +13,8 @@ pub struct Arrival {
     pub src: usize,
     pub step: u64,
     pub measurement: bool,
+    /// A hello's answer to a probe (0: none).
+    pub answer: u64,
 }
 
 /// Datagram counters not tied to a link.

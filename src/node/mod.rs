@@ -32,12 +32,14 @@
 //! | `filters.rs` | the networked and independent filters' update over any [`crate::model::Model`] |
 //! | `schemes.rs` | the distributed estimators beside them: each round's messages, what arrived, their traffic |
 //! | `session.rs` | neighbours heard from and the highest step they reported (the multi-host handshake) |
+//! | `hello.rs` | the handshake's datagrams: hellos out and in, probes of a neighbour's new address, earlier boots |
 //! | `events.rs` | what a node reports: trace rows, step estimates, counters |
 //! | `trust.rs` | what it believes: plausible steps, the innovation gate, the attacks on it and their tallies |
 #![allow(non_snake_case)]
 
 mod events;
 mod filters;
+mod hello;
 mod inbox;
 mod schemes;
 mod session;
@@ -58,7 +60,7 @@ use crate::observe::{
 };
 use crate::scenario::{Role, Scenario};
 use crate::sensor::{ImuInterval, ImuSample, Sensor};
-use crate::wire::{Header, Payload};
+use crate::wire::{Datagram, Header, Payload};
 use filters::Filters;
 use inbox::{Inbox, Received};
 use schemes::Schemes;
@@ -319,9 +321,9 @@ impl Node {
         self.run
     }
 
-    /// The (epoch, counter) of the next sealed datagram (none unauthenticated): every nonce this node uses.
-    pub fn next_nonce(&self) -> Option<(u64, u64)> {
-        self.wire.next_nonce()
+    /// The epoch this boot seals under (none unauthenticated).
+    pub fn sealing_epoch(&self) -> Option<u64> {
+        self.wire.sealing_epoch()
     }
 
     /// Apply one event of the crash timeline.
@@ -451,9 +453,35 @@ impl Node {
         }
         let t = crate::sim::round_end(&self.topo, k, r);
         for li in 0..self.egress.len() {
+            let group = self.seal_for(li, &out);
             self.egress
-                .push_group(li, t, &out, self.topo.faults(), Stream::Round(r + 1));
+                .push_group(li, t, &group, self.topo.faults(), Stream::Round(r + 1));
         }
+    }
+
+    /// The boot node `j` is bound to in what this node seals for it: its boot as its hellos give it (one node per
+    /// process; 0 before the first, which it refuses), or the run's boot that every node of an in-process run
+    /// shares.
+    fn boot_of(&self, j: usize) -> u64 {
+        if self.handshake {
+            self.session.boot(j).unwrap_or(0)
+        } else {
+            self.booted
+        }
+    }
+
+    /// `ds` as bytes for the receiver of out-link `li`: sealed for it when the run is authenticated.
+    fn seal_for(&mut self, li: usize, ds: &[Datagram]) -> Vec<bytes::Bytes> {
+        let j = self.egress.to(li);
+        let (to, boot) = (self.topo.nodes()[j].id, self.boot_of(j));
+        ds.iter()
+            .filter_map(|d| {
+                self.wire
+                    .encode(d, to, boot)
+                    .inspect_err(|e| tracing::error!(node = self.id, "cannot encode a datagram: {e}"))
+                    .ok()
+            })
+            .collect()
     }
 
     /// This step's IMU sample and the node's own measurement ([`Model::sense`]).
@@ -470,12 +498,13 @@ impl Node {
 
     /// The step's measurement datagrams on every out-link, and `round0` (the estimators' round-0 messages) under
     /// the verdict of the first of them, or under their own from the round stream when there is no measurement.
-    fn send(&mut self, k: u64, t: f64, own: Option<&Measurement>, round0: &[bytes::Bytes]) {
+    fn send(&mut self, k: u64, t: f64, own: Option<&Measurement>, round0: &[Datagram]) {
         let Some(own) = own else {
             if !round0.is_empty() {
                 for li in 0..self.egress.len() {
+                    let group = self.seal_for(li, round0);
                     self.egress
-                        .push_group(li, t, round0, self.topo.faults(), Stream::Round(0));
+                        .push_group(li, t, &group, self.topo.faults(), Stream::Round(0));
                 }
             }
             return;
@@ -500,28 +529,29 @@ impl Node {
         };
         let rides = !round0.is_empty();
         for li in 0..self.egress.len() {
+            let round0 = self.seal_for(li, round0);
             let mut first = true;
             for rows in &groups {
                 let values: Vec<f64> = (0..m).filter(|r| rows & (1 << r) != 0).map(|r| z[r]).collect();
                 let id = self.id;
-                match self
+                let d = self
                     .wire
-                    .encode(|seq| Header::new(id, seq, k), Payload::measurement(*rows, values))
-                {
-                    Ok(bytes) if first && rides => {
+                    .datagram(|seq| Header::new(id, seq, k), Payload::measurement(*rows, values));
+                match self.seal_for(li, std::slice::from_ref(&d)).pop() {
+                    Some(bytes) if first && rides => {
                         let mut group = vec![bytes];
-                        group.extend_from_slice(round0);
+                        group.extend_from_slice(&round0);
                         self.egress
                             .push_group(li, t, &group, self.topo.faults(), Stream::Measurement);
                     }
-                    Ok(bytes) => self.egress.push(li, t, &bytes, self.topo.faults()),
-                    Err(e) => tracing::error!(node = self.id, "cannot encode a measurement: {e}"),
+                    Some(bytes) => self.egress.push(li, t, &bytes, self.topo.faults()),
+                    None => {}
                 }
                 first = false;
             }
             if groups.is_empty() && rides {
                 self.egress
-                    .push_group(li, t, round0, self.topo.faults(), Stream::Round(0));
+                    .push_group(li, t, &round0, self.topo.faults(), Stream::Round(0));
             }
         }
         for i in tainted.map(|(_, attacks)| attacks).unwrap_or_default() {
@@ -548,6 +578,12 @@ impl Node {
     /// Bytes through the whole receive path: checked, authenticated, plausible, collected.
     fn receive(&mut self, from: Option<usize>, bytes: &[u8]) -> Option<Arrival> {
         self.counters.datagrams_in += 1;
+        if self.handshake && self.authenticates() && self.claims_an_earlier_boot(bytes) {
+            // An earlier boot of a neighbour than the one a fresh hello vouched for (an earlier run's datagram,
+            // replayed): refused as that without opening it.
+            self.wire.rejected.too_old += 1;
+            return None;
+        }
         let (topo, session) = (&self.topo, &self.session);
         let known = |id: u32| {
             topo.index_of(id)
@@ -598,19 +634,9 @@ impl Node {
             self.counters.implausible_step += 1;
             return None;
         }
-        if let Payload::Hello { run, boot, echo, .. } = dg.payload {
-            // Fresh: sent after this boot began (it echoes it). Only a fresh hello names a running step or a run:
-            // one recorded in an earlier run, replayed, neither starts, joins nor renames this one.
-            let fresh = self.booted != 0 && echo == self.booted;
-            let new = self
-                .session
-                .hello_from(src, boot, fresh.then_some(epoch.unwrap_or(boot)));
-            // The neighbour has not heard this boot, or this node has not yet echoed its boot: answer at once.
-            self.hello_due |= !fresh || new;
-            if fresh {
-                // Min-consensus over fresh hellos, also while running: one hop per hello period.
-                self.run = self.run.min(run);
-            }
+        let mut answer = 0;
+        if let Payload::Hello { .. } = &dg.payload {
+            answer = self.on_hello(src, epoch, &dg.payload);
         } else if self.handshake && !self.session.vouched(src, epoch) {
             // A measurement or round of a boot no fresh hello vouched for: an earlier run's, replayed (or a
             // neighbour's new boot before its first fresh hello). Never used.
@@ -622,6 +648,7 @@ impl Node {
             src,
             step: dg.header.step,
             measurement: matches!(dg.payload, Payload::Measurement { .. }),
+            answer,
         };
         if let Payload::Round { round, scheme, body } = &dg.payload {
             if !self.up {
@@ -832,25 +859,6 @@ impl Node {
     /// The highest step any neighbour has reported.
     pub fn max_peer_step(&self) -> Option<u64> {
         self.session.max_peer_step
-    }
-
-    /// Hello datagrams for every neighbour (control traffic of the start handshake: not subject to the link layer).
-    pub fn hello(&mut self, running: Option<u64>) -> Vec<Transmit> {
-        let id = self.id;
-        let mut out = Vec::new();
-        // One per neighbour: each echoes that neighbour's boot.
-        for (to, echo) in self.session.echoes() {
-            let payload = Payload::Hello {
-                running,
-                run: self.run,
-                boot: self.booted,
-                echo,
-            };
-            if let Ok(bytes) = self.wire.encode(|seq| Header::hello(id, seq), payload) {
-                out.push(Transmit { to, bytes });
-            }
-        }
-        out
     }
 
     /// The node's own measurements recorded since the last call.

@@ -4,7 +4,6 @@
 //! Round r of step k closes at its sub-deadline t_k + D(r+1)/L; a round's message that arrives later is late and
 //! left out (each scheme's file says how it treats the gap). Messages for a later step or round wait, bounded.
 
-use bytes::Bytes;
 use nalgebra::DVector;
 
 use crate::estimate::{EstimateError, Gaussian, Observation};
@@ -13,7 +12,7 @@ use crate::model::{Measurement, Model};
 use crate::observe::{Filter, Update};
 use crate::scenario::Scenario;
 use crate::sensor::ImuInterval;
-use crate::wire::{Body, Header, Payload};
+use crate::wire::{Body, Datagram, Header, Payload};
 
 use super::wire::Wire;
 
@@ -102,8 +101,9 @@ impl Schemes {
         self.open = None;
     }
 
-    /// Open step `k` with the node's own measurement; the datagrams of round 0 (one per scheme that sends).
-    pub fn begin(&mut self, k: u64, input: &StepInput<'_>, wire: &mut Wire) -> Vec<Bytes> {
+    /// Open step `k` with the node's own measurement; the datagrams of round 0 (one per scheme that sends), sealed
+    /// per link by the node.
+    pub fn begin(&mut self, k: u64, input: &StepInput<'_>, wire: &mut Wire) -> Vec<Datagram> {
         self.open = Some((k, 0));
         for (i, s) in self.slots.iter_mut().enumerate() {
             s.prior = s.est.state().cloned();
@@ -124,7 +124,7 @@ impl Schemes {
     }
 
     /// The datagrams of round `r` of step `k`.
-    fn messages(&mut self, k: u64, r: usize, wire: &mut Wire) -> Vec<Bytes> {
+    fn messages(&mut self, k: u64, r: usize, wire: &mut Wire) -> Vec<Datagram> {
         let mut out = Vec::new();
         for s in &mut self.slots {
             if s.failed {
@@ -144,11 +144,12 @@ impl Schemes {
                 scheme: s.kind as u8,
                 body,
             };
-            match wire.encode(|seq| Header::round(id, seq, k), payload) {
-                Ok(b) => {
+            let d = wire.datagram(|seq| Header::round(id, seq, k), payload);
+            match wire.wire_len(&d) {
+                Ok(len) => {
                     s.traffic.messages += self.links as u64;
-                    s.traffic.bytes += (b.len() * self.links) as u64;
-                    out.push(b)
+                    s.traffic.bytes += (len * self.links) as u64;
+                    out.push(d)
                 }
                 Err(e) => tracing::error!(scheme = s.kind.name(), "cannot encode a round's message: {e}"),
             }
@@ -187,7 +188,7 @@ impl Schemes {
 
     /// Close round `r` of step `k` (its sub-deadline): every scheme combines what arrived; the datagrams of round
     /// r + 1, if there is one. Nothing when `(k, r)` is not the round that comes next.
-    pub fn close_round(&mut self, k: u64, r: usize, input: &StepInput<'_>, wire: &mut Wire) -> Vec<Bytes> {
+    pub fn close_round(&mut self, k: u64, r: usize, input: &StepInput<'_>, wire: &mut Wire) -> Vec<Datagram> {
         if self.open != Some((k, r)) {
             return Vec::new();
         }

@@ -14,6 +14,8 @@ pub(super) struct Session {
     /// The neighbour's boot (its sealing epoch, or its boot unauthenticated) of the last hello that echoed this
     /// node's boot.
     fresh: Vec<Option<u64>>,
+    /// The last probe each neighbour sent (answered in this node's hellos to it; 0: none).
+    probes: Vec<u64>,
     /// The highest step a fresh neighbour reported (in a measurement or a hello).
     pub max_peer_step: Option<u64>,
 }
@@ -30,6 +32,7 @@ impl Session {
         Session {
             boots: vec![None; neighbours.len()],
             fresh: vec![None; neighbours.len()],
+            probes: vec![0; neighbours.len()],
             neighbours,
             max_peer_step: None,
         }
@@ -57,6 +60,11 @@ impl Session {
             .is_ok_and(|i| self.fresh[i].is_some_and(|b| epoch.is_none_or(|e| e == b)))
     }
 
+    /// The boot of `src` a fresh hello vouched for.
+    pub fn vouched_boot(&self, src: usize) -> Option<u64> {
+        self.neighbours.binary_search(&src).ok().and_then(|i| self.fresh[i])
+    }
+
     /// A datagram from `src` that reported `step`, if any: counted when `src` has shown itself fresh.
     pub fn heard_from(&mut self, src: usize, step: Option<u64>) {
         let fresh = self
@@ -73,11 +81,28 @@ impl Session {
         self.fresh.iter().all(Option::is_some)
     }
 
-    /// (neighbour, the boot to echo to it: 0 before its first hello).
-    pub fn echoes(&self) -> impl Iterator<Item = (usize, u64)> + '_ {
+    /// Neighbour `j`'s boot as its last hello gave it.
+    pub fn boot(&self, j: usize) -> Option<u64> {
+        self.neighbours.binary_search(&j).ok().and_then(|i| self.boots[i])
+    }
+
+    /// A probe from neighbour `src` to answer (0: none). Whether it is new.
+    pub fn probed(&mut self, src: usize, probe: u64) -> bool {
+        match self.neighbours.binary_search(&src) {
+            Ok(i) if probe != 0 && self.probes[i] != probe => {
+                self.probes[i] = probe;
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// (neighbour, the boot to echo to it: 0 before its first hello, the probe to answer).
+    pub fn echoes(&self) -> impl Iterator<Item = (usize, u64, u64)> + '_ {
         self.neighbours
             .iter()
             .zip(&self.boots)
-            .map(|(&j, b)| (j, b.unwrap_or(0)))
+            .zip(&self.probes)
+            .map(|((&j, b), p)| (j, b.unwrap_or(0), *p))
     }
 }

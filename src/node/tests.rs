@@ -182,6 +182,8 @@ fn implausible_steps_are_counted_not_used() {
                 run: 1,
                 boot: 3,
                 echo: 0,
+                probe: 0,
+                answer: 0,
             },
         }
         .encode()
@@ -209,9 +211,9 @@ fn implausible_steps_are_counted_not_used() {
     assert_eq!(node.counters.malformed, 0);
 }
 
-/// A node crashed and restarted twice never seals two different datagrams under one nonce: every datagram it sends
-/// (measurements and consensus rounds) carries a (source, epoch, counter) of its own, each restart a later epoch
-/// from counter 0, and a neighbour opens them all.
+/// A node crashed and restarted twice never seals two different datagrams under one key and nonce: every datagram
+/// it sends to a neighbour (measurements and consensus rounds) carries a (source, epoch, counter) of its own on that
+/// link, each restart a later epoch from counter 0, and the neighbour it was sealed for opens them all.
 #[test]
 fn restarts_never_reuse_a_nonce() {
     use crate::estimators::Kind;
@@ -230,9 +232,10 @@ fn restarts_never_reuse_a_nonce() {
     let topo = Arc::new(topo);
     let mut node = Node::new(topo.clone(), 0, false);
     node.boot(7);
-    let mut seen: std::collections::HashMap<(u32, u64, u64), bytes::Bytes> = Default::default();
+    let mut seen: std::collections::HashMap<(usize, (u32, u64, u64)), bytes::Bytes> = Default::default();
     let mut epochs = Vec::new();
-    let mut opener = Opener::new(&key);
+    // Each neighbour's end, in the run's boot (7) that node 0 seals for.
+    let mut openers: Vec<Opener> = (0..3).map(|j| Opener::new(&key, topo.nodes()[j].id, 7)).collect();
     let (mut sent, mut opened) = (0, 0);
     let dt = topo.sim().dt();
     for k in 0..400u64 {
@@ -248,12 +251,12 @@ fn restarts_never_reuse_a_nonce() {
         let _ = node.handle_deadline(k);
         while let Some(t) = node.poll_transmit((k + 1) as f64 * dt + 1.0) {
             let n = claimed_nonce(&t.bytes).expect("every datagram is sealed");
-            if let Some(before) = seen.insert(n, t.bytes.clone()) {
+            if let Some(before) = seen.insert((t.to, n), t.bytes.clone()) {
                 // The link layer's duplicate: the same bytes again, never another datagram under the nonce.
                 assert_eq!(before, t.bytes, "nonce {n:?} sealed two datagrams");
             } else {
                 sent += 1;
-                opened += usize::from(opener.open(&t.bytes, |_| true).is_ok());
+                opened += usize::from(openers[t.to].open(&t.bytes, |_| true).is_ok());
             }
             if epochs.last() != Some(&n.1) {
                 epochs.push(n.1);
@@ -262,7 +265,12 @@ fn restarts_never_reuse_a_nonce() {
     }
     assert_eq!(epochs, vec![7, 8, 9], "each boot one later epoch");
     for e in [8, 9] {
-        assert!(seen.contains_key(&(0, e, 0)), "epoch {e} does not start at counter 0");
+        for j in [1, 2] {
+            assert!(
+                seen.contains_key(&(j, (0, e, 0))),
+                "epoch {e} does not start at counter 0 on the link to {j}"
+            );
+        }
     }
     assert!(sent > 600, "{sent} datagrams");
     assert_eq!(opened, sent, "a neighbour opens every datagram");

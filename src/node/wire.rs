@@ -1,17 +1,18 @@
-//! A node's two ends of the wire: what it sends (numbered; sealed with its boot's key when the run is
-//! authenticated) and what it accepts (checked, and authenticated against each source's replay window), with the
+//! A node's two ends of the wire: what it sends (numbered; sealed for each receiver under its link's key when the run
+//! is authenticated) and what it accepts (checked, and authenticated against each source's replay window), with the
 //! rejections counted by cause.
 
 use bytes::Bytes;
 use serde::{Deserialize, Serialize};
 
-use crate::wire::secure::{Key, Opener, Rejected, Sealer};
+use crate::wire::secure::{Key, Opener, Rejected, Sealer, OVERHEAD};
 use crate::wire::{Datagram, Header, Payload, WireError};
 
 /// Datagrams refused by authentication, by cause (zero in an unauthenticated run).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Rejections {
-    /// The checksum held but no tag verified: forged, tampered with on the way, or sent unsealed.
+    /// The checksum held but no tag verified: forged, tampered with on the way, sent unsealed, or sealed for
+    /// another node or another boot of this one (a redirect; an earlier run's datagram replayed).
     pub bad_tag: u64,
     /// A counter accepted before (an attacker's replay, or a link's duplicate copy).
     pub replay: u64,
@@ -65,44 +66,65 @@ impl Wire {
             key: key.cloned(),
             epoch,
             sealer: key.map(|k| Sealer::new(k, id, epoch)),
-            opener: key.map(Opener::new),
+            opener: key.map(|k| Opener::new(k, id, epoch)),
             rejected: Rejections::default(),
         }
     }
 
-    /// Boot from `epoch` (a process's boot time): no earlier boot of this node may have had it or a larger one.
+    /// Boot from `epoch` (a process's boot time, or a run's in one process): no earlier boot of this node may have
+    /// had it or a larger one. What neighbours seal for this node is bound to it until the next boot.
     pub fn boot(&mut self, epoch: u64) {
         self.epoch = epoch;
         if let Some(k) = &self.key {
             self.sealer = Some(Sealer::new(k, self.id, epoch));
+            self.opener = Some(Opener::new(k, self.id, epoch));
         }
     }
 
-    /// A restart: the next epoch, counters from 0 under its own key, so that no nonce is used twice.
+    /// A restart inside a run (one process): the next epoch, every link's counter from 0 under its own key, so that
+    /// no nonce is used twice. The neighbours keep sealing for the boot they know.
     pub fn reboot(&mut self) {
-        self.boot(self.epoch + 1);
+        self.epoch += 1;
+        if let Some(k) = &self.key {
+            self.sealer = Some(Sealer::new(k, self.id, self.epoch));
+        }
     }
 
     pub fn id(&self) -> u32 {
         self.id
     }
 
-    /// The (epoch, counter) the next sealed datagram takes; none unauthenticated.
-    pub fn next_nonce(&self) -> Option<(u64, u64)> {
-        self.sealer.as_ref().map(Sealer::next_nonce)
+    /// The epoch this boot seals under; none unauthenticated.
+    pub fn sealing_epoch(&self) -> Option<u64> {
+        self.sealer.as_ref().map(Sealer::epoch)
     }
 
-    /// `payload` of step `step` as bytes on the wire, with the next sequence number.
-    pub fn encode(&mut self, header: impl FnOnce(u32) -> Header, payload: Payload) -> Result<Bytes, WireError> {
+    /// `payload` with the header `header` makes of the next sequence number.
+    pub fn datagram(&mut self, header: impl FnOnce(u32) -> Header, payload: Payload) -> Datagram {
         let d = Datagram {
             header: header(self.seq),
             payload,
         };
         self.seq = self.seq.wrapping_add(1);
+        d
+    }
+
+    /// `d` as bytes on the wire for node `to`, whose boot this node knows as `to_boot`: sealed for that node and
+    /// boot when the run is authenticated.
+    pub fn encode(&mut self, d: &Datagram, to: u32, to_boot: u64) -> Result<Bytes, WireError> {
         match &mut self.sealer {
-            Some(s) => s.seal(&d),
+            Some(s) => s.seal(d, to, to_boot),
             None => d.encode(),
         }
+    }
+
+    /// How many bytes `d` takes on the wire (on any link).
+    pub fn wire_len(&self, d: &Datagram) -> Result<usize, WireError> {
+        let len = d.encode()?.len() + if self.sealer.is_some() { OVERHEAD } else { 0 };
+        if len > crate::wire::MAX_DATAGRAM {
+            return Err(WireError::TooLong(len));
+        }
+        Ok(len)
     }
 
     /// Checked (and, when authenticated, opened) bytes from a source `known(src)` accepts, with the epoch the

@@ -16,18 +16,14 @@ pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> std::io::Result<()>
     static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     // The process id alone is not unique where several writers share a directory: every container's first process
     // is pid 1 (a campaign's shards on one volume). A random token per process is.
-    static TOKEN: std::sync::OnceLock<u64> = std::sync::OnceLock::new();
-    let token = *TOKEN.get_or_init(|| {
-        let mut b = [0u8; 8];
-        let _ = getrandom::getrandom(&mut b);
-        u64::from_le_bytes(b) ^ u64::from(std::process::id())
-    });
+    static TOKEN: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    let token = TOKEN.get_or_init(crate::fresh::token);
     let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.{token:016x}.{n}.tmp"));
+    let tmp = path.with_file_name(format!(".{name}.{token}.{n}.tmp"));
     // `create_new`: a link planted under the temporary name is never followed.
     let mut f = std::fs::OpenOptions::new().write(true).create_new(true).open(&tmp)?;
     if let Err(e) = std::io::Write::write_all(&mut f, bytes) {

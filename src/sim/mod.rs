@@ -69,7 +69,7 @@ impl Sim {
         let scenario = Arc::new(scenario.clone());
         let record = opts.trace.is_some();
         // Every run seals under its own epoch: no nonce of an earlier run under the same key comes again.
-        let epoch = crate::wire::secure::fresh_epoch();
+        let epoch = crate::fresh::boot_epoch();
         let mut nodes: Vec<Node> = (0..scenario.nodes().len())
             .map(|i| {
                 let mut n = Node::new(scenario.clone(), i, record);
@@ -282,9 +282,9 @@ mod tests {
         let epochs: Vec<u64> = (0..2)
             .map(|_| {
                 let sim = super::Sim::new(&topo).unwrap();
-                let e: Vec<(u64, u64)> = sim.nodes.iter().map(|n| n.next_nonce().unwrap()).collect();
-                assert!(e.iter().all(|n| *n == e[0] && n.1 == 0), "{e:?}");
-                e[0].0
+                let e: Vec<u64> = sim.nodes.iter().map(|n| n.sealing_epoch().unwrap()).collect();
+                assert!(e.iter().all(|n| *n == e[0]), "{e:?}");
+                e[0]
             })
             .collect();
         assert_ne!(epochs[0], epochs[1]);

@@ -27,7 +27,7 @@ pub mod secure;
 pub use frame::{Frame, FrameView, FrameWriter, Nack, MAX_FRAME};
 
 pub const MAGIC: u16 = 0x534E; // "SN"
-pub const VERSION: u8 = 2;
+pub const VERSION: u8 = 3;
 /// Fits any MTU.
 pub const MAX_DATAGRAM: usize = 1200;
 /// Rows of one measurement (the `rows` bitmask is 64 bits wide).
@@ -114,12 +114,16 @@ pub enum Payload {
     /// run I take part in (the smallest boot epoch heard: every node of one run ends on the same one), `boot`: this
     /// process's boot epoch, and `echo`: the boot epoch of the node the hello is sent to, as last heard from it (0:
     /// none yet). A hello that echoes a node's own boot was sealed after that boot began: nothing recorded in an
-    /// earlier run carries it, so only such a hello may start or join a run.
+    /// earlier run carries it, so only such a hello may start or join a run. `probe`: a random challenge sent to an
+    /// address the receiver's datagrams newly came from (0: none); `answer`: the last probe heard from the node the
+    /// hello is sent to. A neighbour's address moves only to where a hello answering the probe sent there came from.
     Hello {
         running: Option<u64>,
         run: u64,
         boot: u64,
         echo: u64,
+        probe: u64,
+        answer: u64,
     },
     /// One estimator's message of consensus round `round` of `header.step`; `scheme` is its index in
     /// `simnet estimators`.
@@ -337,6 +341,8 @@ pub(crate) mod tests {
                     run: 7,
                     boot: 9,
                     echo: 11,
+                    probe: 13,
+                    answer: 0,
                 },
             },
             information_round(),
@@ -358,8 +364,10 @@ pub(crate) mod tests {
             .enumerate()
             .map(|(i, d)| (format!("datagram-{i}"), d.encode().unwrap().to_vec()))
             .collect();
-        // Sealed under the fuzz target's key.
-        let sealed = Sealer::new(&Key::from_bytes([7; 16]), 3, 1).seal(&measurement).unwrap();
+        // Sealed under the fuzz target's key, for its node 9 in boot 5.
+        let sealed = Sealer::new(&Key::from_bytes([7; 16]), 3, 1)
+            .seal(&measurement, 9, 5)
+            .unwrap();
         seeds.push(("sealed-0".into(), sealed.to_vec()));
         let bytes: Vec<Bytes> = datagrams.iter().map(|d| d.encode().unwrap()).collect();
         seeds.push(("frame-0".into(), Frame::pack(4, bytes)[0].to_vec()));
@@ -443,6 +451,8 @@ pub(crate) mod tests {
                 run: 5,
                 boot: 6,
                 echo: 0,
+                probe: 0,
+                answer: 3,
             },
         };
         assert_eq!(Datagram::decode(&h.encode().unwrap()).unwrap(), h);
@@ -453,6 +463,8 @@ pub(crate) mod tests {
                 run: 5,
                 boot: 6,
                 echo: 0,
+                probe: 0,
+                answer: 3,
             },
         };
         assert!(bad.encode().is_err());

@@ -3,20 +3,29 @@
 //!
 //! ```text
 //! | header (postcard, flags = SEALED) | epoch u64 LE | counter u64 LE | CCM(payload) | tag (8) | crc32 |
-//!   └──────────── associated data ───────────────────┘
+//!   └──────────── associated data ───────────────────┘ + the receiver's boot (not sent)
 //! ```
 //!
 //! AES-CCM with 8-byte tags (CCM*'s security level of 802.15.4, OSCORE's default algorithm) rather than
 //! ChaCha20-Poly1305: it is what a sensor node's radio computes in hardware, so real firmware could join a simnet
-//! network, and its tag is half the size of Poly1305's in a 1200-byte budget. Each sender boot has its own key,
-//! HKDF-SHA-256 of the network key with the sender's id and its boot's epoch, and numbers its datagrams from 0:
-//! the nonce (the id and the counter) never repeats under a key, across crashes and process restarts alike, as long
-//! as a boot's epoch is new — larger than every earlier boot's (the restart count in a simulation; the boot time
-//! with random low bits for a process). The CRC stays outside, so that a link's bit flip still counts as corruption
-//! and only a datagram whose checksum holds and whose tag does not counts as forged.
+//! network, and its tag is half the size of Poly1305's in a 1200-byte budget.
 //!
-//! A receiver keeps, per source, the epoch it accepts and a 64-entry window of counters ([`Replay`]): a counter
-//! seen before is a replay, one below the window or an earlier epoch is too old, a later epoch (the source
+//! **One key per link and sender boot**: HKDF-SHA-256 of the network key with the sender's id, the receiver's id and
+//! the sender's boot epoch. Each link numbers its datagrams from 0, so the nonce (the sender's id and the counter)
+//! never repeats under a key, across crashes and process restarts alike, as long as a boot's epoch is new — larger
+//! than every earlier boot's (the restart count in a simulation; the boot time with random low bits for a process).
+//! A datagram opens only at the node it was sealed for: one sent to node 2 and re-sent to node 1 fails its tag there.
+//!
+//! **Bound to the receiver's boot**: a measurement's or a round's associated data ends with the boot epoch of the
+//! receiver as the sender knows it (each process's boot, random in its low bits; one random epoch for every node of a
+//! run in one process). Nothing sealed for an earlier run opens in this one, whatever its epoch. Hellos are bound to
+//! no boot (0): a node greets a neighbour before it knows its boot, and a hello carries the boot it echoes inside.
+//!
+//! The CRC stays outside, so that a link's bit flip still counts as corruption and only a datagram whose checksum
+//! holds and whose tag does not counts as forged.
+//!
+//! A receiver keeps, per source, the epoch it accepts and a 64-entry window of counters ([`Replay`]), checked once
+//! the tag holds: a counter seen before is a replay, one below the window or an earlier epoch is too old, a later epoch (the source
 //! restarted) replaces the window once a datagram of it authenticates.
 
 use std::collections::HashMap;
@@ -96,34 +105,21 @@ impl Key {
         format!("# simnet network key: every node of a run holds the same one. Keep it secret.\n{KEY_TAG} {hex}\n")
     }
 
-    /// The key of one sender boot: HKDF-SHA-256 (RFC 5869) of the network key, `info` = the sender's id and epoch.
-    fn boot(&self, src: u32, epoch: u64) -> Cipher {
-        let mut info = [0u8; 12];
+    /// The key of one link in one sender boot: HKDF-SHA-256 (RFC 5869) of the network key, `info` = the sender's
+    /// id, the receiver's id and the sender's epoch.
+    fn link(&self, src: u32, dst: u32, epoch: u64) -> Cipher {
+        let mut info = [0u8; 16];
         info[..4].copy_from_slice(&src.to_be_bytes());
-        info[4..].copy_from_slice(&epoch.to_be_bytes());
+        info[4..8].copy_from_slice(&dst.to_be_bytes());
+        info[8..].copy_from_slice(&epoch.to_be_bytes());
         let mut k = [0u8; 16];
         // 16 bytes is far inside HKDF-SHA-256's limit: expand cannot fail.
-        let _ = Hkdf::<Sha256>::new(Some(b"simnet boot key"), &self.0).expand(&info, &mut k);
+        let _ = Hkdf::<Sha256>::new(Some(b"simnet link key"), &self.0).expand(&info, &mut k);
         Cipher::new(&k.into())
     }
 }
 
-/// A fresh epoch for the boots of a run in one process (`simnet run`, [`crate::Sim`]): random, its top bit clear so
-/// that restarts (the next epoch each) never wrap. Two runs under one key then never seal under one key and nonce —
-/// the rule a node process follows with its boot time ([`Sealer::new`]'s epoch).
-pub fn fresh_epoch() -> u64 {
-    let mut b = [0u8; 8];
-    if getrandom::getrandom(&mut b).is_err() {
-        // No random source: the time, which a later run does not repeat either.
-        let t = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.as_nanos() as u64);
-        b = t.to_le_bytes();
-    }
-    u64::from_le_bytes(b) >> 1
-}
-
-/// The 13-byte CCM nonce: the sender's id and the counter (unique under a boot's key).
+/// The 13-byte CCM nonce: the sender's id and the counter (unique under a link's key).
 fn nonce(src: u32, counter: u64) -> [u8; 13] {
     let mut n = [0u8; 13];
     n[..4].copy_from_slice(&src.to_be_bytes());
@@ -131,31 +127,55 @@ fn nonce(src: u32, counter: u64) -> [u8; 13] {
     n
 }
 
-/// One boot of a sender: its key and the next counter.
+/// The receiver's boot a datagram of header kind `kind` is bound to: none for a hello.
+fn bound(kind: u8, receiver_boot: u64) -> u64 {
+    if kind == super::KIND_HELLO {
+        0
+    } else {
+        receiver_boot
+    }
+}
+
+/// The associated data: the clear part (header, epoch, counter) and the receiver's boot it is bound to.
+fn associated(clear: &[u8], kind: u8, receiver_boot: u64) -> Vec<u8> {
+    let mut aad = Vec::with_capacity(clear.len() + 8);
+    aad.extend_from_slice(clear);
+    aad.extend_from_slice(&bound(kind, receiver_boot).to_le_bytes());
+    aad
+}
+
+/// One boot of a sender: each link's key and next counter.
 pub struct Sealer {
+    key: Key,
     src: u32,
     epoch: u64,
-    counter: u64,
-    cipher: Cipher,
+    /// By receiver id: the link's key and next counter.
+    links: HashMap<u32, (Cipher, u64)>,
 }
 
 impl Sealer {
     pub fn new(key: &Key, src: u32, epoch: u64) -> Sealer {
         Sealer {
+            key: key.clone(),
             src,
             epoch,
-            counter: 0,
-            cipher: key.boot(src, epoch),
+            links: HashMap::new(),
         }
     }
 
-    /// The (epoch, counter) the next datagram takes.
-    pub fn next_nonce(&self) -> (u64, u64) {
-        (self.epoch, self.counter)
+    /// This boot's epoch.
+    pub fn epoch(&self) -> u64 {
+        self.epoch
     }
 
-    /// `d` sealed: its header must name this sender.
-    pub fn seal(&mut self, d: &Datagram) -> Result<Bytes, WireError> {
+    /// The counter the next datagram to `dst` takes.
+    pub fn next_counter(&self, dst: u32) -> u64 {
+        self.links.get(&dst).map_or(0, |(_, c)| *c)
+    }
+
+    /// `d` sealed for node `dst`, bound to `dst`'s boot `dst_boot` as this node knows it: its header must name
+    /// this sender.
+    pub fn seal(&mut self, d: &Datagram, dst: u32, dst_boot: u64) -> Result<Bytes, WireError> {
         if d.header.src != self.src {
             return Err(WireError::Invalid("a sealer seals its own node's datagrams"));
         }
@@ -164,16 +184,17 @@ impl Sealer {
             flags: SEALED,
             ..d.header
         };
+        let (src, epoch) = (self.src, self.epoch);
+        let key = &self.key;
+        let (cipher, counter) = self.links.entry(dst).or_insert_with(|| (key.link(src, dst, epoch), 0));
         let mut buf = postcard::to_allocvec(&header).map_err(|e| WireError::Malformed(e.to_string()))?;
-        buf.extend_from_slice(&self.epoch.to_le_bytes());
-        buf.extend_from_slice(&self.counter.to_le_bytes());
-        let aad_len = buf.len();
+        buf.extend_from_slice(&epoch.to_le_bytes());
+        buf.extend_from_slice(&counter.to_le_bytes());
+        let aad = associated(&buf, header.kind, dst_boot);
         let mut body = postcard::to_allocvec(&d.payload).map_err(|e| WireError::Malformed(e.to_string()))?;
-        let tag = self
-            .cipher
-            .encrypt_in_place_detached(&nonce(self.src, self.counter).into(), &buf, &mut body)
+        let tag = cipher
+            .encrypt_in_place_detached(&nonce(src, *counter).into(), &aad, &mut body)
             .map_err(|_| WireError::Invalid("payload too long to seal"))?;
-        debug_assert_eq!(buf.len(), aad_len);
         buf.extend_from_slice(&body);
         buf.extend_from_slice(&tag);
         let crc = crc32fast::hash(&buf);
@@ -182,7 +203,7 @@ impl Sealer {
             return Err(WireError::TooLong(buf.len()));
         }
         // Never again under this key, whatever happened to the datagram.
-        self.counter += 1;
+        *counter += 1;
         Ok(Bytes::from(buf))
     }
 }
@@ -264,18 +285,25 @@ impl Replay {
     }
 }
 
-/// A receiver: the key, each source's boot key and replay window.
+/// A receiver: the key, its own id and boot, each source's link key and replay window.
 pub struct Opener {
     key: Key,
-    /// By source: the accepted epoch's key, so that it is derived once per boot.
+    /// This node's id: only datagrams sealed for it open.
+    me: u32,
+    /// This node's boot, as its neighbours know it: measurements and rounds bound to another do not open.
+    boot: u64,
+    /// By source: the accepted epoch's link key, so that it is derived once per boot.
     boots: HashMap<u32, (u64, Cipher)>,
     windows: HashMap<u32, Option<Replay>>,
 }
 
 impl Opener {
-    pub fn new(key: &Key) -> Opener {
+    /// The receiving end of node `me` in its boot `boot`.
+    pub fn new(key: &Key, me: u32, boot: u64) -> Opener {
         Opener {
             key: key.clone(),
+            me,
+            boot,
             boots: HashMap::new(),
             windows: HashMap::new(),
         }
@@ -302,22 +330,24 @@ impl Opener {
         let epoch = u64::from_le_bytes(e);
         e.copy_from_slice(&rest[8..16]);
         let counter = u64::from_le_bytes(e);
-        let window = self.windows.get(&header.src).copied().flatten();
-        Replay::check(window.as_ref(), epoch, counter)?;
-        let aad = &body[..body.len() - rest.len() + SEQ_LEN];
+        let aad = associated(&body[..body.len() - rest.len() + SEQ_LEN], header.kind, self.boot);
         let (sealed, tag) = rest[SEQ_LEN..].split_at(rest.len() - SEQ_LEN - TAG_LEN);
         let mut plain = sealed.to_vec();
         let fresh;
         let cipher = match self.boots.get(&header.src) {
             Some((ep, c)) if *ep == epoch => c,
             _ => {
-                fresh = self.key.boot(header.src, epoch);
+                fresh = self.key.link(header.src, self.me, epoch);
                 &fresh
             }
         };
         cipher
-            .decrypt_in_place_detached(&nonce(header.src, counter).into(), aad, &mut plain, tag.into())
+            .decrypt_in_place_detached(&nonce(header.src, counter).into(), &aad, &mut plain, tag.into())
             .map_err(|_| Rejected::BadTag)?;
+        // The window after the tag: a datagram sealed for another link or boot, whatever its counter, is forged
+        // here (`BadTag`), and only a genuine one seen before is a replay.
+        let window = self.windows.get(&header.src).copied().flatten();
+        Replay::check(window.as_ref(), epoch, counter)?;
         let (payload, left): (Payload, &[u8]) =
             postcard::take_from_bytes(&plain).map_err(|e| Rejected::Malformed(WireError::Malformed(e.to_string())))?;
         if !left.is_empty() {
@@ -330,7 +360,8 @@ impl Opener {
         d.validate_payload().map_err(Rejected::Malformed)?;
         // Authentic and new: remember it.
         if self.boots.get(&header.src).is_none_or(|(ep, _)| *ep != epoch) {
-            self.boots.insert(header.src, (epoch, self.key.boot(header.src, epoch)));
+            self.boots
+                .insert(header.src, (epoch, self.key.link(header.src, self.me, epoch)));
         }
         Replay::accept(self.windows.entry(header.src).or_default(), epoch, counter);
         Ok((d, epoch, counter))
@@ -340,6 +371,11 @@ impl Opener {
 /// The (source, epoch, counter) a sealed datagram's clear part claims, unauthenticated: what a capture of the
 /// wire shows of its nonce.
 pub fn claimed_nonce(bytes: &[u8]) -> Result<(u32, u64, u64), WireError> {
+    claimed(bytes).map(|(h, epoch, counter)| (h.src, epoch, counter))
+}
+
+/// The header, epoch and counter a sealed datagram's clear part claims, unauthenticated.
+pub fn claimed(bytes: &[u8]) -> Result<(Header, u64, u64), WireError> {
     let body = super::checked_body(bytes)?;
     let (header, rest): (Header, &[u8]) =
         postcard::take_from_bytes(body).map_err(|e| WireError::Malformed(e.to_string()))?;
@@ -352,7 +388,7 @@ pub fn claimed_nonce(bytes: &[u8]) -> Result<(u32, u64, u64), WireError> {
         w.copy_from_slice(&rest[i..i + 8]);
         u64::from_le_bytes(w)
     };
-    Ok((header.src, word(0), word(8)))
+    Ok((header, word(0), word(8)))
 }
 
 /// What sealing adds to a datagram's length.
@@ -374,30 +410,73 @@ mod tests {
         }
     }
 
+    /// Node 9's receiving end, in boot 500.
+    fn opener() -> Opener {
+        Opener::new(&key(), 9, 500)
+    }
+
     #[test]
     fn sealed_datagrams_open_once_and_only_with_the_key() {
         let mut s = Sealer::new(&key(), 3, 11);
-        let mut o = Opener::new(&key());
+        let mut o = opener();
         let d = sample(3, 40);
-        let b = s.seal(&d).unwrap();
+        let b = s.seal(&d, 9, 500).unwrap();
         assert_eq!(b.len(), d.encode().unwrap().len() + OVERHEAD);
         assert_eq!(o.open(&b, |_| true).unwrap(), (d.clone(), 11, 0));
         // The same bytes again: a replay.
         assert_eq!(o.open(&b, |_| true), Err(Rejected::Replay { epoch: 11, counter: 0 }));
         // Another key: the tag fails.
-        let mut other = Opener::new(&Key::from_bytes([8; 16]));
-        assert_eq!(other.open(&s.seal(&d).unwrap(), |_| true), Err(Rejected::BadTag));
+        let mut other = Opener::new(&Key::from_bytes([8; 16]), 9, 500);
+        assert_eq!(
+            other.open(&s.seal(&d, 9, 500).unwrap(), |_| true),
+            Err(Rejected::BadTag)
+        );
         // An unsealed datagram where a key is required, and an unknown source.
         assert!(matches!(
             o.open(&d.encode().unwrap(), |_| true),
             Err(Rejected::Malformed(_))
         ));
         assert_eq!(
-            o.open(&s.seal(&d).unwrap(), |src| src != 3),
+            o.open(&s.seal(&d, 9, 500).unwrap(), |src| src != 3),
             Err(Rejected::UnknownSource(3))
         );
         // A sealer seals only its own node's datagrams.
-        assert!(s.seal(&sample(4, 1)).is_err());
+        assert!(s.seal(&sample(4, 1), 9, 500).is_err());
+    }
+
+    /// A datagram opens only at the node it was sealed for, and only in the receiver's boot it was bound to; each
+    /// link counts from 0 under its own key.
+    #[test]
+    fn a_datagram_opens_only_at_its_receiver_in_its_boot() {
+        let mut s = Sealer::new(&key(), 3, 11);
+        let d = sample(3, 40);
+        let to9 = s.seal(&d, 9, 500).unwrap();
+        let to4 = s.seal(&d, 4, 500).unwrap();
+        assert_eq!(claimed_nonce(&to9).unwrap(), (3, 11, 0));
+        assert_eq!(claimed_nonce(&to4).unwrap(), (3, 11, 0), "each link counts from 0");
+        assert_ne!(to9, to4, "under different keys");
+        assert_eq!(s.next_counter(9), 1);
+        // Re-sent to node 4's neighbour 9 (a redirect), or 9's datagram at 4: the tag fails.
+        assert_eq!(opener().open(&to4, |_| true), Err(Rejected::BadTag));
+        assert_eq!(Opener::new(&key(), 4, 500).open(&to9, |_| true), Err(Rejected::BadTag));
+        assert!(Opener::new(&key(), 4, 500).open(&to4, |_| true).is_ok());
+        // Bound to another boot of node 9 (an earlier run's): refused, whatever its epoch.
+        let old = s.seal(&d, 9, 499).unwrap();
+        assert_eq!(opener().open(&old, |_| true), Err(Rejected::BadTag));
+        // A hello is bound to no boot: it opens whatever boot its sender believed.
+        let hello = Datagram {
+            header: Header::hello(3, 1),
+            payload: Payload::Hello {
+                running: None,
+                run: 11,
+                boot: 11,
+                echo: 0,
+                probe: 0,
+                answer: 0,
+            },
+        };
+        assert!(opener().open(&s.seal(&hello, 9, 123).unwrap(), |_| true).is_ok());
+        assert!(opener().open(&to9, |_| true).is_ok());
     }
 
     /// Every bit flip is caught: by the checksum, or by the tag once the checksum is made to match (tampering).
@@ -405,18 +484,18 @@ mod tests {
     fn every_flip_is_corruption_and_every_tampering_a_bad_tag() {
         let round = crate::wire::tests::information_round();
         let mut s = Sealer::new(&key(), 2, 1);
-        let bytes = s.seal(&round).unwrap();
+        let bytes = s.seal(&round, 9, 500).unwrap();
         let n = bytes.len();
         for bit in 0..n * 8 {
             let mut b = bytes.to_vec();
             b[bit / 8] ^= 1 << (bit % 8);
-            let mut o = Opener::new(&key());
+            let mut o = opener();
             assert!(o.open(&b, |_| true).is_err(), "bit {bit} went undetected");
             // With the checksum recomputed: anything but the CRC itself is caught by the header's checks or the tag.
             if bit / 8 < n - CRC_LEN {
                 let crc = crc32fast::hash(&b[..n - CRC_LEN]);
                 b[n - CRC_LEN..].copy_from_slice(&crc.to_le_bytes());
-                let r = Opener::new(&key()).open(&b, |_| true);
+                let r = opener().open(&b, |_| true);
                 assert!(
                     matches!(r, Err(Rejected::BadTag) | Err(Rejected::Malformed(_))),
                     "bit {bit}: {r:?}"
@@ -429,8 +508,8 @@ mod tests {
     #[test]
     fn the_window_tolerates_reordering_and_refuses_replays() {
         let mut s = Sealer::new(&key(), 1, 5);
-        let sealed: Vec<Bytes> = (0..200).map(|k| s.seal(&sample(1, k)).unwrap()).collect();
-        let mut o = Opener::new(&key());
+        let sealed: Vec<Bytes> = (0..200).map(|k| s.seal(&sample(1, k), 9, 500).unwrap()).collect();
+        let mut o = opener();
         // 0, then 100, then 60 (inside the window), then 20 (below it).
         assert!(o.open(&sealed[0], |_| true).is_ok());
         assert!(o.open(&sealed[100], |_| true).is_ok());
@@ -446,7 +525,7 @@ mod tests {
         assert!(o.open(&sealed[99], |_| true).is_ok());
         // The source restarts: epoch 6 from counter 0; epoch 5 is then too old.
         let mut again = Sealer::new(&key(), 1, 6);
-        assert!(o.open(&again.seal(&sample(1, 300)).unwrap(), |_| true).is_ok());
+        assert!(o.open(&again.seal(&sample(1, 300), 9, 500).unwrap(), |_| true).is_ok());
         assert_eq!(
             o.open(&sealed[150], |_| true),
             Err(Rejected::TooOld { epoch: 5, counter: 150 })
@@ -454,10 +533,10 @@ mod tests {
         // A forged datagram of a later epoch changes nothing: its tag fails first.
         let mut forger = Sealer::new(&Key::from_bytes([9; 16]), 1, 99);
         assert_eq!(
-            o.open(&forger.seal(&sample(1, 301)).unwrap(), |_| true),
+            o.open(&forger.seal(&sample(1, 301), 9, 500).unwrap(), |_| true),
             Err(Rejected::BadTag)
         );
-        assert!(o.open(&again.seal(&sample(1, 302)).unwrap(), |_| true).is_ok());
+        assert!(o.open(&again.seal(&sample(1, 302), 9, 500).unwrap(), |_| true).is_ok());
     }
 
     #[test]

@@ -567,15 +567,7 @@ fn committed_compose_file_is_generated() {
 
 /// Free loopback ports: bind ephemeral sockets, note the ports, release them.
 fn free_ports(n: usize) -> Vec<u16> {
-    (0..n)
-        .map(|_| {
-            std::net::UdpSocket::bind("127.0.0.1:0")
-                .unwrap()
-                .local_addr()
-                .unwrap()
-                .port()
-        })
-        .collect()
+    (0..n).map(|_| super::common::free_port()).collect()
 }
 
 /// `--peer` arguments naming every other node's loopback port.

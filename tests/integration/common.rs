@@ -77,6 +77,15 @@ pub fn network_key(dir: &std::path::Path) -> std::path::PathBuf {
 /// Start `cmd` with its log piped and wait for the line that contains `line` (an event, not a time, so that a
 /// loaded machine cannot reorder the test); its log is then read to the end in a thread, so that the pipe never
 /// fills. Panics if the process ends without logging the line.
+/// A loopback UDP port free a moment ago (the socket that found it is closed).
+pub fn free_port() -> u16 {
+    std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
 pub fn spawn_until(cmd: &mut std::process::Command, line: &str) -> (std::process::Child, std::thread::JoinHandle<()>) {
     use std::io::BufRead;
     let mut child = cmd

@@ -16,3 +16,4 @@ mod protocol;
 mod reproduce;
 mod riccati;
 mod untrusted;
+mod wire_attacks;

@@ -20,15 +20,7 @@ fn tmp(name: &str) -> PathBuf {
 /// `dir/b` (node 1).
 fn two_parts(dir: &Path) -> (PathBuf, PathBuf) {
     let topo = dir.join("pair.toml");
-    let ports: Vec<u16> = (0..2)
-        .map(|_| {
-            std::net::UdpSocket::bind("127.0.0.1:0")
-                .unwrap()
-                .local_addr()
-                .unwrap()
-                .port()
-        })
-        .collect();
+    let ports: Vec<u16> = (0..2).map(|_| super::common::free_port()).collect();
     std::fs::write(
         &topo,
         format!(
@@ -280,13 +272,7 @@ fn every_bad_input_exits_2_naming_it() {
 fn insecure_node_0(d: &std::path::Path) -> (std::process::Command, std::net::UdpSocket, u16) {
     let fake = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     let p1 = fake.local_addr().unwrap().port();
-    let free = || {
-        std::net::UdpSocket::bind("127.0.0.1:0")
-            .unwrap()
-            .local_addr()
-            .unwrap()
-            .port()
-    };
+    let free = super::common::free_port;
     let (p0, p2) = (free(), free());
     let mut node = simnet();
     node.args([
@@ -337,6 +323,8 @@ fn a_step_jump_or_a_huge_handshake_cannot_end_a_multi_host_run() {
                     running: Some(u64::MAX - 1),
                     boot: 1,
                     echo: 0,
+                    probe: 0,
+                    answer: 0,
                 },
             ),
         ] {
@@ -398,6 +386,8 @@ fn a_walk_of_plausible_steps_cannot_end_a_run_early() {
                     run: u64::MAX,
                     boot: 1,
                     echo: boot,
+                    probe: 0,
+                    answer: 0,
                 },
             };
             fake.send_to(&hello.encode().unwrap(), &to).unwrap();
@@ -435,20 +425,15 @@ fn a_walk_of_plausible_steps_cannot_end_a_run_early() {
 /// node 1 recorded; then a fresh node 1 (the same key), whose neighbour 0 is at the recorder's address, gets the whole
 /// recording as it starts. Before, the replayed step 299 made it join at step 300 and run 0 steps, its part named
 /// with the earlier run's id; now nothing but a hello that echoes its own boot starts or joins it, so it starts alone
-/// after its handshake timeout and runs every step, and uses none of the recording's measurements (counted
-/// `too_old`: another boot's).
+/// after its handshake timeout and runs every step, and uses none of the recording's measurements: they were sealed
+/// for node 1's earlier boot and do not open (`bad_tag`; before, they opened and only the missing vouch kept them
+/// out).
 #[test]
 fn an_earlier_runs_traffic_neither_starts_nor_joins_nor_renames_a_run() {
     let d = tmp("replay-run");
     std::fs::create_dir_all(&d).unwrap();
     let key = super::common::network_key(&d);
-    let free = || {
-        std::net::UdpSocket::bind("127.0.0.1:0")
-            .unwrap()
-            .local_addr()
-            .unwrap()
-            .port()
-    };
+    let free = super::common::free_port;
     let recorder = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     recorder
         .set_read_timeout(Some(std::time::Duration::from_millis(20)))
@@ -501,14 +486,150 @@ fn an_earlier_runs_traffic_neither_starts_nor_joins_nor_renames_a_run() {
         now["part"]["run"], earlier["part"]["run"],
         "the earlier run's id was taken"
     );
-    // The replayed datagrams open (the key is the same), but none is used: no fresh hello vouched for their boot.
+    // None of the replayed measurements is used: sealed for another boot of node 1, from a boot of node 0 that no
+    // fresh hello vouched for.
     assert_eq!(now["part"]["rx"][0][1]["delivered"], 0, "{}", now["part"]["rx"]);
-    let refused = now["nodes"][0]["rejected"]["too_old"].as_u64().unwrap();
+    let refused = now["nodes"][0]["rejected"]["bad_tag"].as_u64().unwrap();
     assert!(
         refused > 250,
-        "{refused} refused as another boot's: {}",
+        "{refused} refused as sealed for another boot: {}",
         now["nodes"][0]
     );
+    let _ = std::fs::remove_dir_all(d);
+}
+
+/// An outsider without the key who sees a node's traffic can neither redirect it nor re-point a neighbour. Ring3 with a
+/// key, three node processes; node 0 talks to nodes 1 and 2 through two relays of the test (A1, A2, as a NAT would),
+/// which also attack: A2 sends every datagram node 0 sealed for node 2 to node 1 as well, and a third socket (A3)
+/// sends node 1 each of node 0's datagrams for it just before A1 passes it on. Before, a 0→2 datagram was genuine
+/// and new at node 1 (one counter across links), and any new genuine datagram moved the sender's address: node 1
+/// re-pointed node 0 to the attacker and its own traffic to node 0 was lost. Now a datagram opens only at the node
+/// it was sealed for (each redirected one counted `bad_tag` at node 1), and A3's copies, though genuine and first,
+/// move nothing: node 1 only probes A3, which cannot answer, and A1's copies count as replays. Node 1's measurements
+/// all reach node 0 through A1; none go to the attacker.
+#[test]
+fn a_redirected_datagram_opens_nowhere_and_no_datagram_moves_an_address() {
+    use simnet::wire::secure::claimed;
+    use simnet::wire::{KIND_HELLO, KIND_MEASUREMENT};
+    let d = tmp("redirect");
+    std::fs::create_dir_all(&d).unwrap();
+    let key = super::common::network_key(&d);
+    let free = super::common::free_port;
+    let socket = || {
+        let s = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        s.set_nonblocking(true).unwrap();
+        s
+    };
+    let (a1, a2, a3) = (socket(), socket(), socket());
+    let port = |s: &std::net::UdpSocket| s.local_addr().unwrap().port();
+    let ports = [free(), free(), free()];
+    let node = |id: usize, peers: [(usize, u16); 2]| {
+        let mut c = simnet();
+        c.args(["node", "-v", "-t", "ring3", "--id", &id.to_string(), "--duration", "3"])
+            .arg("--key-file")
+            .arg(&key)
+            .args([
+                "--handshake-timeout",
+                "5",
+                "--bind",
+                &format!("127.0.0.1:{}", ports[id]),
+            ]);
+        for (j, p) in peers {
+            c.args(["--peer", &format!("{j}=127.0.0.1:{p}")]);
+        }
+        c.arg("--out").arg(d.join(format!("n{id}")));
+        c
+    };
+    let mut children: Vec<_> = [
+        node(0, [(1, port(&a1)), (2, port(&a2))]),
+        node(1, [(0, port(&a1)), (2, ports[2])]),
+        node(2, [(0, port(&a2)), (1, ports[1])]),
+    ]
+    .into_iter()
+    .map(|mut c| super::common::spawn_until(&mut c, "listening"))
+    .collect();
+    let to = |id: usize| ("127.0.0.1", ports[id]);
+    let (mut buf, mut redirected, mut first) = (vec![0u8; 2048], 0u64, 0u64);
+    // What node 1 sent to an attacker's socket (A2, A3): (hellos, measurements, other).
+    let mut from_1 = (0u64, 0u64, 0u64);
+    let mut tally = |bytes: &[u8]| match claimed(bytes).map(|(h, ..)| h.kind) {
+        Ok(KIND_HELLO) => from_1.0 += 1,
+        Ok(KIND_MEASUREMENT) => from_1.1 += 1,
+        _ => from_1.2 += 1,
+    };
+    while children.iter_mut().any(|(c, _)| c.try_wait().unwrap().is_none()) {
+        let mut idle = true;
+        while let Ok((n, from)) = a1.recv_from(&mut buf) {
+            idle = false;
+            if from.port() == ports[0] {
+                a3.send_to(&buf[..n], to(1)).unwrap();
+                first += 1;
+                a1.send_to(&buf[..n], to(1)).unwrap();
+            } else if from.port() == ports[1] {
+                a1.send_to(&buf[..n], to(0)).unwrap();
+            }
+        }
+        while let Ok((n, from)) = a2.recv_from(&mut buf) {
+            idle = false;
+            if from.port() == ports[0] {
+                a2.send_to(&buf[..n], to(2)).unwrap();
+                a2.send_to(&buf[..n], to(1)).unwrap();
+                redirected += 1;
+            } else if from.port() == ports[2] {
+                a2.send_to(&buf[..n], to(0)).unwrap();
+            } else if from.port() == ports[1] {
+                tally(&buf[..n]);
+            }
+        }
+        while let Ok((n, _)) = a3.recv_from(&mut buf) {
+            idle = false;
+            tally(&buf[..n]);
+        }
+        if idle {
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+    }
+    for (mut c, drain) in children {
+        assert!(c.wait().unwrap().success());
+        drain.join().unwrap();
+    }
+    let part = |id: usize| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(d.join(format!("n{id}")).join(format!("node-{id}.json"))).unwrap())
+            .unwrap()
+    };
+    let (p0, p1) = (part(0), part(1));
+    let rejected = &p1["nodes"][0]["rejected"];
+    let (bad_tag, replay) = (
+        rejected["bad_tag"].as_u64().unwrap(),
+        rejected["replay"].as_u64().unwrap(),
+    );
+    assert!(
+        redirected > 250 && first > 250,
+        "{redirected} redirected, {first} sent first"
+    );
+    // Every redirected datagram that reached node 1 before it stopped fails its tag there; none is taken.
+    assert!(
+        bad_tag > 250 && bad_tag <= redirected,
+        "{bad_tag} of {redirected} redirected counted bad_tag: {}",
+        p1["nodes"][0]
+    );
+    // Node 0 hears node 1 at its own address all run long: node 1's 300 steps arrive.
+    let from1 = p0["part"]["rx"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r[0] == 1)
+        .unwrap_or_else(|| panic!("{}", p0["part"]["rx"]))[1]
+        .clone();
+    assert!(
+        from1["delivered"].as_u64().unwrap() >= 290,
+        "link 1→0: {from1} (node 1's traffic went elsewhere)"
+    );
+    // A1's copies came second: replays (A3's were taken, genuine as they are; the links' own duplicates count too).
+    assert!(replay > 250, "{replay} counted replayed of {first}");
+    // To the attacker's sockets node 1 sent no measurement: only probes (hellos), at most one a second.
+    assert_eq!((from_1.1, from_1.2), (0, 0), "node 1 sent data to a relay");
+    assert!(from_1.0 <= 10, "{} probes", from_1.0);
     let _ = std::fs::remove_dir_all(d);
 }
 
@@ -584,11 +705,7 @@ fn rss_kib(pid: u32) -> Option<u64> {
 fn a_garbage_flood_is_counted_and_the_node_keeps_stepping() {
     let d = tmp("flood");
     let key = super::common::network_key(&d);
-    let port = std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
+    let port = super::common::free_port();
     let mut node = simnet();
     node.args(["node", "-v", "-t", "ring3", "--id", "0", "--duration", "600"])
         .args(["--handshake-timeout", "0.2", "--bind", &format!("127.0.0.1:{port}")])
