@@ -47,6 +47,9 @@ pub struct AttitudeArgs {
 }
 
 pub(super) fn attitude(args: &AttitudeArgs) -> anyhow::Result<ExitCode> {
+    if let Some(dir) = &args.out {
+        super::out::check_out(dir)?;
+    }
     let shown = args.file.display().to_string();
     let read = |p: &std::path::Path, shown: &str| {
         crate::input::read_text(p, crate::input::MAX_TABLE)

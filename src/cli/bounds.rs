@@ -29,9 +29,9 @@ pub struct BoundsArgs {
     /// Bounds (and measurements, with --measure) over a grid of arrival rates, with a plot.
     #[arg(long)]
     pub sweep: bool,
-    /// Where --sweep writes bounds.csv and bounds.svg.
-    #[arg(long, default_value = "out/bounds")]
-    pub out: PathBuf,
+    /// Where --sweep writes bounds.csv and bounds.svg (default out/bounds).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
     /// Simulated duration of each --measure run, s.
     #[arg(allow_hyphen_values = true, long, value_parser = positive)]
     pub duration: Option<f64>,
@@ -102,8 +102,16 @@ pub(super) fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
         .map_err(usage)?,
         _ => return Err(UsageError::Option("give --topology (linear model), or all of --a --c --q --r".into()).into()),
     };
-    if args.sweep {
-        check_out(&args.out)?;
+    let out = args.out.clone().unwrap_or_else(|| PathBuf::from("out/bounds"));
+    match (args.sweep, &args.out) {
+        (true, _) => check_out(&out)?,
+        (false, Some(_)) => {
+            return Err(UsageError::Option(
+                "--out is where --sweep writes: add --sweep (nothing else is written)".into(),
+            )
+            .into())
+        }
+        (false, None) => {}
     }
     if args.measure && topo.is_none() {
         return Err(UsageError::Option("--measure runs a topology: give --topology".into()).into());
@@ -210,8 +218,8 @@ pub(super) fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
             );
         })
         .map_err(usage)?;
-        std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
-        write_atomic(&args.out.join("bounds.csv"), study::csv(&rows).as_bytes())?;
+        std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
+        write_atomic(&out.join("bounds.csv"), study::csv(&rows).as_bytes())?;
         let points: Vec<plot::BoundsRow> = rows
             .iter()
             .map(|r| (r.lambda, trace_of(&r.lower), trace_of(&r.upper), r.measured))
@@ -225,8 +233,8 @@ pub(super) fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
                 topo.as_ref().map_or(String::new(), |t| format!(" — {}", t.name()))
             ),
         )?;
-        write_atomic(&args.out.join("bounds.svg"), svg.as_bytes())?;
-        println!("\nwrote {}/{{bounds.csv, bounds.svg}}", args.out.display());
+        write_atomic(&out.join("bounds.svg"), svg.as_bytes())?;
+        println!("\nwrote {}/{{bounds.csv, bounds.svg}}", out.display());
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -195,11 +195,43 @@ pub fn main() -> ExitCode {
             ExitCode::from(141)
         }
         Err(e) => {
-            let usage = e.downcast_ref::<UsageError>().is_some();
-            eprintln!("error: {e:#}");
-            ExitCode::from(if usage { 2 } else { 1 })
+            eprintln!("error: {}", message(&e));
+            ExitCode::from(if bad_input(&e) { 2 } else { 1 })
         }
     }
+}
+
+/// Whether an error is the user's input (exit 2): the one place that maps each layer's errors to an exit code.
+fn bad_input(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.is::<UsageError>()
+            || c.is::<ScenarioError>()
+            || c.is::<crate::scenario::FlagError>()
+            || c.is::<crate::wire::secure::KeyError>()
+            || c.is::<crate::net::host::PeerError>()
+            || c.downcast_ref::<crate::campaign::CampaignError>()
+                .is_some_and(crate::campaign::CampaignError::is_usage)
+            || c.downcast_ref::<crate::sim::SimError>()
+                .is_some_and(|s| matches!(s, crate::sim::SimError::Scenario(_)))
+            // A recording or a constraint the boundary-value problem cannot take.
+            || c.is::<crate::reconstruct::ReconstructError>()
+            || c.is::<crate::estimate::bvp::BvpError>()
+    })
+}
+
+/// The error and its causes, each said once (a cause whose text its parent already quotes is not repeated).
+fn message(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for c in e.chain() {
+        let s = c.to_string();
+        if !out.contains(&s) {
+            if !out.is_empty() {
+                out.push_str(": ");
+            }
+            out.push_str(&s);
+        }
+    }
+    out
 }
 
 fn list_topologies() {

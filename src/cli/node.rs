@@ -131,9 +131,7 @@ pub(super) fn peer(s: &str) -> Result<(u32, String), String> {
         .split_once('=')
         .ok_or_else(|| format!("expected ID=HOST:PORT, got `{s}`"))?;
     let id = id.parse::<u32>().map_err(|_| format!("`{id}` is not a node id"))?;
-    if !addr.contains(':') {
-        return Err(format!("`{addr}` needs a port (HOST:PORT)"));
-    }
+    crate::scenario::check_addr(addr)?;
     Ok((id, addr.to_string()))
 }
 
@@ -181,6 +179,14 @@ pub(super) fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode>
         }
         _ => {}
     }
+    if args.run.format != Format::Csv {
+        return Err(UsageError::Option(
+            "a node writes its part as CSV; `simnet collect` merges the parts: drop --format".into(),
+        )
+        .into());
+    }
+    // The output directory before the address: every bad option is named before the node waits for anything.
+    let out_dir = args.run.out.as_deref().map(PartDir::prepare).transpose()?;
     // The node's own address from the topology (its service name in a container), never every interface unless
     // --bind asks for it.
     let bind = match args.bind {
@@ -196,13 +202,6 @@ pub(super) fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode>
             })?
         }
     };
-    if args.run.format != Format::Csv {
-        return Err(UsageError::Option(
-            "a node writes its part as CSV; `simnet collect` merges the parts: drop --format".into(),
-        )
-        .into());
-    }
-    let out_dir = args.run.out.as_deref().map(PartDir::prepare).transpose()?;
     let steps = topo.sim().steps();
     let progress = (!quiet && !args.run.json).then(|| progress_bar(steps));
     let cfg = HostConfig {

@@ -73,6 +73,14 @@ fn timed(s: &str) -> Result<(f64, Vector3<f64>), String> {
 
 pub fn reconstruct(args: &ReconstructArgs) -> anyhow::Result<ExitCode> {
     super::check_out(&args.out)?;
+    let constrained = !args.velocity_at.is_empty() || !args.position_at.is_empty();
+    if constrained && !args.error_model {
+        return Err(UsageError::Option(
+            "--velocity-at/--position-at constrain the error model's fit: add --error-model (without it they change nothing)"
+                .into(),
+        )
+        .into());
+    }
     let text = crate::input::read_text(&args.file, crate::input::MAX_TABLE)
         .map_err(|e| UsageError::Option(format!("cannot read {}: {e}", args.file.display())))?;
     let mut rec = layout::read_any(&text, &args.file.display().to_string(), &args.read.options())

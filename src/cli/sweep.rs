@@ -133,6 +133,7 @@ pub(super) fn sweep(args: &SweepArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     let dir = args.out.as_deref().unwrap_or(Path::new("."));
+    super::out::check_out(dir)?;
     let file = PlanFile::of(&plan);
     let store = Store::open(dir, &file).map_err(usage_or_run)?;
     let all = plan.runs();
@@ -328,11 +329,12 @@ fn merge(dirs: &[PathBuf], out: Option<&Path>, format: Format, quiet: bool) -> a
     match campaign::finish(&store, &file, &me) {
         Ok(done) => wrote(out, &file, done, format),
         Err(e @ CampaignError::Missing { .. }) => {
+            // The directories given do not hold the whole campaign: the input is incomplete (exit 2).
             eprintln!(
-                "error: {e}: a shard has not finished, or its directory is not among {}",
+                "error: {e}: a shard has not finished, or its directory is not among the {} given",
                 dirs.len()
             );
-            Ok(ExitCode::from(1))
+            Ok(ExitCode::from(2))
         }
         Err(e) => Err(usage_or_run(e)),
     }

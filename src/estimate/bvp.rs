@@ -29,7 +29,7 @@ pub enum BvpError {
     NoPosition,
     #[error("the additional constraints do not determine the {0} error-model parameters (rank {1})")]
     Underdetermined(usize, usize),
-    #[error("constraint time {0} s is outside [{1}, {2}] s")]
+    #[error("constraint time {0} s is outside the recording's [{1:.3}, {2:.3}] s")]
     OutOfRange(f64, f64, f64),
 }
 

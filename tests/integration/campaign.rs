@@ -126,7 +126,7 @@ fn shards_merged_are_the_whole_sweep() {
         sweep(&a);
         assert!(!d.join("runs.csv").exists(), "shard {} alone wrote the tables", i + 1);
     }
-    // A merge of two of the three names the runs still missing.
+    // A merge of two of the three names the runs still missing: the directories given are incomplete input (2).
     let merged = tmp("merged");
     let out = simnet()
         .args(["sweep", "merge"])
@@ -135,7 +135,7 @@ fn shards_merged_are_the_whole_sweep() {
         .arg(&merged)
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("8 of 24 runs are missing"));
     let out = simnet()
         .args(["sweep", "merge", "-q"])

@@ -847,3 +847,83 @@ fn the_readme_topology_example_validates() {
     let t = simnet::Scenario::from_toml(&readme[start..end], "README.md").unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(t.attacks().len(), 1);
 }
+
+/// Every subcommand takes bad input the same way: a topology that does not exist, an option out of range and an
+/// output path that is a file each exit 2, before any work, with a message that names what is wrong (README's rule;
+/// `compare -t nope`, `compare --duration 0.001`, `attitude --out FILE`, `sweep --out FILE` and `reconstruct
+/// --velocity-at` past the recording exited 1).
+#[test]
+fn every_subcommand_exits_2_naming_a_bad_topology_option_or_output() {
+    let d = std::env::temp_dir().join(format!("simnet-cli-bad-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let file = d.join("a-file");
+    std::fs::write(&file, "").unwrap();
+    let f = file.to_str().unwrap();
+    let rec = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/recordings/xsens-mti.txt");
+    let topo_cmds: [&[&str]; 7] = [
+        &["run"],
+        &["compare"],
+        &["sweep", "--set", "link.loss.p=0,0.1"],
+        &["node", "--id", "0", "--insecure"],
+        &["compose"],
+        &["bounds"],
+        &["protocol"],
+    ];
+    let mut cases: Vec<(Vec<&str>, &str)> = Vec::new();
+    for c in topo_cmds {
+        let mut a = c.to_vec();
+        a.extend(["-t", "nope"]);
+        if c[0] == "sweep" {
+            a.extend(["--out", d.to_str().unwrap()]);
+        }
+        cases.push((a, "nope"));
+        if c[0] != "compose" {
+            let mut a = c.to_vec();
+            a.extend(["-t", "sinopoli-scalar", "--duration", "0.0001"]);
+            if c[0] == "sweep" {
+                a.extend(["--out", d.to_str().unwrap()]);
+            }
+            cases.push((a, "duration"));
+        }
+    }
+    for c in [
+        vec!["run", "-t", "ring3", "--duration", "1", "--out", f],
+        vec!["sweep", "-t", "ring3", "--set", "link.loss.p=0,0.1", "--out", f],
+        vec!["node", "-t", "ring3", "--id", "0", "--insecure", "--out", f],
+        vec!["bounds", "-t", "sinopoli-scalar", "--sweep", "--out", f],
+        vec!["protocol", "-t", "tri3-paper", "--out", f],
+        vec!["attitude", rec, "--out", f],
+        vec!["reconstruct", rec, "--out", f],
+    ] {
+        cases.push((c, "a-file"));
+    }
+    cases.push((vec!["reconstruct", rec, "--velocity-at", "500:0,0,0"], "--error-model"));
+    // An option that would change nothing is refused, not ignored.
+    cases.push((vec!["bounds", "-t", "sinopoli-scalar", "--out", f], "--sweep"));
+    cases.push((
+        vec![
+            "node",
+            "-t",
+            "ring3",
+            "--id",
+            "0",
+            "--insecure",
+            "--peer",
+            "1=999.1.1.1:99999",
+        ],
+        "999.1.1.1",
+    ));
+    for (args, names) in cases {
+        let out = Command::new(env!("CARGO_BIN_EXE_simnet"))
+            .args(&args)
+            .current_dir(&d)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(names), "{args:?} does not name `{names}`: {err}");
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}

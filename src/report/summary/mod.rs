@@ -193,7 +193,24 @@ impl Schedule {
     }
 }
 
+/// The keys of `summary.json` that depend on the machine and its load, not on the run: the wall time, frames the
+/// kernel dropped on a full socket buffer (`kernel_drops`, per node) and the virtual clock sent again
+/// (`frames_resent`). A resent frame leaves every result unchanged, so two runs of one scenario and seed agree on
+/// everything else ([`Summary::reproducible`]). `socket_losses` is not among them: a frame lost for good changes
+/// what the nodes estimate.
+pub const LOAD_DEPENDENT: [&str; 3] = ["wall_s", "kernel_drops", "frames_resent"];
+
 impl Summary {
+    /// This summary with the [`LOAD_DEPENDENT`] figures zeroed: what two runs of one scenario and seed give alike,
+    /// in memory or over UDP on the virtual clock, on a quiet machine or a loaded one.
+    pub fn reproducible(&self) -> Summary {
+        let mut s = self.clone();
+        s.wall_s = 0.0;
+        s.frames_resent = 0;
+        s.nodes.iter_mut().for_each(|n| n.kernel_drops = 0);
+        s
+    }
+
     /// (networked, independent) scored errors of every estimating node whose error was measured
     /// ([`FilterSummary::scored_error`]).
     pub fn scored_errors(&self) -> Vec<(f64, f64)> {

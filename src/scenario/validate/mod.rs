@@ -626,6 +626,14 @@ pub fn check_addr(a: &str) -> Result<(), String> {
     if host.is_empty() || host.len() > 253 || !host.split('.').all(label_ok) {
         return bad("a host is an IP address or a name of letters, digits, `-` and `.`");
     }
+    // A name's last label is never all digits (RFC 3696 §2): `999.1.1.1` is a bad IPv4 address, not a name.
+    if host
+        .rsplit('.')
+        .next()
+        .is_some_and(|l| l.bytes().all(|b| b.is_ascii_digit()))
+    {
+        return bad("not an IPv4 address: each of its four numbers is 0 to 255");
+    }
     Ok(())
 }
 
@@ -648,6 +656,9 @@ mod addr_tests {
             "[zz]:1",
             ":7000",
             "a b:1",
+            "999.1.1.1:99",
+            "1=nohost:x",
+            "nohost:x",
         ] {
             assert!(super::check_addr(bad).is_err(), "{bad:?}");
         }
