@@ -113,7 +113,13 @@ pub fn read_text(path: &Path, limit: u64) -> io::Result<String> {
             size_text(limit)
         )));
     }
-    String::from_utf8(bytes).map_err(|e| invalid(format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to())))
+    let mut text = String::from_utf8(bytes)
+        .map_err(|e| invalid(format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to())))?;
+    // A byte-order mark (spreadsheets write one) is no part of the first column's name.
+    if text.starts_with('\u{feff}') {
+        text.drain(..'\u{feff}'.len_utf8());
+    }
+    Ok(text)
 }
 
 /// `path` as lines to stream (see the module's rules); reading stops at `limit` bytes.
@@ -124,6 +130,14 @@ pub fn open_lines(path: &Path, limit: u64) -> io::Result<impl BufRead> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_byte_order_mark_is_not_read_as_text() {
+        let p = std::env::temp_dir().join(format!("simnet-bom-{}.csv", std::process::id()));
+        std::fs::write(&p, "\u{feff}t,ax\n0,1\n").unwrap();
+        assert_eq!(read_text(&p, 1024).unwrap(), "t,ax\n0,1\n");
+        let _ = std::fs::remove_file(&p);
+    }
 
     #[test]
     fn quotes_are_short() {

@@ -101,12 +101,14 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
         crate::scenario::count(args.seeds as usize, "seed")
     )?;
     writeln!(out)?;
-    writeln!(
-        out,
-        "| loss | L | centralized error | {} | sequeira's rank |",
-        names.join(" | ")
-    )?;
-    writeln!(out, "|---|---|---|{}---|", "---|".repeat(names.len()))?;
+    // One cell per column, header and rows alike (with no scheme beside the reference, too).
+    let header: Vec<&str> = ["loss", "L", "centralized error"]
+        .into_iter()
+        .chain(names.iter().copied())
+        .chain(["sequeira's rank"])
+        .collect();
+    writeln!(out, "| {} |", header.join(" | "))?;
+    writeln!(out, "|{}", "---|".repeat(header.len()))?;
     let per_cell = args.seeds as usize;
     for (chunk, cs) in summaries.chunks(per_cell).zip(cells.chunks(per_cell)) {
         let ok: Vec<&crate::Summary> = chunk.iter().filter_map(|s| s.as_ref().ok()).collect();
@@ -145,14 +147,16 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
             let better = ratios.iter().filter(|r| r.0.is_finite() && r.0 < s).count();
             format!("{} of {}", better + 1, names.len())
         });
-        writeln!(
-            out,
-            "| {:.0} % | {} | {} | {} | {rank} |",
-            100.0 * cs[0].loss,
-            cs[0].rounds,
+        let row: Vec<String> = [
+            format!("{:.0} %", 100.0 * cs[0].loss),
+            cs[0].rounds.to_string(),
             cell(central),
-            ratios.iter().map(|r| cell(*r)).collect::<Vec<_>>().join(" | ")
-        )?;
+        ]
+        .into_iter()
+        .chain(ratios.iter().map(|r| cell(*r)))
+        .chain([rank])
+        .collect();
+        writeln!(out, "| {} |", row.join(" | "))?;
         for (s, c) in chunk.iter().zip(cs) {
             if let Err(e) = s {
                 eprintln!("warning: loss {} L {} seed {}: {e}", c.loss, c.rounds, c.seed);

@@ -50,7 +50,7 @@ pub struct Cli {
     /// More log output (-v info, -vv debug, -vvv trace); RUST_LOG overrides.
     #[arg(short, long, action = clap::ArgAction::Count, global = true)]
     pub verbose: u8,
-    /// Only errors.
+    /// Quiet: on stderr only errors (no log lines, no progress bar); results still go to stdout and --out.
     #[arg(short, long, global = true, conflicts_with = "verbose")]
     pub quiet: bool,
 }
@@ -209,6 +209,8 @@ fn bad_input(e: &anyhow::Error) -> bool {
             || c.is::<crate::scenario::FlagError>()
             || c.is::<crate::wire::secure::KeyError>()
             || c.is::<crate::net::host::PeerError>()
+            || c.downcast_ref::<crate::net::NetError>()
+                .is_some_and(|n| matches!(n, crate::net::NetError::BindAt { .. }))
             || c.downcast_ref::<crate::campaign::CampaignError>()
                 .is_some_and(crate::campaign::CampaignError::is_usage)
             || c.downcast_ref::<crate::sim::SimError>()

@@ -5,6 +5,8 @@ use super::*;
 
 #[derive(Args, Debug, Clone)]
 #[command(mut_arg("out", |a| a.help("Write this node's part here: node-ID.json, trace-ID.csv, estimates-ID.csv (for `simnet collect`)").long_help(None)))]
+// A node always runs on the wall clock and refuses a key derived from the seed: neither option is offered.
+#[command(mut_arg("realtime", |a| a.hide(true)), mut_arg("auth", |a| a.hide(true)))]
 pub struct NodeArgs {
     /// This node's id in the topology.
     #[arg(long)]
@@ -155,6 +157,13 @@ pub(super) fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode>
     })?;
     let peers =
         crate::net::host::neighbour_addrs(&topo, index, &args.peers).map_err(|e| UsageError::Option(e.to_string()))?;
+    // An address given on the command line resolves now (a topology's names may come up later, in containers).
+    for (id, addr) in &args.peers {
+        use std::net::ToSocketAddrs;
+        if let Err(e) = addr.to_socket_addrs() {
+            return Err(UsageError::Option(format!("--peer {id}={addr}: cannot resolve it: {e}")).into());
+        }
+    }
     let own = crate::compose::node_addr(&topo, index);
     own.rsplit_once(':')
         .and_then(|(_, p)| p.parse::<u16>().ok())
@@ -238,6 +247,14 @@ pub(super) fn run_node(args: &NodeArgs, quiet: bool) -> anyhow::Result<ExitCode>
         args.run.json,
         Some("(per-link figures: `simnet collect` on the parts of every node)"),
     )?;
+    if let Some(refused) = crate::report::parts::unheard(&s).filter(|_| !out.heard_a_hello) {
+        // Not even a hello opened (an earlier run's replayed hellos would): the keys differ. The part is written.
+        eprintln!(
+            "error: no datagram from a neighbour authenticated ({refused} refused with a bad tag): do the nodes share a \
+             key? (`simnet keygen` once, the same file to every node)"
+        );
+        return Ok(ExitCode::from(2));
+    }
     Ok(exit_code(s.interrupted))
 }
 

@@ -53,6 +53,8 @@ pub struct HostOutput {
     pub schedule: crate::report::summary::Schedule,
     /// The run the node ended on ([`Node::run_id`]).
     pub run: u64,
+    /// Whether any neighbour's hello opened here (fresh or not): with none, and tags failing, the keys differ.
+    pub heard_a_hello: bool,
 }
 
 /// A `--peer ID=HOST:PORT` that names no neighbour.
@@ -262,7 +264,9 @@ pub async fn run_node(
     cfg: HostConfig,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<HostOutput, NetError> {
-    let socket = UdpSocket::bind(cfg.bind).await.map_err(NetError::Bind)?;
+    let socket = UdpSocket::bind(cfg.bind)
+        .await
+        .map_err(|source| NetError::BindAt { addr: cfg.bind, source })?;
     super::socket::size_buffers(&socket, super::socket::RECV_BUFFER);
     tracing::info!(node = topo.nodes()[index].id, bind = %cfg.bind, "listening");
     let (stop_tx, mut stop) = watch::channel(false);
@@ -487,6 +491,7 @@ fn finish(
     schedule: crate::report::summary::Schedule,
 ) -> HostOutput {
     HostOutput {
+        heard_a_hello: node.heard_a_hello(),
         run: node.run_id(),
         report: node.report(),
         estimates,

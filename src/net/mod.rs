@@ -31,6 +31,9 @@ pub mod socket;
 pub enum NetError {
     #[error("cannot bind a UDP socket on 127.0.0.1: {0}")]
     Bind(std::io::Error),
+    /// A node process's own address (its topology `addr` or `--bind`).
+    #[error("cannot bind {addr}: {source}{}", if source.kind() == std::io::ErrorKind::AddrInUse { format!(" (port {} is taken: another simnet node, or choose another with --bind)", addr.port()) } else { String::new() })]
+    BindAt { addr: SocketAddr, source: std::io::Error },
     #[error("node task {0} stopped unexpectedly")]
     TaskLost(usize),
     #[error("a node task stopped before it replied")]

@@ -43,6 +43,11 @@ impl Node {
         Some(Transmit { to, bytes })
     }
 
+    /// Whether any neighbour's hello was taken here, fresh or not (one that opened, in an authenticated run).
+    pub fn heard_a_hello(&self) -> bool {
+        self.session.heard_a_hello()
+    }
+
     /// A hello from neighbour `src`, sealed under `epoch` (none unauthenticated): the probe it carries is answered
     /// and, when it is fresh, its boot vouched for and its run taken in. Its answer to this node's probe (0: none).
     pub(super) fn on_hello(&mut self, src: usize, epoch: Option<u64>, payload: &Payload) -> u64 {

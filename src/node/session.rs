@@ -76,6 +76,11 @@ impl Session {
         }
     }
 
+    /// Whether any neighbour's hello was taken (its boot known), fresh or not.
+    pub fn heard_a_hello(&self) -> bool {
+        self.boots.iter().any(Option::is_some)
+    }
+
     /// Every neighbour has shown itself fresh.
     pub fn heard_all(&self) -> bool {
         self.fresh.iter().all(Option::is_some)

@@ -182,6 +182,14 @@ pub fn read_trace(r: impl BufRead, file: &str) -> Result<(Vec<String>, Vec<Trace
     Ok((names, out))
 }
 
+/// The datagrams a part's node refused with a bad tag, when it took none from any neighbour (a key not shared).
+pub fn unheard(part: &Summary) -> Option<u64> {
+    let info = part.part.as_ref()?;
+    let refused: u64 = part.nodes.iter().map(|n| n.rejected.bad_tag).sum();
+    let delivered: u64 = info.rx.iter().map(|(_, c)| c.delivered).sum();
+    (refused > 0 && delivered == 0).then_some(refused)
+}
+
 /// Merge node parts into one summary; `estimates` (by node id) are fused step by step when given.
 pub fn merge(
     parts: &[Summary],
@@ -239,6 +247,15 @@ pub fn merge(
     }
     // One run's parts: the nodes agreed on its id in their hellos.
     if let Some(i) = infos.iter().find(|i| i.run != infos[0].run) {
+        // No node took a datagram from any other, and every one refused some whose tag failed: they never agreed
+        // on anything because they hold different keys.
+        let refused: Option<Vec<u64>> = parts.iter().map(unheard).collect();
+        if let Some(r) = refused {
+            return Err(PartError::Mismatch(format!(
+                "no node took a datagram from a neighbour ({} refused with a bad tag in all): do the nodes share a key?",
+                r.iter().sum::<u64>()
+            )));
+        }
         let show = |r: Option<u64>| r.map_or("none".to_string(), |r| format!("{r:016x}"));
         return Err(PartError::Mismatch(format!(
             "the parts come from different runs: node {}'s is run {}, node {}'s is run {} (an earlier run's part?)",

@@ -321,6 +321,12 @@ fn compare_prints_the_findings_table() {
     );
     let sub_row = sub.lines().find(|l| l.starts_with("| 20 %")).unwrap();
     assert_eq!(sub_row.split('|').nth(5).unwrap().trim(), cell, "{sub}");
+    // The reference alone: header, separator and rows have one cell per column each (were 5, 4 and 5).
+    let alone = compare(&["--rounds", "1", "--estimators", "centralized"]);
+    let cells = |l: &str| l.matches('|').count() - 1;
+    let lines: Vec<&str> = alone.lines().filter(|l| l.starts_with('|')).collect();
+    assert_eq!(lines.len(), 3, "{alone}");
+    assert!(lines.iter().all(|l| cells(l) == 4), "{alone}");
 }
 
 /// `simnet estimators` lists every scheme with its reference.
@@ -901,6 +907,16 @@ fn every_subcommand_exits_2_naming_a_bad_topology_option_or_output() {
     cases.push((vec!["reconstruct", rec, "--velocity-at", "500:0,0,0"], "--error-model"));
     // An option that would change nothing is refused, not ignored.
     cases.push((vec!["bounds", "-t", "sinopoli-scalar", "--out", f], "--sweep"));
+    // A node offers no option it refuses.
+    let help = Command::new(env!("CARGO_BIN_EXE_simnet"))
+        .args(["node", "--help"])
+        .output()
+        .unwrap();
+    let help = String::from_utf8_lossy(&help.stdout);
+    assert!(
+        help.contains("--key-file") && !help.contains("--realtime") && !help.contains("--auth"),
+        "{help}"
+    );
     cases.push((
         vec![
             "node",
@@ -914,6 +930,12 @@ fn every_subcommand_exits_2_naming_a_bad_topology_option_or_output() {
         ],
         "999.1.1.1",
     ));
+    for peer in ["1=nohost:x", "1=no-such-host.invalid:7000"] {
+        cases.push((
+            vec!["node", "-t", "ring3", "--id", "0", "--insecure", "--peer", peer],
+            &peer[2..],
+        ));
+    }
     for (args, names) in cases {
         let out = Command::new(env!("CARGO_BIN_EXE_simnet"))
             .args(&args)

@@ -19,6 +19,18 @@ fn tmp(name: &str) -> PathBuf {
 /// The parts of a two-node run of a scalar linear model (`simnet node` on loopback, 0.2 s), in `dir/a` (node 0) and
 /// `dir/b` (node 1).
 fn two_parts(dir: &Path) -> (PathBuf, PathBuf) {
+    let key = super::common::network_key(dir);
+    let (children, dirs) = two_nodes(dir, [&key, &key], 20.0);
+    for mut c in children {
+        assert!(c.wait().unwrap().success());
+    }
+    let [a, b] = dirs;
+    (a, b)
+}
+
+/// Nodes 0 and 1 of a two-node scalar linear run (0.2 s) on loopback, each with its key, writing into `dir/a` and
+/// `dir/b`.
+fn two_nodes(dir: &Path, keys: [&Path; 2], handshake_s: f64) -> (Vec<std::process::Child>, [PathBuf; 2]) {
     let topo = dir.join("pair.toml");
     let ports: Vec<u16> = (0..2).map(|_| super::common::free_port()).collect();
     std::fs::write(
@@ -31,27 +43,84 @@ fn two_parts(dir: &Path) -> (PathBuf, PathBuf) {
         ),
     )
     .unwrap();
-    let key = super::common::network_key(dir);
     let dirs = [dir.join("a"), dir.join("b")];
     let children: Vec<_> = (0..2)
         .map(|i| {
             simnet()
-                .args(["node", "-q", "--id", &i.to_string(), "--handshake-timeout", "20", "-t"])
+                .args([
+                    "node",
+                    "-q",
+                    "--id",
+                    &i.to_string(),
+                    "--handshake-timeout",
+                    &handshake_s.to_string(),
+                    "-t",
+                ])
                 .arg(&topo)
                 .arg("--key-file")
-                .arg(&key)
+                .arg(keys[i])
                 .arg("--out")
                 .arg(&dirs[i])
                 .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::piped())
                 .spawn()
                 .unwrap()
         })
         .collect();
-    for mut c in children {
-        assert!(c.wait().unwrap().success());
+    (children, dirs)
+}
+
+/// Nodes holding different keys never form a network: each says so and exits 2 (its part written), and `collect`
+/// names the cause instead of guessing "an earlier run's part?". A port another socket holds is named.
+#[test]
+fn nodes_with_different_keys_say_so() {
+    let d = tmp("two-keys");
+    let (ka, kb) = (d.join("a.key"), d.join("b.key"));
+    for k in [&ka, &kb] {
+        assert!(simnet().arg("keygen").arg(k).status().unwrap().success());
     }
-    let [a, b] = dirs;
-    (a, b)
+    let (children, dirs) = two_nodes(&d, [&ka, &kb], 0.5);
+    for c in children {
+        let out = c.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(err.contains("share a key"), "{err}");
+    }
+    for dir in &dirs {
+        assert!(std::fs::read_dir(dir)
+            .unwrap()
+            .any(|e| e.unwrap().file_name().to_string_lossy().starts_with("node-")));
+    }
+    let out = simnet()
+        .arg("collect")
+        .args(&dirs)
+        .arg("--out")
+        .arg(d.join("merged"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("share a key") && !err.contains("earlier run"), "{err}");
+    // A port in use.
+    let taken = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let port = taken.local_addr().unwrap().port();
+    let out = simnet()
+        .args([
+            "node",
+            "-t",
+            "ring3",
+            "--id",
+            "0",
+            "--insecure",
+            "--bind",
+            &format!("127.0.0.1:{port}"),
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains(&format!("port {port} is taken")), "{err}");
+    let _ = std::fs::remove_dir_all(d);
 }
 
 fn rewrite_json(path: &Path, f: impl FnOnce(&mut serde_json::Value)) {

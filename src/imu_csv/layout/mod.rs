@@ -357,6 +357,20 @@ fn read_as(text: &str, file: &str, o: &ReadOptions, reference_only: bool) -> Res
     let accel = if reference_only {
         1.0
     } else if accel > 0.0 {
+        // Values in g that are near 9.8 are m/s² mislabelled: a recording's median |a| is not 3 g or more.
+        let mut n: Vec<f64> = raw.iter().map(|r| v3(r, Target::Accel, 1.0).norm()).collect();
+        n.sort_by(f64::total_cmp);
+        let med = n[n.len() / 2];
+        if accel != 1.0 && med >= 3.0 {
+            return Err(err(
+                hl,
+                format!(
+                    "the accelerometer is declared in g, but its median |a| is then {:.2} m/s² ({med:.2} g): the \
+                     values look like m/s² (--units accel=m/s2)",
+                    med * accel
+                ),
+            ));
+        }
         notes.push(format!("accelerometer: {}", if accel == 1.0 { "m/s²" } else { "g" }));
         accel
     } else {
@@ -507,6 +521,21 @@ Accelerometer Y (g),Accelerometer Z (g),Magnetometer X (uT),Magnetometer Y (uT),
 Accelerometer Y (g),Accelerometer Z (g)\n1000000,0,0,0,0,0,1\n1010000,0,0,0,0,0,1\n1020000,0,0,0,0,0,1\n";
         let r = read(us, "xio.csv", &ReadOptions::default()).unwrap();
         assert!((r.rate_hz - 100.0).abs() < 1e-6 && (r.recording.t[0] - 1.0).abs() < 1e-12);
+    }
+
+    /// m/s² declared as g would read as ten times gravity: refused, saying so.
+    #[test]
+    fn an_accelerometer_in_m_s2_declared_as_g_is_refused() {
+        let text = "t,ax,ay,az,gx,gy,gz\n0,0,0,9.8,0,0,0\n0.01,0,0,9.8,0,0,0\n0.02,0,0.1,9.8,0,0,0\n";
+        let o = ReadOptions {
+            units: parse_units("accel=g").unwrap(),
+            ..Default::default()
+        };
+        let e = read(text, "x.csv", &o).unwrap_err().to_string();
+        assert!(e.contains("96.") && e.contains("accel=m/s2"), "{e}");
+        // In g, the same file with values near 1 reads.
+        let g = text.replace("9.8", "1.0");
+        assert!(read(&g, "x.csv", &o).is_ok());
     }
 
     #[test]

@@ -70,8 +70,18 @@ impl Checks {
                 .unwrap_or_default()
         });
         let description = raw.description.clone().unwrap_or_default();
+        let trajectory_given = raw.sim.as_ref().is_some_and(|s| s.trajectory.is_some());
         let sim = self.sim(raw.sim.unwrap_or_default());
         let model = crate::model::parse(raw.model.unwrap_or_default(), self);
+        if trajectory_given && !model.get().imu_driven() {
+            self.bad(
+                "sim.trajectory",
+                format!(
+                    "a {} model moves no body: its truth comes from its own dynamics; drop sim.trajectory",
+                    model.get().kind()
+                ),
+            );
+        }
 
         // Nodes.
         if raw.node.is_empty() {
@@ -635,6 +645,21 @@ pub fn check_addr(a: &str) -> Result<(), String> {
         return bad("not an IPv4 address: each of its four numbers is 0 to 255");
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod ignored_keys {
+    /// A key that would change nothing is refused, not ignored: a linear model has no body to move.
+    #[test]
+    fn a_trajectory_for_a_linear_model_is_refused() {
+        let linear = "[model]\nkind = \"linear\"\na = [[1.0]]\nc = [[1.0]]\nq = [[1.0]]\nr = [[1.0]]\n\
+                      [[node]]\nid = 0\n";
+        assert!(crate::Scenario::from_toml(linear, "t").is_ok());
+        let e = crate::Scenario::from_toml(&format!("[sim]\ntrajectory = \"circle\"\n{linear}"), "t")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("sim.trajectory") && e.contains("linear"), "{e}");
+    }
 }
 
 #[cfg(test)]
