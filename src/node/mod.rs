@@ -452,10 +452,22 @@ impl Node {
             return;
         }
         let t = crate::sim::round_end(&self.topo, k, r);
-        for li in 0..self.egress.len() {
-            let group = self.seal_for(li, &out);
+        for (li, group) in self.per_link(&out).into_iter().enumerate() {
             self.egress
                 .push_group(li, t, &group, self.topo.faults(), Stream::Round(r + 1));
+        }
+    }
+
+    /// `ds` as bytes for every out-link: sealed for each receiver when the run is authenticated, else encoded once
+    /// and shared.
+    fn per_link(&mut self, ds: &[Datagram]) -> Vec<Vec<bytes::Bytes>> {
+        let links = self.egress.len();
+        if self.wire.seals() {
+            (0..links).map(|li| self.seal_for(li, ds)).collect()
+        } else if links == 0 {
+            Vec::new()
+        } else {
+            vec![self.seal_for(0, ds); links]
         }
     }
 
@@ -501,8 +513,7 @@ impl Node {
     fn send(&mut self, k: u64, t: f64, own: Option<&Measurement>, round0: &[Datagram]) {
         let Some(own) = own else {
             if !round0.is_empty() {
-                for li in 0..self.egress.len() {
-                    let group = self.seal_for(li, round0);
+                for (li, group) in self.per_link(round0).into_iter().enumerate() {
                     self.egress
                         .push_group(li, t, &group, self.topo.faults(), Stream::Round(0));
                 }
@@ -528,8 +539,7 @@ impl Node {
             vec![have]
         };
         let rides = !round0.is_empty();
-        for li in 0..self.egress.len() {
-            let round0 = self.seal_for(li, round0);
+        for (li, round0) in self.per_link(round0).into_iter().enumerate() {
             let mut first = true;
             for rows in &groups {
                 let values: Vec<f64> = (0..m).filter(|r| rows & (1 << r) != 0).map(|r| z[r]).collect();

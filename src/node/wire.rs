@@ -94,6 +94,11 @@ impl Wire {
         self.id
     }
 
+    /// Whether what this node sends is sealed (then per receiver).
+    pub fn seals(&self) -> bool {
+        self.sealer.is_some()
+    }
+
     /// The epoch this boot seals under; none unauthenticated.
     pub fn sealing_epoch(&self) -> Option<u64> {
         self.sealer.as_ref().map(Sealer::epoch)
