@@ -20,6 +20,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import shutil
 import tempfile
 from collections import namedtuple
 from pathlib import Path
@@ -276,12 +277,23 @@ class Result:
         )
 
 
+def _option_error(key: str, message: str) -> ScenarioError:
+    """A bad argument, raised as the native layer raises one: ``key`` names it."""
+    e = ScenarioError(message)
+    e.message, e.key, e.problems = message, key, [(key, message)]
+    return e
+
+
 def _progress(progress: Union[bool, Callable[[int, int], Any], None], unit: str):
     """A callback (done, total) that draws a tqdm bar when progress is True and tqdm is installed."""
     if progress is None or progress is False:
         return None, lambda: None
     if callable(progress):
         return progress, lambda: None
+    if progress is not True:
+        raise _option_error(
+            "progress", f"progress: expected True, False or a callable (done, total), got {type(progress).__name__}"
+        )
     try:
         from tqdm.auto import tqdm
     except ImportError:
@@ -364,11 +376,17 @@ def sweep(
     else:
         sc = Scenario.resolve(scenario)
     axes = [_axis(k, v) for k, v in set.items()] if isinstance(set, Mapping) else [str(s) for s in set]
-    directory = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="simnet-sweep-"))
     est = None if estimators is None else (estimators if isinstance(estimators, str) else list(estimators))
     cb, close = _progress(progress, "run")
+    made = out is None
+    directory = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="simnet-sweep-"))
     try:
         raw = _simnet.sweep(sc._native, axes, directory, seeds, est, rounds, duration, transport, cb)
+    except ScenarioError:
+        # Refused before any run: the temporary directory this call made holds nothing.
+        if made:
+            shutil.rmtree(directory, ignore_errors=True)
+        raise
     finally:
         close()
     if raw["keyboard_interrupt"] or raw["stopped"]:
@@ -379,7 +397,10 @@ def sweep(
         )
     if raw["failed"]:
         key, point, seed, why = raw["failed"][0]
-        raise RuntimeError(f"{len(raw['failed'])} runs failed; first: run {key} ({point}, seed {seed}): {why}")
+        raise RuntimeError(
+            f"{len(raw['failed'])} runs failed; first: run {key} ({point}, seed {seed}): {why} "
+            f"(the runs made are kept in {str(directory)!r}: call again with out= to run only what is missing)"
+        )
     runs = _table((directory / "runs.csv").read_bytes())
     points = _table((directory / "points.csv").read_bytes())
     for t in (runs, points):
@@ -389,9 +410,12 @@ def sweep(
 
 
 def _matrix(name: str, m: Any) -> List[List[float]]:
-    a = np.atleast_2d(np.asarray(m, dtype=float))
+    try:
+        a = np.atleast_2d(np.asarray(m, dtype=float))
+    except (TypeError, ValueError) as e:
+        raise _option_error(name, f"{name}: expected a matrix of numbers ({e})") from None
     if a.ndim != 2:
-        raise ValueError(f"{name}: expected a matrix, got an array of {a.ndim} dimensions")
+        raise _option_error(name, f"{name}: expected a matrix, got an array of {a.ndim} dimensions")
     return a.tolist()
 
 

@@ -88,6 +88,7 @@ def attitude(
     rate: Optional[float] = None,
     gates: Optional[str] = None,
     calibrate_mag: bool = False,
+    compare: List[Tuple[str, str]] = [],
 ) -> Dict[str, Any]:
     """{json: the text simnet attitude --json prints, csv: attitude.csv as bytes}"""
 

@@ -370,7 +370,10 @@ fn wait<T: Send>(
         match got {
             Ok(v) => {
                 if let (Some(cb), None, false) = (progress, &failed, interrupted) {
-                    let _ = cb.call1((done.load(Ordering::Relaxed), total));
+                    // The work has ended: a callback that raises now has its error raised.
+                    if let Err(e) = cb.call1((done.load(Ordering::Relaxed), total)) {
+                        failed = Some(e);
+                    }
                 }
                 return match failed {
                     Some(e) => Err(e),

@@ -12,12 +12,12 @@ import pytest
 
 import simnet
 
-# summary.json fields a run measures on the wall clock: the only ones two runs of one seed may differ in.
-WALL_CLOCK = {"wall_s", "schedule"}
+# What depends on the machine and its load, not on the run (`summary::LOAD_DEPENDENT`).
+LOAD_DEPENDENT = {"transport"}
 
 
 def same_summary(a, b):
-    strip = lambda s: {k: v for k, v in s.items() if k not in WALL_CLOCK}
+    strip = lambda s: {k: v for k, v in s.items() if k not in LOAD_DEPENDENT}
     assert strip(a) == strip(b)
 
 
@@ -309,6 +309,38 @@ def test_a_progress_callback_that_raises_stops_the_run():
 
     with pytest.raises(Boom):
         simnet.run("ring3", duration=3600, progress=on_progress)
+
+
+def test_a_callback_raising_at_the_end_of_a_short_run_is_raised():
+    # The run ends before the first poll: only the final report calls the callback.
+    def on_progress(done, total):
+        raise ZeroDivisionError("from the callback")
+
+    with pytest.raises(ZeroDivisionError, match="from the callback"):
+        simnet.run("ring3", duration=0.02, progress=on_progress)
+
+
+@pytest.mark.parametrize("progress", [5, "yes", [1]])
+def test_a_progress_that_is_neither_a_bool_nor_a_callable_is_refused(progress):
+    with pytest.raises(simnet.ScenarioError, match="progress: expected True, False or a callable") as e:
+        simnet.run("ring3", duration=0.02, progress=progress)
+    assert e.value.key == "progress"
+
+
+def test_a_refused_sweep_leaves_no_temporary_directory(tmp_path, monkeypatch):
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    with pytest.raises(simnet.ScenarioError) as e:
+        simnet.sweep("ring3", {"link.loss.p": [0, 2]}, seeds=1, duration=0.1)
+    assert e.value.key == "link.loss.p"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_ragged_matrix_is_a_scenario_error_naming_it():
+    with pytest.raises(simnet.ScenarioError) as e:
+        simnet.bounds([[1, 2], [3]], 1, 1, 1)
+    assert e.value.key == "A"
 
 
 # ---- bounds ------------------------------------------------------------------------------------------------

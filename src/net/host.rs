@@ -122,7 +122,7 @@ impl HostOutput {
             run: Some(self.run),
         });
         s.links.clear();
-        s.schedule = Some(self.schedule);
+        s.transport.schedule = Some(self.schedule);
         // This node's figures of each estimator; `simnet collect` joins the nodes.
         s.estimators = crate::report::summary::EstimatorSummary::of_run(topo, std::slice::from_ref(&self.report), None);
         s

@@ -87,7 +87,7 @@ pub fn run_page(s: &Summary, plots: &[(String, String)]) -> String {
             s.steps,
             s.rate_hz,
             if s.interrupted { " · INTERRUPTED" } else { "" },
-            s.wall_s,
+            s.transport.wall_s,
             s.simnet_version
         ))
     );

@@ -8,7 +8,7 @@ use std::io::{self, BufRead, Write};
 use nalgebra::{DMatrix, DVector};
 
 pub use super::summary::PartInfo;
-use super::summary::{EstimatorSummary, LinkSummary, Summary};
+use super::summary::{EstimatorSummary, LinkSummary, Summary, Transport};
 use crate::estimate::Gaussian;
 use crate::node::{StepEstimate, TraceRow};
 use crate::observe::fusion::Observer;
@@ -313,19 +313,22 @@ pub fn merge(
         steps: infos.iter().map(|i| i.steps_done).max().unwrap_or(0),
         burn_in_steps: first.burn_in_steps,
         interrupted: parts.iter().any(|p| p.interrupted),
-        wall_s: parts.iter().map(|p| p.wall_s).fold(0.0, f64::max),
+        transport: Transport {
+            wall_s: parts.iter().map(|p| p.transport.wall_s).fold(0.0, f64::max),
+            frames_resent: 0,
+            kernel_drops: parts.iter().flat_map(|p| p.transport.kernel_drops.clone()).collect(),
+            schedule: parts.iter().filter_map(|p| p.transport.schedule).reduce(|mut a, b| {
+                a.merge(&b);
+                a
+            }),
+        },
         socket_losses: 0,
-        frames_resent: 0,
         nodes,
         links,
         fused: observer.summary(),
         estimators: merge_estimators(parts, observer.schemes()),
         settings: first.settings.clone(),
         part: None,
-        schedule: parts.iter().filter_map(|p| p.schedule).reduce(|mut a, b| {
-            a.merge(&b);
-            a
-        }),
         security: parts.iter().filter_map(|p| p.security.clone()).reduce(|mut a, b| {
             a.rejected.add(&b.rejected);
             a

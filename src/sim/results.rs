@@ -46,8 +46,8 @@ impl RunResults {
             self.wall_s,
             self.socket_losses,
         );
-        s.schedule = self.schedule;
-        s.frames_resent = self.frames_resent;
+        s.transport.schedule = self.schedule;
+        s.transport.frames_resent = self.frames_resent;
         s.estimators = crate::report::summary::EstimatorSummary::of_run(
             &self.scenario,
             &self.reports,

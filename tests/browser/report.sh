@@ -17,8 +17,10 @@ if [ -z "$CHROMIUM" ]; then
   exit 0
 fi
 # The build the test suite made (`cargo test`): a dev build is quick enough for these short runs.
-cargo build --locked -q
-BIN=target/debug/simnet
+BIN=${SIMNET_BIN:-target/debug/simnet}
+if [ -z "${SIMNET_BIN:-}" ]; then
+  cargo build --locked -q
+fi
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
 "$BIN" -q -t ring3 --duration 5 --loss 0.2 --estimators all --rounds 2 --out "$WORK/run" >/dev/null

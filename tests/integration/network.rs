@@ -35,7 +35,7 @@ fn reproducible(s: simnet::report::summary::Summary) -> String {
     s.reproducible().to_json()
 }
 
-/// (i) Two virtual runs with the same seed write byte-identical summary.json apart from wall_s, with every fault
+/// (i) Two virtual runs with the same seed write byte-identical summary.json apart from `transport`, with every fault
 /// of the link layer active.
 #[test]
 fn virtual_runs_are_deterministic() {
@@ -249,11 +249,14 @@ fn realtime_run_accounts_for_every_datagram() {
     assert!(!s.interrupted);
     assert_eq!(s.steps, 200);
     // Every node-step's start is measured against the schedule; how late is the machine's, not asserted.
-    let sch = s.schedule.expect("a realtime summary reports its schedule");
+    let sch = s.transport.schedule.expect("a realtime summary reports its schedule");
     assert_eq!(sch.steps, 3 * 200);
     assert!(sch.late_steps <= sch.steps && sch.max_lag_ms >= 0.0 && sch.max_lag_ms.is_finite());
     let (virt, _) = common::run_with(common::topology("ring3", o), RunOptions::default());
-    assert_eq!(virt.schedule, None, "the virtual clock has no schedule to fall behind");
+    assert_eq!(
+        virt.transport.schedule, None,
+        "the virtual clock has no schedule to fall behind"
+    );
     for l in &s.links {
         assert_eq!(l.sent, 200);
         assert_eq!(l.delivered + l.late + l.lost, l.sent, "{} → {}", l.from, l.to);
@@ -299,7 +302,7 @@ fn a_stopped_realtime_run_ends_every_node_after_the_same_step() {
         assert_eq!(l.sent, s.steps, "{} → {}", l.from, l.to);
         assert_eq!(l.delivered + l.late + l.lost, l.sent);
     }
-    let sch = s.schedule.unwrap();
+    let sch = s.transport.schedule.unwrap();
     assert_eq!(
         sch.steps,
         3 * s.steps,
@@ -325,13 +328,13 @@ fn a_frame_the_kernel_drops_is_asked_for_again_and_changes_nothing() {
             ..Default::default()
         },
     );
-    let drops: u64 = udp.nodes.iter().map(|n| n.kernel_drops).sum();
+    let drops = udp.transport.kernel_drops_total();
     println!(
         "kernel drops {drops}, frames resent {}, socket losses {}",
-        udp.frames_resent, udp.socket_losses
+        udp.transport.frames_resent, udp.socket_losses
     );
     assert!(drops > 0, "no frame was dropped: the test shows nothing");
-    assert!(udp.frames_resent > 0);
+    assert!(udp.transport.frames_resent > 0);
     assert_eq!(udp.socket_losses, 0);
     let figures = |s: &simnet::Summary| {
         let v = serde_json::to_value(s.reproducible()).unwrap();

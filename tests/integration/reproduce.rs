@@ -92,6 +92,7 @@ fn lesecq_attitude_converges_with_loss_and_the_forms_agree() {
 /// The rigid pair's separation-constrained EKF beats dead reckoning by at least 25 % in each motion over 1,000 runs
 /// (the paper: 26.9–31.5 % over 10,000).
 #[test]
+#[ignore = "long suite: Monte Carlo over 1,000 runs (.ci/run runs it)"]
 fn rigid_pair_ekf_beats_dead_reckoning_by_a_quarter() {
     use simnet::reproduce::rigid_pair::{monte_carlo, Config};
     let cfg = Config {

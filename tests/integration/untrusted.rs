@@ -771,6 +771,7 @@ fn rss_kib(pid: u32) -> Option<u64> {
 /// datagram the test sent was either read and counted as malformed, or dropped by the kernel on the full receive
 /// buffer and counted as such — none vanishes, and none is charged to a link.
 #[test]
+#[ignore = "long suite: 1,000,000 datagrams at a node process (.ci/run runs it)"]
 fn a_garbage_flood_is_counted_and_the_node_keeps_stepping() {
     let d = tmp("flood");
     let key = super::common::network_key(&d);
@@ -812,7 +813,7 @@ fn a_garbage_flood_is_counted_and_the_node_keeps_stepping() {
     let node = &part["nodes"][0];
     let (malformed, dropped) = (
         node["malformed"].as_u64().unwrap(),
-        node["kernel_drops"].as_u64().unwrap(),
+        part["transport"]["kernel_drops"]["0"].as_u64().unwrap_or(0),
     );
     eprintln!(
         "flood of {sent} in {flooded:?}: {malformed} read as malformed, {dropped} dropped by the kernel; \

@@ -384,7 +384,7 @@ fn cell(attack: Attack, o: &Outcome, clean: &Outcome) -> String {
 }
 
 #[test]
-#[ignore = "README's attack table: about three minutes of node processes (.ci/run runs it)"]
+#[ignore = "long suite: README's attack table, about three minutes of node processes (.ci/run runs it)"]
 fn wire_attack_table() {
     let dir: PathBuf = std::env::temp_dir().join(format!("simnet-wire-attacks-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);

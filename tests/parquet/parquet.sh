@@ -4,8 +4,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 
-cargo build --locked --features parquet -q
-BIN=target/debug/simnet
+# SIMNET_BIN: a binary built with the parquet feature already (CI's, built once with every feature).
+BIN=${SIMNET_BIN:-target/debug/simnet}
+if [ -z "${SIMNET_BIN:-}" ]; then
+  cargo build --locked --features parquet -q
+fi
 WORK=$(mktemp -d)
 trap 'rm -rf "$WORK"' EXIT
 VENV=target/ci-venv

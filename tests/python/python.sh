@@ -4,7 +4,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 
-cargo build --locked -q   # the command line the tests compare the package with
+# The command line the tests compare the package with (SIMNET_BIN: one built already).
+BIN=${SIMNET_BIN:-$PWD/target/debug/simnet}
+if [ -z "${SIMNET_BIN:-}" ]; then
+  cargo build --locked -q
+fi
 VENV=target/py-venv
 rm -rf "$VENV"
 python3 -m venv "$VENV"
@@ -18,7 +22,7 @@ echo "pip install ./python: $(($(date +%s) - start)) s (the wheel built in relea
 # The check of the issue that asked for the package, from outside the source tree.
 (cd "$VENV" && bin/python -c "import simnet; print(simnet.run('ring3', loss=0.2).nodes)")
 
-SIMNET_BIN="$PWD/target/debug/simnet" "$PY" -m pytest -q python/tests
+SIMNET_BIN="$BIN" "$PY" -m pytest -q python/tests
 
 MPLBACKEND=Agg "$PY" - <<'PY'
 import nbclient, nbformat

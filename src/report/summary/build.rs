@@ -102,7 +102,6 @@ impl Summary {
                     rejected: r.counters.rejected,
                     implausible_step: r.counters.implausible_step,
                     unknown_address: r.counters.unknown_address,
-                    kernel_drops: r.counters.kernel_drops,
                     gated: r.counters.gated,
                 }
             })
@@ -130,16 +129,22 @@ impl Summary {
             steps,
             burn_in_steps: topo.sim().burn_in_steps(),
             interrupted,
-            wall_s,
+            transport: Transport {
+                wall_s,
+                kernel_drops: reports
+                    .iter()
+                    .filter(|r| r.counters.kernel_drops > 0)
+                    .map(|r| (r.id, r.counters.kernel_drops))
+                    .collect(),
+                ..Transport::default()
+            },
             socket_losses,
-            frames_resent: 0,
             nodes,
             links,
             fused,
             estimators: Default::default(),
             settings: Some(Settings::of(topo)),
             part: None,
-            schedule: None,
             security: topo.security().key.as_ref().map(|_| SecuritySummary {
                 aead: "AES-128-CCM, 8-byte tag".into(),
                 key: topo.security().key_source.clone().unwrap_or_default(),

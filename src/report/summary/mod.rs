@@ -17,10 +17,6 @@ use serde::{Deserialize, Serialize};
 use crate::observe::fusion::FusedSummary;
 use crate::observe::metrics::FilterSummary;
 
-fn is_zero(v: &u64) -> bool {
-    *v == 0
-}
-
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct NodeSummary {
     pub id: u32,
@@ -42,9 +38,6 @@ pub struct NodeSummary {
     /// Datagrams from an address that is no neighbour's, not authenticated (one process per node).
     #[serde(default)]
     pub unknown_address: u64,
-    /// Datagrams the kernel dropped on the node's socket (its receive buffer full), apart from the link layer's.
-    #[serde(default)]
-    pub kernel_drops: u64,
     /// Neighbours' measurements the innovation gate left out of the networked update.
     #[serde(default)]
     pub gated: u64,
@@ -124,13 +117,11 @@ pub struct Summary {
     pub steps: u64,
     pub burn_in_steps: u64,
     pub interrupted: bool,
-    pub wall_s: f64,
+    /// What the machine and its load decided, not the run: left out of every comparison of two runs.
+    #[serde(default)]
+    pub transport: Transport,
     /// Frames of the virtual clock lost in the socket layer (each carries one step's datagrams on one link).
     pub socket_losses: u64,
-    /// Frames of the virtual clock sent again because a receiver asked for them (the kernel had dropped them on a
-    /// full receive buffer); absent when none was.
-    #[serde(skip_serializing_if = "is_zero", default)]
-    pub frames_resent: u64,
     pub nodes: Vec<NodeSummary>,
     pub links: Vec<LinkSummary>,
     pub fused: Option<FusedSummary>,
@@ -142,9 +133,6 @@ pub struct Summary {
     /// Set in the part a `simnet node` writes; absent from whole-run summaries.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub part: Option<PartInfo>,
-    /// How far the wall-clock runs fell behind their schedule; absent from virtual-clock runs.
-    #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub schedule: Option<Schedule>,
     /// Authenticated datagrams: where the key came from and what was refused; absent from unauthenticated runs.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub security: Option<SecuritySummary>,
@@ -193,22 +181,44 @@ impl Schedule {
     }
 }
 
-/// The keys of `summary.json` that depend on the machine and its load, not on the run: the wall time, frames the
-/// kernel dropped on a full socket buffer (`kernel_drops`, per node) and the virtual clock sent again
-/// (`frames_resent`). A resent frame leaves every result unchanged, so two runs of one scenario and seed agree on
-/// everything else ([`Summary::reproducible`]). `socket_losses` is not among them: a frame lost for good changes
-/// what the nodes estimate.
-pub const LOAD_DEPENDENT: [&str; 3] = ["wall_s", "kernel_drops", "frames_resent"];
+/// The `transport` section of `summary.json`: what depends on the machine and its load, not on the run — the wall
+/// time, frames the kernel dropped on a full socket buffer and the virtual clock sent again, and how far a
+/// wall-clock run fell behind its schedule. A resent frame leaves every result unchanged, so two runs of one scenario
+/// and seed agree on everything outside this section ([`Summary::reproducible`]). `socket_losses` is not in it: a
+/// frame lost for good changes what the nodes estimate.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct Transport {
+    pub wall_s: f64,
+    /// Frames of the virtual clock sent again because a receiver asked for them (the kernel had dropped them).
+    #[serde(default)]
+    pub frames_resent: u64,
+    /// Datagrams the kernel dropped on each node's socket (its receive buffer full), by node id; nodes without a
+    /// drop are left out.
+    #[serde(default)]
+    pub kernel_drops: std::collections::BTreeMap<u32, u64>,
+    /// How far the wall-clock runs fell behind their schedule; absent from virtual-clock runs.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub schedule: Option<Schedule>,
+}
+
+impl Transport {
+    /// Every node's kernel drops.
+    pub fn kernel_drops_total(&self) -> u64 {
+        self.kernel_drops.values().sum()
+    }
+}
+
+/// The key of `summary.json` that [`Summary::reproducible`] clears: the [`Transport`] section.
+pub const LOAD_DEPENDENT: &str = "transport";
 
 impl Summary {
-    /// This summary with the [`LOAD_DEPENDENT`] figures zeroed: what two runs of one scenario and seed give alike,
-    /// in memory or over UDP on the virtual clock, on a quiet machine or a loaded one.
+    /// This summary with its [`Transport`] section cleared: what two runs of one scenario and seed give alike, in
+    /// memory or over UDP on the virtual clock, on a quiet machine or a loaded one.
     pub fn reproducible(&self) -> Summary {
-        let mut s = self.clone();
-        s.wall_s = 0.0;
-        s.frames_resent = 0;
-        s.nodes.iter_mut().for_each(|n| n.kernel_drops = 0);
-        s
+        Summary {
+            transport: Transport::default(),
+            ..self.clone()
+        }
     }
 
     /// (networked, independent) scored errors of every estimating node whose error was measured

@@ -30,7 +30,7 @@ impl Summary {
             self.steps,
             self.rate_hz,
             if self.interrupted { " · INTERRUPTED" } else { "" },
-            self.wall_s
+            self.transport.wall_s
         )?;
         let unit = self.model.error_text().legend;
         writeln!(
@@ -157,14 +157,14 @@ impl Summary {
                  ahead, {unknown} came from an address that is no neighbour's"
             )?;
         }
-        if let Some(s) = &self.schedule {
+        if let Some(s) = &self.transport.schedule {
             writeln!(
                 w,
                 "schedule: steps started at most {:.1} ms late; {} of {} node-steps more than one period late",
                 s.max_lag_ms, s.late_steps, s.steps
             )?;
         }
-        let kernel: u64 = self.nodes.iter().map(|n| n.kernel_drops).sum();
+        let kernel = self.transport.kernel_drops_total();
         if kernel > 0 {
             writeln!(
                 w,
