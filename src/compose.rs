@@ -126,7 +126,7 @@ pub fn compose_file(
         )?;
         writeln!(
             y,
-            "# Build the static binary first (see README), then: docker compose up --build"
+            "# Build the static binary first (docs/src/multi-host.md), then: docker compose up --build"
         )?;
         writeln!(y)?;
         writeln!(y, "x-node: &node")?;

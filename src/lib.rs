@@ -79,7 +79,11 @@ pub fn cli_main() -> std::process::ExitCode {
 pub use scenario::{LinkSpec, Overrides, Scenario, ScenarioBuilder};
 pub use sim::{RunResults, Sim};
 
-/// The README's examples run as doctests.
+/// The Rust examples of README and the book run as doctests.
 #[cfg(doctest)]
-#[doc = include_str!("../README.md")]
-pub struct ReadmeDoctests;
+mod doc_examples {
+    #[doc = include_str!("../README.md")]
+    pub struct Readme;
+    #[doc = include_str!("../docs/src/library.md")]
+    pub struct Library;
+}

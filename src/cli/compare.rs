@@ -1,8 +1,12 @@
 //! `simnet compare`: every estimator on the same scenario over a grid of loss × rounds × seeds, in memory, and
-//! the table of mean errors relative to the centralized reference (mean ± standard deviation over the seeds).
+//! the table of mean errors relative to the centralized reference (mean ± standard deviation over the seeds). It is
+//! a sweep over `loss` and `rounds`: with `--out DIR` its runs are a campaign's, resumable, with `runs.csv`,
+//! `points.csv`, `sweep.svg` and `report.html`.
 
 use super::*;
+use crate::campaign::{self, Axis, Plan, PointStat, RunRecord};
 use crate::estimators::Kind;
+use crate::stats::MeanCi;
 
 #[derive(Args, Debug, Clone)]
 pub struct CompareArgs {
@@ -26,15 +30,73 @@ pub struct CompareArgs {
     /// one the model can run.
     #[arg(long, value_delimiter = ',', value_parser = super::args::estimator)]
     pub estimators: Option<Vec<super::args::EstimatorChoice>>,
+    /// Keep the runs as a campaign in DIR (as `simnet sweep --out`: resumable, with runs.csv, points.csv,
+    /// sweep.svg, report.html and manifest.json).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print the table as JSON instead of Markdown.
+    #[arg(long)]
+    pub json: bool,
+    /// With --out, also write runs and points as Parquet (a build with the `parquet` feature).
+    #[arg(long, value_enum, default_value = "csv", requires = "out")]
+    pub format: Format,
 }
 
-struct Cell {
+/// One cell of the table: a figure's mean, standard deviation and number of seeds that gave it.
+#[derive(serde::Serialize)]
+struct Figure {
+    mean: Option<f64>,
+    sd: Option<f64>,
+    n: usize,
+}
+
+impl Figure {
+    fn of(s: Option<&MeanCi>) -> Figure {
+        let finite = |v: f64| v.is_finite().then_some(v);
+        s.map_or(
+            Figure {
+                mean: None,
+                sd: None,
+                n: 0,
+            },
+            |s| Figure {
+                mean: finite(s.mean),
+                sd: finite(s.sd),
+                n: s.n,
+            },
+        )
+    }
+
+    fn text(&self, seeds: usize) -> String {
+        match (self.mean, self.sd) {
+            (None, _) => "diverged".to_string(),
+            (Some(m), sd) => {
+                let sd = sd.map_or(String::new(), |sd| format!(" ± {sd:.3}"));
+                let of = if self.n < seeds {
+                    format!(" ({} of {seeds})", self.n)
+                } else {
+                    String::new()
+                };
+                format!("{m:.3}{sd}{of}")
+            }
+        }
+    }
+}
+
+/// One row: a loss and a number of rounds.
+#[derive(serde::Serialize)]
+struct Row {
     loss: f64,
     rounds: u64,
-    seed: u64,
+    centralized_error: Figure,
+    /// Each estimator's mean error / centralized's.
+    ratio_to_centralized: std::collections::BTreeMap<String, Figure>,
+    /// Sequeira's place among the estimators by mean ratio (1 = best), when it ran.
+    sequeira_rank: Option<usize>,
 }
 
 pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCode> {
+    let format = args.format.check()?;
     let base = Scenario::resolve(&args.topology)?;
     let mut all = args
         .estimators
@@ -44,54 +106,48 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
         all.push(Kind::Centralized);
         all.sort();
     }
-    let cells: Vec<Cell> = args
-        .loss
-        .iter()
-        .flat_map(|&loss| {
-            args.rounds
-                .iter()
-                .flat_map(move |&rounds| (1..=args.seeds).map(move |seed| Cell { loss, rounds, seed }))
-        })
-        .collect();
+    let list = |v: Vec<String>| v.join(",");
+    let axes = [
+        format!("loss={}", list(args.loss.iter().map(f64::to_string).collect())),
+        format!("rounds={}", list(args.rounds.iter().map(u64::to_string).collect())),
+    ]
+    .iter()
+    .map(|a| Axis::parse(a).map_err(|e| UsageError::Option(format!("--loss/--rounds: {e}"))))
+    .collect::<Result<Vec<_>, _>>()?;
+    let start = campaign::sweep_base(&base, Some(all.clone()), None, args.duration)?;
     // Every cell's scenario is checked before any run starts.
-    let scenarios: Vec<Scenario> = cells
-        .iter()
-        .map(|c| {
-            base.with(&Overrides {
-                loss: Some(LossModel::Bernoulli { p: c.loss }),
-                seed: Some(c.seed),
-                duration_s: args.duration,
-                estimators: Some(all.clone()),
-                rounds: Some(c.rounds),
-                ..Default::default()
-            })
-        })
-        .collect::<Result<_, _>>()?;
-    let pb = (!quiet).then(|| {
-        progress_bar_of(
-            cells.len() as u64,
-            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs (eta {eta})",
-        )
-    });
-    let tick = || {
-        if let Some(p) = &pb {
-            p.inc(1);
-        }
+    let plan = Plan::new(start, axes, args.seeds)?;
+    let stats = match &args.out {
+        Some(dir) => match super::sweep::run_campaign(&plan, dir, None, super::sweep::Transport::Memory, quiet)? {
+            super::sweep::Campaign::Finished(_, done) => {
+                let files = super::sweep::files_of(dir, &done, format)?;
+                if !quiet {
+                    eprintln!("{}", super::sweep::wrote_line(dir, &files, done.runs));
+                }
+                done.stats
+            }
+            super::sweep::Campaign::Ended(code) => return Ok(code),
+        },
+        None => in_memory(&plan, quiet),
     };
-    let summaries = crate::par::map(
-        &scenarios,
-        |s| crate::sim::Sim::new(s).and_then(|sim| sim.run()).map(|r| r.summary()),
-        &tick,
-    );
-    if let Some(p) = pb {
-        p.finish_and_clear();
-    }
-    let mut out = std::io::stdout().lock();
     let names: Vec<&str> = all
         .iter()
         .filter(|k| **k != Kind::Centralized)
         .map(|k| k.name())
         .collect();
+    let rows = rows(args, &names, &stats);
+    let mut out = std::io::stdout().lock();
+    if args.json {
+        let v = serde_json::json!({
+            "topology": base.name(),
+            "model": base.model().get().kind(),
+            "duration_s": args.duration.unwrap_or(base.sim().duration_s),
+            "seeds": args.seeds,
+            "rows": rows,
+        });
+        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+        return Ok(ExitCode::SUCCESS);
+    }
     writeln!(
         out,
         "{} ({} model), {} s per run, {} per cell: mean error / centralized's, mean ± sd over the seeds",
@@ -109,59 +165,91 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
         .collect();
     writeln!(out, "| {} |", header.join(" | "))?;
     writeln!(out, "|{}", "---|".repeat(header.len()))?;
-    let per_cell = args.seeds as usize;
-    for (chunk, cs) in summaries.chunks(per_cell).zip(cells.chunks(per_cell)) {
-        let ok: Vec<&crate::Summary> = chunk.iter().filter_map(|s| s.as_ref().ok()).collect();
-        let stat = |v: Vec<f64>| {
-            let n = v.len() as f64;
-            let m = v.iter().sum::<f64>() / n;
-            let sd = (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt();
-            (m, sd, v.len())
-        };
-        let central = stat(
-            ok.iter()
-                .filter_map(|s| s.estimators.get("centralized")?.mean_error)
-                .collect(),
-        );
-        let ratios: Vec<(f64, f64, usize)> = names
-            .iter()
-            .map(|n| {
-                stat(
-                    ok.iter()
-                        .filter_map(|s| s.estimators.get(*n)?.ratio_to_centralized)
-                        .collect(),
-                )
-            })
-            .collect();
-        let cell = |(m, sd, k): (f64, f64, usize)| {
-            if k == 0 || !m.is_finite() {
-                "diverged".to_string()
-            } else if k < per_cell {
-                format!("{m:.3} ± {sd:.3} ({k} of {per_cell})")
-            } else {
-                format!("{m:.3} ± {sd:.3}")
-            }
-        };
-        let seq = names.iter().position(|n| *n == "sequeira").map(|i| ratios[i].0);
-        let rank = seq.map_or("—".to_string(), |s| {
-            let better = ratios.iter().filter(|r| r.0.is_finite() && r.0 < s).count();
-            format!("{} of {}", better + 1, names.len())
-        });
-        let row: Vec<String> = [
-            format!("{:.0} %", 100.0 * cs[0].loss),
-            cs[0].rounds.to_string(),
-            cell(central),
+    let seeds = args.seeds as usize;
+    for r in &rows {
+        let cells: Vec<String> = [
+            format!("{:.0} %", 100.0 * r.loss),
+            r.rounds.to_string(),
+            r.centralized_error.text(seeds),
         ]
         .into_iter()
-        .chain(ratios.iter().map(|r| cell(*r)))
-        .chain([rank])
+        .chain(names.iter().map(|n| r.ratio_to_centralized[*n].text(seeds)))
+        .chain([r
+            .sequeira_rank
+            .map_or("—".to_string(), |k| format!("{k} of {}", names.len()))])
         .collect();
-        writeln!(out, "| {} |", row.join(" | "))?;
-        for (s, c) in chunk.iter().zip(cs) {
-            if let Err(e) = s {
-                eprintln!("warning: loss {} L {} seed {}: {e}", c.loss, c.rounds, c.seed);
-            }
-        }
+        writeln!(out, "| {} |", cells.join(" | "))?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Every run of the plan in memory, on every core, and the statistics of its points (a campaign's, without a store).
+fn in_memory(plan: &Plan, quiet: bool) -> Vec<PointStat> {
+    let runs = plan.runs();
+    let pb = (!quiet).then(|| {
+        progress_bar_of(
+            runs.len() as u64,
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} runs (eta {eta})",
+        )
+    });
+    let tick = || {
+        if let Some(p) = &pb {
+            p.inc(1);
+        }
+    };
+    let summaries = crate::par::map(
+        &runs,
+        |r| {
+            plan.scenario(r)
+                .map_err(|e| e.to_string())
+                .and_then(|s| campaign::in_memory(&s))
+        },
+        &tick,
+    );
+    if let Some(p) = pb {
+        p.finish_and_clear();
+    }
+    let mut records = Vec::new();
+    for (r, s) in runs.iter().zip(summaries) {
+        match s {
+            Ok(s) => records.push(RunRecord::of(&r.key, r.point, plan.values(r.point), r.seed, &s)),
+            Err(e) => eprintln!("warning: {} seed {}: {e}", plan.describe(r.point), r.seed),
+        }
+    }
+    campaign::points(&records, plan.points.len())
+}
+
+/// The table's rows from the points' statistics, loss outermost as the plan orders its points.
+fn rows(args: &CompareArgs, names: &[&str], stats: &[PointStat]) -> Vec<Row> {
+    let stat = |point: usize, est: &str, metric: &str| {
+        stats
+            .iter()
+            .find(|s| s.point == point && s.estimator == est && s.metric == metric)
+            .map(|s| &s.stat)
+    };
+    let cells = args
+        .loss
+        .iter()
+        .flat_map(|&loss| args.rounds.iter().map(move |&rounds| (loss, rounds)));
+    cells
+        .enumerate()
+        .map(|(point, (loss, rounds))| {
+            let ratio_to_centralized: std::collections::BTreeMap<String, Figure> = names
+                .iter()
+                .map(|n| (n.to_string(), Figure::of(stat(point, n, "ratio_to_centralized"))))
+                .collect();
+            let mean = |n: &str| ratio_to_centralized[n].mean;
+            let sequeira_rank = names.contains(&"sequeira").then(|| {
+                let s = mean("sequeira").unwrap_or(f64::INFINITY);
+                1 + names.iter().filter(|n| mean(n).is_some_and(|m| m < s)).count()
+            });
+            Row {
+                loss,
+                rounds,
+                centralized_error: Figure::of(stat(point, "centralized", "mean_error")),
+                ratio_to_centralized,
+                sequeira_rank,
+            }
+        })
+        .collect()
 }

@@ -7,7 +7,6 @@ use std::sync::Arc;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
-use crate::link::LossModel;
 use crate::net::{self, Clock, RunOptions};
 use crate::report::trace::TraceWriter;
 use crate::report::{plot, summary};

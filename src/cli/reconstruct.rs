@@ -15,7 +15,7 @@ use crate::report::plot;
 
 #[derive(Args, Debug, Clone)]
 pub struct ReconstructArgs {
-    /// The IMU file: `t,ax,ay,az,gx,gy,gz[,mx,my,mz][,x,y,z][,roll,pitch,yaw]` (README: "Recorded IMU files"), or a
+    /// The IMU file: `t,ax,ay,az,gx,gy,gz[,mx,my,mz][,x,y,z][,roll,pitch,yaw]` (the book: docs/src/recordings.md), or a
     /// maker's export as `simnet attitude` reads it.
     pub file: PathBuf,
     #[command(flatten)]
@@ -202,7 +202,14 @@ pub fn reconstruct(args: &ReconstructArgs) -> anyhow::Result<ExitCode> {
             .collect();
         let svg = plot::lines(&series, "t (s)", "position error (m)", true, "reconstruction error")?;
         write_atomic(&args.out.join("reconstruction.svg"), svg.as_bytes())?;
+        writeln!(
+            out,
+            "\nwrote {}/{{reconstruction.csv, reconstruction.svg}}",
+            args.out.display()
+        )?;
+    } else {
+        // Without a reference position there is no error to plot.
+        writeln!(out, "\nwrote {}/reconstruction.csv", args.out.display())?;
     }
-    writeln!(out, "\nwrote {}/reconstruction.csv", args.out.display())?;
     Ok(ExitCode::SUCCESS)
 }

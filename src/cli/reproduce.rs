@@ -52,7 +52,7 @@ pub struct RigidPairArgs {
     /// Seed of the first run (run i uses seed + i).
     #[arg(allow_hyphen_values = true, long, default_value_t = 1)]
     pub seed: u64,
-    /// Where to write the results table and plots.
+    /// Where to write results.json (every motion's figures), claims.md and claims.json.
     #[arg(long, default_value = "out/rigid-pair")]
     pub out: PathBuf,
 }
@@ -152,7 +152,7 @@ pub fn reproduce(paper: &Paper, quiet: bool) -> anyhow::Result<ExitCode> {
         "Sequeira et al., networks of IMUs (Sequeira 2023): claims and simnet's figures ({} seeds)",
         cfg.seeds.len()
     );
-    finish(&args.out, &title, &out.claims, &out.plots)
+    finish(&args.out, &title, &out.claims, &out.plots, &[])
 }
 
 fn lesecq(args: &LesecqArgs) -> anyhow::Result<ExitCode> {
@@ -171,15 +171,16 @@ fn lesecq(args: &LesecqArgs) -> anyhow::Result<ExitCode> {
         args.loss * 100.0,
         seeds.len()
     );
-    finish(&args.out, &title, &out.claims, &out.plots)
+    finish(&args.out, &title, &out.claims, &out.plots, &[])
 }
 
-/// Print the claims table, then write it with the plots.
+/// Print the claims table, then write it with the plots; `written`: files the caller wrote into `dir` already.
 fn finish(
     dir: &Path,
     title: &str,
     claims: &[reproduce::Claim],
     plots: &[(String, String)],
+    written: &[&str],
 ) -> anyhow::Result<ExitCode> {
     let md = reproduce::markdown(title, claims);
     // Print first: whatever happens to the files, the result is not lost.
@@ -194,8 +195,13 @@ fn finish(
     for (name, svg) in plots {
         write_atomic(&dir.join(name), svg.as_bytes())?;
     }
-    let files: String = plots.iter().map(|p| format!(", {}", p.0)).collect();
-    writeln!(out, "wrote {}/{{claims.md, claims.json{files}}}", dir.display())?;
+    let files: String = written
+        .iter()
+        .map(|w| format!("{w}, "))
+        .chain(["claims.md, claims.json".to_string()])
+        .chain(plots.iter().map(|p| format!(", {}", p.0)))
+        .collect();
+    writeln!(out, "wrote {}/{{{files}}}", dir.display())?;
     Ok(ExitCode::SUCCESS)
 }
 
@@ -239,7 +245,7 @@ fn rigid_pair(args: &RigidPairArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         serde_json::to_string_pretty(&results)?.as_bytes(),
     )?;
     let title = "Two IMUs on a rigid body (the rigid-pair paper): claims and simnet's figures";
-    finish(&args.out, title, &rigid_pair::claims(&results), &[])
+    finish(&args.out, title, &rigid_pair::claims(&results), &[], &["results.json"])
 }
 
 fn nieminen(args: &NieminenArgs) -> anyhow::Result<ExitCode> {
@@ -263,5 +269,5 @@ fn nieminen(args: &NieminenArgs) -> anyhow::Result<ExitCode> {
         serde_json::to_string_pretty(&out.results)?.as_bytes(),
     )?;
     let title = "Nieminen et al., boundary conditions for inertial navigation (Nieminen et al. 2010): claims and simnet's figures";
-    finish(&args.out, title, &out.claims, &out.plots)
+    finish(&args.out, title, &out.claims, &out.plots, &[])
 }

@@ -111,7 +111,6 @@ pub(super) fn sweep(args: &SweepArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         return merge(dirs, out.as_deref(), format.check()?, quiet);
     }
     let format = args.format.check()?;
-    let started = now();
     let topology = args.topology.as_deref().unwrap_or_default();
     let axes: Vec<Axis> = args
         .set
@@ -133,11 +132,35 @@ pub(super) fn sweep(args: &SweepArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         return Ok(ExitCode::SUCCESS);
     }
     let dir = args.out.as_deref().unwrap_or(Path::new("."));
+    match run_campaign(&plan, dir, args.shard, args.transport, quiet)? {
+        Campaign::Finished(file, done) => wrote(dir, &file, done, format),
+        Campaign::Ended(code) => Ok(code),
+    }
+}
+
+/// How [`run_campaign`] ended.
+pub(super) enum Campaign {
+    /// Every run is in the store: its files are written.
+    Finished(PlanFile, campaign::Finished),
+    /// A shard that is done while others are not, or runs missing (stopped or failed): the exit code.
+    Ended(ExitCode),
+}
+
+/// The runs of `plan` (of shard I of N) missing from the store in `dir`, on every core, with a progress bar; then,
+/// when the campaign is whole, its files. Ctrl-C or SIGTERM stops it with every finished run kept.
+pub(super) fn run_campaign(
+    plan: &Plan,
+    dir: &Path,
+    shard: Option<(usize, usize)>,
+    transport: Transport,
+    quiet: bool,
+) -> anyhow::Result<Campaign> {
+    let started = now();
     super::out::check_out(dir)?;
-    let file = PlanFile::of(&plan);
+    let file = PlanFile::of(plan);
     let store = Store::open(dir, &file).map_err(usage_or_run)?;
     let all = plan.runs();
-    let (mine, shard) = match args.shard {
+    let (mine, shard_name) = match shard {
         Some((i, n)) => (campaign::shard(&all, i, n), format!("{i}/{n}")),
         None => (all.clone(), "all".to_string()),
     };
@@ -148,10 +171,10 @@ pub(super) fn sweep(args: &SweepArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             crate::scenario::count(plan.points.len(), "point"),
             crate::scenario::count(plan.seeds as usize, "seed"),
             all.len(),
-            if shard == "all" {
+            if shard_name == "all" {
                 String::new()
             } else {
-                format!(", shard {shard}: {}", mine.len())
+                format!(", shard {shard_name}: {}", mine.len())
             },
             dir.display()
         );
@@ -169,12 +192,11 @@ pub(super) fn sweep(args: &SweepArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             p.inc(1);
         }
     };
-    let transport = args.transport;
     let run_one = |s: &Scenario| match transport {
         Transport::Memory => campaign::in_memory(s),
         Transport::Udp => over_udp(s, &stop),
     };
-    let ran = campaign::run_missing(&plan, &mine, &store, &run_one, &tick, &stop);
+    let ran = campaign::run_missing(plan, &mine, &store, &run_one, &tick, &stop);
     if let Some(p) = pb {
         p.finish_and_clear();
     }
@@ -190,7 +212,7 @@ pub(super) fn sweep(args: &SweepArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         eprintln!("error: … and {} more failed runs", ran.failed.len() - 5);
     }
     let me = ShardInfo {
-        shard: shard.clone(),
+        shard: shard_name.clone(),
         simnet: campaign::simnet_build(),
         command: std::env::args().collect(),
         transport: transport.name().into(),
@@ -217,50 +239,54 @@ pub(super) fn sweep(args: &SweepArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             }
         );
     }
-    let done = match campaign::finish(&store, &file, &me) {
-        Ok(f) => f,
+    match campaign::finish(&store, &file, &me) {
+        Ok(done) => Ok(Campaign::Finished(file, done)),
         // A shard that is not the last: the others write the files when they finish.
         Err(CampaignError::Missing { missing, total, .. })
-            if args.shard.is_some() && ran.failed.is_empty() && ran.stopped == 0 =>
+            if shard.is_some() && ran.failed.is_empty() && ran.stopped == 0 =>
         {
             if !quiet {
                 eprintln!(
-                    "shard {shard} is done; the campaign has {} of {total} runs: the last shard to finish writes \
-                     the files (or run `simnet sweep merge {}`)",
+                    "shard {shard_name} is done; the campaign has {} of {total} runs: the last shard to finish \
+                     writes the files (or run `simnet sweep merge {}`)",
                     total - missing,
                     dir.display()
                 );
             }
-            return Ok(ExitCode::SUCCESS);
+            Ok(Campaign::Ended(ExitCode::SUCCESS))
         }
         Err(e @ CampaignError::Missing { .. }) => {
             eprintln!("error: {e}: rerun the same command to run only what is missing");
-            return Ok(if ran.stopped > 0 {
+            Ok(Campaign::Ended(if ran.stopped > 0 {
                 exit_code(true)
             } else {
                 ExitCode::from(1)
-            });
+            }))
         }
-        Err(e) => return Err(usage_or_run(e)),
-    };
-    wrote(dir, &file, done, format)
+        Err(e) => Err(usage_or_run(e)),
+    }
 }
 
 /// The tables of a finished campaign, their Parquet copies, and what was written.
 fn wrote(dir: &Path, file: &PlanFile, done: campaign::Finished, format: Format) -> anyhow::Result<ExitCode> {
-    let mut files = done.files;
+    let files = files_of(dir, &done, format)?;
+    print_points(file, &done.stats)?;
+    println!("\n{}", wrote_line(dir, &files, done.runs));
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Every file a finished campaign wrote, with the Parquet copies `format` asks for.
+pub(super) fn files_of(dir: &Path, done: &campaign::Finished, format: Format) -> anyhow::Result<Vec<String>> {
+    let mut files = done.files.clone();
     if format == Format::Parquet {
         let copies = parquet_copies(dir, &files)?;
         files.extend(copies);
     }
-    print_points(file, &done.stats)?;
-    println!(
-        "\nwrote {}/{{{}}} ({} runs)",
-        dir.display(),
-        files.join(", "),
-        done.runs
-    );
-    Ok(ExitCode::SUCCESS)
+    Ok(files)
+}
+
+pub(super) fn wrote_line(dir: &Path, files: &[String], runs: usize) -> String {
+    format!("wrote {}/{{{}}} ({runs} runs)", dir.display(), files.join(", "))
 }
 
 /// `sweep merge`: every shard directory's records into `out`, checked to be one campaign; the files once all runs are

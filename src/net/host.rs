@@ -67,7 +67,8 @@ pub enum PeerError {
 }
 
 /// Where node `index` finds its neighbours: each at its `addr` (or `node<ID>:7000`), unless `given` (id →
-/// "host:port") says otherwise. A given id that is not a neighbour is an error naming it.
+/// "host:port") says otherwise. The node's own id is passed over, so that every node can take one shared list; any
+/// other id that is not a neighbour is an error naming it.
 pub fn neighbour_addrs(
     topo: &Scenario,
     index: usize,
@@ -83,6 +84,9 @@ pub fn neighbour_addrs(
     }
     for (id, addr) in given {
         let j = topo.index_of(*id).ok_or(PeerError::Unknown(*id))?;
+        if j == index {
+            continue;
+        }
         if !peers.contains_key(&j) {
             return Err(PeerError::NotNeighbour {
                 id: *id,

@@ -259,8 +259,8 @@ fn the_table_has_a_column_per_estimator() {
 /// ratios are those of single runs with the same settings.
 #[test]
 fn compare_prints_the_findings_table() {
-    // ring3 at 20 % loss, seeds 1 and 2, 1 s each.
-    let compare = |extra: &[&str]| {
+    // ring3 at 20 % loss, seeds 1 and 2, 1 s each: (stdout, stderr).
+    let compare_with = |extra: &[&str]| {
         let out = simnet()
             .args([
                 "compare",
@@ -277,8 +277,12 @@ fn compare_prints_the_findings_table() {
             .output()
             .unwrap();
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-        String::from_utf8_lossy(&out.stdout).into_owned()
+        (
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
     };
+    let compare = |extra: &[&str]| compare_with(extra).0;
     let table = compare(&["--rounds", "1,2"]);
     let rows: Vec<&str> = table.lines().filter(|l| l.starts_with("| 20 %")).collect();
     assert_eq!(rows.len(), 2, "{table}");
@@ -327,6 +331,38 @@ fn compare_prints_the_findings_table() {
     let lines: Vec<&str> = alone.lines().filter(|l| l.starts_with('|')).collect();
     assert_eq!(lines.len(), 3, "{alone}");
     assert!(lines.iter().all(|l| cells(l) == 4), "{alone}");
+
+    // With --out it is a campaign: the sweep's files, resumable; --json prints the same figures as the table.
+    let dir = std::env::temp_dir().join(format!("simnet-test-{}-compare-out", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let d = dir.to_str().unwrap();
+    let with_out = |json: bool| {
+        let mut extra = vec!["--rounds", "1,2", "--out", d];
+        if json {
+            extra.push("--json");
+        }
+        compare_with(&extra)
+    };
+    let (first, _) = with_out(false);
+    assert_eq!(first, table, "the table with --out is the table without");
+    for f in ["runs.csv", "points.csv", "sweep.svg", "report.html", "manifest.json"] {
+        assert!(dir.join(f).is_file(), "{f} missing from {}", dir.display());
+    }
+    let runs = std::fs::read_to_string(dir.join("runs.csv")).unwrap();
+    assert_eq!(runs.lines().count(), 1 + 4, "{runs}");
+    let (json, err) = with_out(true);
+    assert!(err.contains("0 run now, 4 already in"), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    assert_eq!(
+        (rows[0]["loss"].as_f64(), rows[1]["rounds"].as_u64()),
+        (Some(0.2), Some(2))
+    );
+    let icf = rows[0]["ratio_to_centralized"]["icf"]["mean"].as_f64().unwrap();
+    assert!(cell.starts_with(&format!("{icf:.3} ±")), "icf: {cell} vs {icf}");
+    assert_eq!(rows[0]["ratio_to_centralized"]["icf"]["n"], 2);
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `simnet estimators` lists every scheme with its reference.
@@ -843,14 +879,14 @@ fn node_stops_cleanly_on_sigterm() {
         .any(|e| e.unwrap().path().extension().is_some_and(|x| x == "tmp")));
 }
 
-/// The annotated topology file of README's "Topology files" is a valid topology.
+/// The annotated topology file of the book's "Topology files" is a valid topology.
 #[test]
-fn the_readme_topology_example_validates() {
-    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
-    let at = readme.find("## Topology files").unwrap();
-    let start = readme[at..].find("```toml").unwrap() + at + "```toml".len();
-    let end = readme[start..].find("```").unwrap() + start;
-    let t = simnet::Scenario::from_toml(&readme[start..end], "README.md").unwrap_or_else(|e| panic!("{e}"));
+fn the_book_topology_example_validates() {
+    let page = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/src/topologies.md")).unwrap();
+    let at = page.find("## Topology files").unwrap();
+    let start = page[at..].find("```toml").unwrap() + at + "```toml".len();
+    let end = page[start..].find("```").unwrap() + start;
+    let t = simnet::Scenario::from_toml(&page[start..end], "topologies.md").unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(t.attacks().len(), 1);
 }
 
@@ -896,6 +932,7 @@ fn every_subcommand_exits_2_naming_a_bad_topology_option_or_output() {
     for c in [
         vec!["run", "-t", "ring3", "--duration", "1", "--out", f],
         vec!["sweep", "-t", "ring3", "--set", "link.loss.p=0,0.1", "--out", f],
+        vec!["compare", "-t", "ring3", "--seeds", "1", "--duration", "1", "--out", f],
         vec!["node", "-t", "ring3", "--id", "0", "--insecure", "--out", f],
         vec!["bounds", "-t", "sinopoli-scalar", "--sweep", "--out", f],
         vec!["protocol", "-t", "tri3-paper", "--out", f],
@@ -907,6 +944,7 @@ fn every_subcommand_exits_2_naming_a_bad_topology_option_or_output() {
     cases.push((vec!["reconstruct", rec, "--velocity-at", "500:0,0,0"], "--error-model"));
     // An option that would change nothing is refused, not ignored.
     cases.push((vec!["bounds", "-t", "sinopoli-scalar", "--out", f], "--sweep"));
+    cases.push((vec!["compare", "-t", "ring3", "--format", "parquet"], "--out"));
     // A node offers no option it refuses.
     let help = Command::new(env!("CARGO_BIN_EXE_simnet"))
         .args(["node", "--help"])

@@ -2,9 +2,11 @@
 
 mod attacks;
 mod attitude;
+mod book_commands;
 mod campaign;
 mod cli;
 mod common;
+mod docs;
 mod estimation;
 mod estimators;
 mod fusion;

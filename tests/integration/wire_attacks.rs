@@ -4,7 +4,8 @@
 //! holding the key (an insider), and the network `--insecure`. The table is printed; what the key must guarantee is
 //! asserted, and what it cannot (an insider) is reported as it is.
 //!
-//! `cargo test --test integration wire_attack_table -- --ignored --nocapture` (about three minutes; `.ci/run` runs it).
+//! `cargo test --test integration wire_attack_table -- --ignored --nocapture` (about two minutes; `.ci/run` runs it
+//! in the long suite). The table is also written to `target/tmp/wire-attack-table.md`.
 
 use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
@@ -384,7 +385,7 @@ fn cell(attack: Attack, o: &Outcome, clean: &Outcome) -> String {
 }
 
 #[test]
-#[ignore = "long suite: README's attack table, about three minutes of node processes (.ci/run runs it)"]
+#[ignore = "long suite: the book's attack table, about two minutes of node processes (.ci/run runs it)"]
 fn wire_attack_table() {
     let dir: PathBuf = std::env::temp_dir().join(format!("simnet-wire-attacks-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -407,8 +408,11 @@ fn wire_attack_table() {
         ("flood (20,000 garbage datagrams)", Attack::Flood),
         ("step walk (190 steps ahead, every 0.5 s)", Attack::StepWalk),
     ];
-    println!("| attack on node 1 | sealed, attacker without the key | sealed, attacker holds the key | `--insecure` |");
-    println!("|---|---|---|---|");
+    let mut table = String::from(
+        "| attack on node 1 | sealed, attacker without the key | sealed, attacker holds the key | `--insecure` |\n\
+         |---|---|---|---|\n",
+    );
+    let written = Path::new(env!("CARGO_TARGET_TMPDIR")).join("wire-attack-table.md");
     for (name, attack) in rows {
         let out: Vec<Outcome> = modes
             .iter()
@@ -416,7 +420,11 @@ fn wire_attack_table() {
             .map(|(m, c)| run(&dir, &key, *m, attack, &c.recorded))
             .collect();
         let cells: Vec<String> = out.iter().zip(&clean).map(|(o, c)| cell(attack, o, c)).collect();
-        println!("| {name} | {} |", cells.join(" | "));
+        let row = format!("| {name} | {} |", cells.join(" | "));
+        println!("{row}");
+        table.push_str(&row);
+        table.push('\n');
+        std::fs::write(&written, &table).unwrap();
         // What the key guarantees against an outsider.
         let (o, c) = (&out[0], &clean[0]);
         assert_eq!(o.steps(), STEPS, "{attack:?}: node 1 did not run every step");
