@@ -241,12 +241,12 @@ pub fn figure(plan: &PlanFile, stats: &[PointStat]) -> Result<String, CampaignEr
             };
             let lines = estimators
                 .iter()
-                .enumerate()
-                .filter(|(_, e)| !(*metric == "ratio_to_centralized" && e.as_str() == "centralized"))
-                .map(|(i, e)| SweepLine {
+                .filter(|e| !(*metric == "ratio_to_centralized" && e.as_str() == "centralized"))
+                .map(|e| SweepLine {
                     label: e.clone(),
                     reference: e == "centralized",
-                    colour: i,
+                    // Its place in the registry: an estimator keeps its colour in every plot.
+                    colour: crate::estimators::Kind::rank(e),
                     points: stats
                         .iter()
                         .filter(|s| s.estimator == *e && s.metric == *metric)

@@ -297,6 +297,20 @@ pub use crate::report::write_atomic;
 /// A plot beside the three every run has: (file name, caption, SVG).
 pub(super) type Plot = (&'static str, String, String);
 
+/// A run's conditions for a plot's title: the model, the seed, the measured loss over every link, and the rounds
+/// of a run with distributed estimators.
+pub(super) fn conditions(s: &summary::Summary) -> String {
+    let (sent, lost) = s.links.iter().fold((0u64, 0u64), |(a, b), l| (a + l.sent, b + l.lost));
+    let mut c = vec![format!("{} model", s.model), format!("seed {}", s.seed)];
+    if sent > 0 {
+        c.push(format!("loss {:.1} %", 100.0 * lost as f64 / sent as f64));
+    }
+    if !s.estimators.is_empty() {
+        c.push(format!("L = {}", s.settings.as_ref().map_or(1, |x| x.rounds)));
+    }
+    c.join(", ")
+}
+
 /// summary.json, links.csv, the three plots, `extra` plots and report.html (all of them inline), each written
 /// atomically; the names written.
 pub(super) fn write_files(
@@ -312,7 +326,8 @@ pub(super) fn write_files(
     let mut buf = Vec::new();
     summary::write_links(&mut buf, &s.links)?;
     d.put("links.csv", &buf)?;
-    let title = |what: &str| format!("{} — {what} (seed {})", s.topology, s.seed);
+    let title = |what: &str| format!("{} — {what} ({})", s.topology, conditions(s));
+    let burn_in_s = s.burn_in_steps as f64 * dt;
     let mut plots: Vec<Plot> = vec![
         (
             "trajectory.svg",
@@ -322,12 +337,19 @@ pub(super) fn write_files(
         (
             "error.svg",
             "error over time, networked against independent".into(),
-            plot::error(rows, fused, dt, s.model, &title("error, networked vs independent"))?,
+            plot::error(
+                rows,
+                fused,
+                dt,
+                burn_in_s,
+                s.model,
+                &title("error, networked vs independent"),
+            )?,
         ),
         (
             "trace_p.svg",
             "trace of the covariance, networked against independent".into(),
-            plot::trace_p(rows, dt, &title("trace P, networked vs independent"))?,
+            plot::trace_p(rows, dt, burn_in_s, &title("trace P, networked vs independent"))?,
         ),
     ];
     plots.extend(extra);
@@ -337,7 +359,15 @@ pub(super) fn write_files(
         wrote.push(name.to_string());
     }
     let captioned: Vec<(String, String)> = plots.into_iter().map(|(_, c, svg)| (c, svg)).collect();
-    d.put("report.html", crate::report::html::run_page(s, &captioned).as_bytes())?;
+    let header = crate::report::html::RunHeader {
+        command: std::env::args().collect::<Vec<_>>().join(" "),
+        conditions: conditions(s),
+        build: crate::campaign::simnet_build(),
+    };
+    d.put(
+        "report.html",
+        crate::report::html::run_page(s, &captioned, &header).as_bytes(),
+    )?;
     wrote.push("report.html".into());
     Ok(wrote)
 }

@@ -82,7 +82,11 @@ fn write_run(
     let schemes = out.observer.as_ref().and_then(|o| o.schemes()).map(|s| s.rows());
     let mut extra = Vec::new();
     if let Some(rows) = schemes {
-        let title = format!("{} — every estimator's error (seed {})", s.topology, s.seed);
+        let title = format!(
+            "{} — every estimator's error ({})",
+            s.topology,
+            super::out::conditions(s)
+        );
         extra.push((
             "estimators.svg",
             "every estimator's median-over-nodes error, the centralized reference in black".to_string(),

@@ -64,12 +64,25 @@ fn figure(v: Option<f64>) -> String {
     super::summary::figure(v)
 }
 
+fn trace_figure(v: Option<f64>) -> String {
+    super::summary::trace_figure(v)
+}
+
 fn pct(v: Option<f64>) -> String {
     v.map_or("—".to_string(), |x| format!("{:.1} %", 100.0 * x))
 }
 
+/// How a run was made, for its page's header: the command line, the run's conditions, the simnet build.
+pub struct RunHeader {
+    pub command: String,
+    /// `pose model, seed 1, loss 20.0 %`.
+    pub conditions: String,
+    /// The version, and the git commit when the build knew it.
+    pub build: String,
+}
+
 /// The page of one run: `plots` are (caption, SVG text) in the order shown.
-pub fn run_page(s: &Summary, plots: &[(String, String)]) -> String {
+pub fn run_page(s: &Summary, plots: &[(String, String)], header: &RunHeader) -> String {
     let title = format!("simnet · {} · seed {}", s.topology, s.seed);
     let mut h = head(&title);
     let _ = writeln!(
@@ -81,16 +94,17 @@ pub fn run_page(s: &Summary, plots: &[(String, String)]) -> String {
         h,
         "<p class=\"meta\">{}</p>",
         escape(&format!(
-            "seed {} · {} clock · {} steps at {} Hz{} · {:.2} s wall · simnet {}",
-            s.seed,
+            "{} · {} clock · {} steps at {} Hz{} · {:.2} s wall · simnet {}",
+            header.conditions,
             s.clock.as_str(),
             s.steps,
             s.rate_hz,
             if s.interrupted { " · INTERRUPTED" } else { "" },
             s.transport.wall_s,
-            s.simnet_version
+            header.build
         ))
     );
+    let _ = writeln!(h, "<p class=\"meta\"><code>{}</code></p>", escape(&header.command));
     let _ = writeln!(
         h,
         "<h2>Nodes</h2>\n<p>{} after the burn-in; trace P: mean trace of the posterior covariance.</p>",
@@ -107,16 +121,10 @@ pub fn run_page(s: &Summary, plots: &[(String, String)]) -> String {
                 figure(a.and_then(|a| a.mean_error)),
                 figure(b.and_then(|b| b.mean_error)),
                 n.error_ratio.map_or("—".into(), |r| format!("{r:.3}")),
-                a.and_then(|a| a.mean_trace_p_post)
-                    .map_or("—".into(), |v| format!("{v:.3e}")),
-                b.and_then(|b| b.mean_trace_p_post)
-                    .map_or("—".into(), |v| format!("{v:.3e}")),
+                trace_figure(a.and_then(|a| a.mean_trace_p_post)),
+                trace_figure(b.and_then(|b| b.mean_trace_p_post)),
                 pct(a.and_then(|a| a.lmi_feasible_fraction)),
-                if a.is_some_and(|a| a.diverged) {
-                    "networked DIVERGED".into()
-                } else {
-                    "ok".into()
-                },
+                n.status(),
             ]
         })
         .collect();
@@ -231,7 +239,7 @@ pub fn run_page(s: &Summary, plots: &[(String, String)]) -> String {
             "<p>Fused ({}, covariance intersection, ω = 0.5): error {}, trace P {}; trace-optimal ω: error {}.</p>",
             escape(&crate::scenario::count(f.nodes, "node")),
             figure(f.mean_error),
-            f.mean_trace_p.map_or("—".into(), |v| format!("{v:.3e}")),
+            trace_figure(f.mean_trace_p),
             figure(f.optimal_mean_error)
         );
     }

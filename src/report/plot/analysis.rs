@@ -41,12 +41,13 @@ pub fn covariance_bounds(
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(70)
-            .build_cartesian_2d((x0 - 0.02).max(0.0)..1.0, (lo..hi).log_scale())
+            .build_cartesian_2d((x0 - 0.02).max(0.0)..1.0, log_axis(lo, hi))
             .map_err(err(name))?;
         chart
             .configure_mesh()
             .x_desc("arrival rate λ")
             .y_desc("trace")
+            .y_label_formatter(&|v| tick(*v))
             .draw()
             .map_err(err(name))?;
         let line = |sel: fn(&BoundsRow) -> Option<f64>| -> Vec<(f64, f64)> {
@@ -82,7 +83,7 @@ pub fn covariance_bounds(
                 .label(format!("λ̄ = {lambda_bar:.4}"))
                 .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.mix(0.5)));
         }
-        legend(&mut chart, name)?;
+        legend(&mut chart, name, SeriesLabelPosition::UpperRight)?;
         root.present().map_err(err(name))?;
     }
     Ok(out)
@@ -187,7 +188,7 @@ pub fn protocol_curve(
                 .label(format!("(17)/(19) boundary, exchange {b:.3}"))
                 .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK.mix(0.5)));
         }
-        legend(&mut chart, name)?;
+        legend(&mut chart, name, SeriesLabelPosition::UpperRight)?;
         root.present().map_err(err(name))?;
     }
     Ok(out)
@@ -245,12 +246,12 @@ pub fn lines(
                         .label(label.as_str())
                         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
                 }
-                legend(&mut chart, name)?;
+                legend(&mut chart, name, SeriesLabelPosition::UpperRight)?;
             }};
         }
         if log {
             body!(builder
-                .build_cartesian_2d(x0..x1, ((y0 / 1.5)..(y1 * 1.5)).log_scale())
+                .build_cartesian_2d(x0..x1, log_axis(y0 / 1.5, y1 * 1.5))
                 .map_err(err(name))?);
         } else {
             let (y0, y1) = if y0 < y1 { (y0, y1) } else { (y0 - 1.0, y0 + 1.0) };

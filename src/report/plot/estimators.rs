@@ -4,13 +4,16 @@ use std::collections::BTreeMap;
 
 use plotters::prelude::*;
 
-use super::{axis, draw_runs, err, font, legend, palette, runs, tick, PlotError, SIZE};
+use super::{axis, draw_runs, err, estimator_colour, font, log_axis, runs, tick, PlotError, SIZE};
 use crate::estimators::Kind;
 use crate::model::Kind as ModelKind;
 use crate::observe::schemes::SchemeRow;
 
 /// (step, t, value) points of one line.
 type Line = Vec<(u64, f64, f64)>;
+
+/// Width of the key column at the right.
+const KEY: u32 = 250;
 
 /// Points per line: each is the mean of the per-step medians over a bin of steps.
 const BINS: u64 = 250;
@@ -40,14 +43,17 @@ pub fn estimators(rows: &[SchemeRow], dt: f64, model: ModelKind, title: &str) ->
     let t_max = (steps as f64 * dt).max(dt);
     let mut out = String::new();
     {
-        let root = SVGBackend::with_string(&mut out, SIZE).into_drawing_area();
-        root.fill(&WHITE).map_err(err(NAME))?;
+        // The key in a column of its own: with every estimator's line across the plot, no corner is free.
+        let size = (SIZE.0 + KEY, SIZE.1);
+        let whole = SVGBackend::with_string(&mut out, size).into_drawing_area();
+        whole.fill(&WHITE).map_err(err(NAME))?;
+        let (root, key) = whole.split_horizontally(SIZE.0);
         let mut chart = ChartBuilder::on(&root)
             .caption(title, ("sans-serif", 22))
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(70)
-            .build_cartesian_2d(0.0..t_max, (lo..hi).log_scale())
+            .build_cartesian_2d(0.0..t_max, log_axis(lo, hi))
             .map_err(err(NAME))?;
         chart
             .configure_mesh()
@@ -59,16 +65,24 @@ pub fn estimators(rows: &[SchemeRow], dt: f64, model: ModelKind, title: &str) ->
             .y_label_formatter(&|v| tick(*v))
             .draw()
             .map_err(err(NAME))?;
-        for (i, (kind, v)) in pts.into_iter().enumerate() {
+        let mut keys = Vec::new();
+        for (kind, v) in pts {
             let (style, label) = if kind == Kind::Centralized {
-                (BLACK.stroke_width(3), "centralized (reference: no loss)".to_string())
+                (BLACK.stroke_width(3), "centralized (reference, no loss)".to_string())
             } else {
-                (palette(i).stroke_width(2), kind.name().to_string())
+                (estimator_colour(kind).stroke_width(2), kind.name().to_string())
             };
-            draw_runs(&mut chart, runs(v.into_iter(), lo, hi), style, Some(label), NAME)?;
+            draw_runs(&mut chart, runs(v.into_iter(), lo, hi), style, None, NAME)?;
+            keys.push((style, label));
         }
-        legend(&mut chart, NAME)?;
-        root.present().map_err(err(NAME))?;
+        for (i, (style, label)) in keys.into_iter().enumerate() {
+            let y = 60 + 24 * i as i32;
+            key.draw(&PathElement::new(vec![(8, y), (36, y)], style))
+                .map_err(err(NAME))?;
+            key.draw(&Text::new(label, (44, y - 7), ("sans-serif", 14)))
+                .map_err(err(NAME))?;
+        }
+        whole.present().map_err(err(NAME))?;
     }
     Ok(out)
 }

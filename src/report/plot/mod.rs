@@ -29,18 +29,33 @@ fn font() {
 
 const SIZE: (u32, u32) = (1000, 640);
 
+/// Ten colours (Tableau's), as many as the estimator registry has entries: a plot of every estimator gives each its
+/// own.
+const PALETTE: [RGBColor; 10] = [
+    RGBColor(214, 39, 40),
+    RGBColor(31, 119, 180),
+    RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+    RGBColor(255, 127, 14),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(23, 190, 207),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+];
+
 fn palette(i: usize) -> RGBColor {
-    const C: [RGBColor; 8] = [
-        RGBColor(214, 39, 40),
-        RGBColor(31, 119, 180),
-        RGBColor(44, 160, 44),
-        RGBColor(148, 103, 189),
-        RGBColor(255, 127, 14),
-        RGBColor(140, 86, 75),
-        RGBColor(227, 119, 194),
-        RGBColor(23, 190, 207),
-    ];
-    C[i % C.len()]
+    PALETTE[i % PALETTE.len()]
+}
+
+/// An estimator's colour: by its place in the registry, so that it keeps its colour in every plot.
+fn estimator_colour(kind: crate::estimators::Kind) -> RGBColor {
+    palette(
+        crate::estimators::Kind::ALL
+            .iter()
+            .position(|k| *k == kind)
+            .unwrap_or(0),
+    )
 }
 
 fn err<E: std::fmt::Display>(name: &'static str) -> impl Fn(E) -> PlotError {
@@ -76,6 +91,27 @@ fn axis(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
         let pad = ((hi - lo) * 0.05).max(1e-9 * hi.abs().max(lo.abs())).max(1e-12);
         ((lo - pad).max(-AXIS_LIMIT), (hi + pad).min(AXIS_LIMIT))
     }
+}
+
+/// A log axis over [lo, hi] with its ticks at 1, 2 and 5 times each power of ten (at the powers alone past four
+/// decades) and its fine grid at 1–9 times them: plotters' own log ticks repeat the power of ten that ends one
+/// decade and starts the next (a label drawn twice, a band of fine lines about it).
+fn log_axis(
+    lo: f64,
+    hi: f64,
+) -> plotters::coord::combinators::WithKeyPoints<plotters::coord::combinators::LogCoord<f64>> {
+    use plotters::coord::combinators::BindKeyPoints;
+    let (d0, d1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    let within = |v: &f64| (lo..=hi).contains(v);
+    let at = |ms: &[f64]| -> Vec<f64> {
+        (d0..=d1)
+            .flat_map(|d| ms.iter().map(move |m| m * 10f64.powi(d)))
+            .filter(within)
+            .collect()
+    };
+    let bold = if d1 - d0 > 4 { at(&[1.0]) } else { at(&[1.0, 2.0, 5.0]) };
+    let light = at(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]);
+    (lo..hi).log_scale().with_key_points(bold).with_light_points(light)
 }
 
 /// A tick label: three significant digits at most, `1e-4` rather than `9.999999999e-5`.
@@ -172,18 +208,52 @@ fn runs(pts: impl Iterator<Item = (u64, f64, f64)>, lo: f64, hi: f64) -> Vec<Vec
     out
 }
 
-/// The legend box, upper right, as every plot draws it.
+/// The legend box at `corner`, as every plot draws it.
 fn legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
     chart: &mut ChartContext<'a, DB, CT>,
     name: &'static str,
+    corner: SeriesLabelPosition,
 ) -> Result<(), PlotError> {
     chart
         .configure_series_labels()
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
+        .position(corner)
         .draw()
         .map_err(err(name))
+}
+
+/// The corner where a legend covers the fewest of the points drawn: of the four corner boxes (a third of the width,
+/// 40 % of the height), the one holding the fewest, upper right on a tie.
+fn emptiest_corner(
+    points: impl Iterator<Item = (f64, f64)>,
+    x: (f64, f64),
+    y: (f64, f64),
+    log_y: bool,
+) -> SeriesLabelPosition {
+    let fy = |v: f64| if log_y { v.max(f64::MIN_POSITIVE).ln() } else { v };
+    let (y0, y1) = (fy(y.0), fy(y.1));
+    // Upper right, upper left, lower right, lower left.
+    let mut count = [0usize; 4];
+    for (px, py) in points.filter(|(a, b)| a.is_finite() && b.is_finite()) {
+        let u = (px - x.0) / (x.1 - x.0);
+        let v = (fy(py) - y0) / (y1 - y0);
+        let (left, right, top, bottom) = (u < 1.0 / 3.0, u > 2.0 / 3.0, v > 0.6, v < 0.4);
+        for (i, inside) in [top && right, top && left, bottom && right, bottom && left]
+            .into_iter()
+            .enumerate()
+        {
+            count[i] += usize::from(inside);
+        }
+    }
+    let corners = [
+        SeriesLabelPosition::UpperRight,
+        SeriesLabelPosition::UpperLeft,
+        SeriesLabelPosition::LowerRight,
+        SeriesLabelPosition::LowerLeft,
+    ];
+    let best = (0..4).min_by_key(|&i| (count[i], i)).unwrap_or(0);
+    corners[best].clone()
 }
 
 fn legend_line(style: ShapeStyle) -> impl Fn((i32, i32)) -> PathElement<(i32, i32)> {
@@ -235,6 +305,56 @@ fn across_nodes(series: &[&Series], value: &dyn Fn(&TraceRow) -> f64) -> Vec<(u6
             (step, t, med, v[0], v[m - 1])
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn every_estimator_has_a_colour_of_its_own() {
+        let all = crate::estimators::Kind::ALL;
+        assert!(
+            all.len() <= super::PALETTE.len(),
+            "{} estimators, {} colours",
+            all.len(),
+            super::PALETTE.len()
+        );
+        let colours: std::collections::BTreeSet<(u8, u8, u8)> = all
+            .iter()
+            .map(|k| super::estimator_colour(*k))
+            .map(|c| (c.0, c.1, c.2))
+            .collect();
+        assert_eq!(colours.len(), all.len());
+    }
+
+    #[test]
+    fn a_legend_goes_where_the_data_is_not() {
+        use plotters::chart::SeriesLabelPosition as P;
+        let corner = |pts: Vec<(f64, f64)>| super::emptiest_corner(pts.into_iter(), (0.0, 10.0), (0.0, 1.0), false);
+        assert!(matches!(corner(vec![]), P::UpperRight));
+        // A line along the top: the legend goes below it.
+        let top: Vec<(f64, f64)> = (0..100).map(|i| (f64::from(i) / 10.0, 0.95)).collect();
+        assert!(matches!(corner(top.clone()), P::LowerRight));
+        // Data everywhere but the lower left.
+        let mut most = top;
+        most.extend((0..100).map(|i| (5.0 + f64::from(i) / 20.0, 0.1)));
+        assert!(matches!(corner(most), P::LowerLeft));
+    }
+
+    #[test]
+    fn a_log_axis_names_each_tick_once() {
+        use plotters::coord::ranged1d::{BoldPoints, Ranged};
+        let axis = super::log_axis(0.8, 45.0);
+        let bold = axis.key_points(BoldPoints(100));
+        let mut unique = bold.clone();
+        unique.dedup();
+        assert_eq!(bold, unique, "a tick repeated");
+        assert_eq!(bold, [1.0, 2.0, 5.0, 10.0, 20.0]);
+        assert_eq!(
+            super::log_axis(1e-6, 1e3).key_points(BoldPoints(100)).len(),
+            10,
+            "past four decades: the powers alone"
+        );
+    }
 }
 
 mod analysis;

@@ -120,7 +120,7 @@ pub fn trajectory(
             );
             draw_runs(&mut chart, r, style, Some("fused (CI, median 20)".into()), name)?;
         }
-        legend(&mut chart, name)?;
+        legend(&mut chart, name, SeriesLabelPosition::UpperRight)?;
         root.present().map_err(err(name))?;
     }
     Ok(out)
@@ -178,7 +178,7 @@ fn attitude_trajectory(rows: &[TraceRow], title: &str) -> Result<String, PlotErr
                 draw_runs(&mut chart, r, style, label, name)?;
             }
             if c == 0 {
-                legend(&mut chart, name)?;
+                legend(&mut chart, name, SeriesLabelPosition::UpperRight)?;
             }
         }
         root.present().map_err(err(name))?;
@@ -187,13 +187,16 @@ fn attitude_trajectory(rows: &[TraceRow], title: &str) -> Result<String, PlotErr
 }
 
 /// A per-step quantity against time: a line per node and filter (networked solid, independent faded), or beyond
-/// [`MAX_NODE_LINES`] nodes the median and min–max band across nodes, networked against independent.
+/// [`MAX_NODE_LINES`] nodes the median and min–max band across nodes, networked against independent. The y-scale
+/// is taken from `burn_in_s` on (the start's transient would flatten the rest); the burn-in is shaded and what it
+/// holds beyond the scale is drawn clipped.
 #[allow(clippy::too_many_arguments)]
 fn over_time(
     name: &'static str,
     rows: &[TraceRow],
     fused: &[FusedRow],
     dt: f64,
+    burn_in_s: f64,
     title: &str,
     y_desc: &str,
     value: impl Fn(&TraceRow) -> f64,
@@ -206,11 +209,18 @@ fn over_time(
         root.fill(&WHITE).map_err(err(name))?;
         let all = series(rows);
         let t_max = rows.iter().map(|r| r.t).fold(0.0, f64::max).max(dt);
+        // A burn-in as long as the run leaves nothing to scale on: then the whole run is.
+        let from = if burn_in_s < t_max { burn_in_s } else { 0.0 };
         let in_scale = all
             .iter()
             .filter(|s| !s.off_scale())
-            .flat_map(|s| s.rows.iter().map(|r| value(r)))
-            .chain(fused.iter().map(|f| f.median_error));
+            .flat_map(|s| s.rows.iter().filter(|r| r.t >= from).map(|r| value(r)))
+            .chain(
+                fused
+                    .iter()
+                    .filter(|f| f.step as f64 * dt >= from)
+                    .map(|f| f.median_error),
+            );
         let (lo, hi) = axis(in_scale, log);
         let many = all.iter().filter(|s| s.networked).count() > MAX_NODE_LINES;
         let mut cb = ChartBuilder::on(&root);
@@ -228,6 +238,14 @@ fn over_time(
                     .y_label_formatter(&|v| tick(*v))
                     .draw()
                     .map_err(err(name))?;
+                if from > 0.0 {
+                    let shade = RGBColor(0, 0, 0).mix(0.07).filled();
+                    chart
+                        .draw_series(std::iter::once(Rectangle::new([(0.0, lo), (from, hi)], shade)))
+                        .map_err(err(name))?
+                        .label("burn-in: not in the y-scale (clipped)")
+                        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], shade));
+                }
                 let pts = |s: &Series| runs(s.rows.iter().map(|r| (r.step, r.t, value(r))), lo, hi);
                 if many {
                     for networked in [false, true] {
@@ -294,13 +312,20 @@ fn over_time(
                     );
                     draw_runs(&mut chart, r, BLACK.stroke_width(2), Some(label.into()), name)?;
                 }
-                legend(&mut chart, name)?;
+                let drawn = rows.iter().map(|r| (r.t, value(r).clamp(lo, hi))).chain(
+                    fused
+                        .iter()
+                        .map(|f| (f.step as f64 * dt, f.median_error.clamp(lo, hi))),
+                );
+                legend(
+                    &mut chart,
+                    name,
+                    emptiest_corner(drawn, (0.0, t_max), (lo, hi), log),
+                )?;
             }};
         }
         if log {
-            draw!(cb
-                .build_cartesian_2d(0.0..t_max, (lo..hi).log_scale())
-                .map_err(err(name))?);
+            draw!(cb.build_cartesian_2d(0.0..t_max, log_axis(lo, hi)).map_err(err(name))?);
         } else {
             draw!(cb.build_cartesian_2d(0.0..t_max, lo.min(0.0)..hi).map_err(err(name))?);
         }
@@ -311,17 +336,27 @@ fn over_time(
 
 /// The error figure against time, as the node computed it: position (pose), rotation angle (attitude), state
 /// (linear).
-pub fn error(rows: &[TraceRow], fused: &[FusedRow], dt: f64, model: Kind, title: &str) -> Result<String, PlotError> {
+/// The error against time; the y-scale from `burn_in_s` on.
+pub fn error(
+    rows: &[TraceRow],
+    fused: &[FusedRow],
+    dt: f64,
+    burn_in_s: f64,
+    model: Kind,
+    title: &str,
+) -> Result<String, PlotError> {
     let y = model.error_text().axis;
-    over_time("error", rows, fused, dt, title, y, |r| r.error, false)
+    over_time("error", rows, fused, dt, burn_in_s, title, y, |r| r.error, false)
 }
 
-pub fn trace_p(rows: &[TraceRow], dt: f64, title: &str) -> Result<String, PlotError> {
+/// The trace of the posterior covariance against time; the y-scale from `burn_in_s` on.
+pub fn trace_p(rows: &[TraceRow], dt: f64, burn_in_s: f64, title: &str) -> Result<String, PlotError> {
     over_time(
         "trace_p",
         rows,
         &[],
         dt,
+        burn_in_s,
         title,
         "trace P (posterior)",
         |r| r.trace_p_post,

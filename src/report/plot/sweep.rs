@@ -4,7 +4,7 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::{axis, err, font, palette, tick, PlotError};
+use super::{axis, err, font, log_axis, palette, tick, PlotError};
 
 /// One estimator's line: (x, mean, CI low, CI high) per point.
 #[derive(Debug, Clone)]
@@ -169,7 +169,7 @@ fn draw_panel(
     }
     if log {
         body!(builder
-            .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
+            .build_cartesian_2d(x0..x1, log_axis(y0, y1))
             .map_err(err(NAME))?);
     } else {
         body!(builder.build_cartesian_2d(x0..x1, y0..y1).map_err(err(NAME))?);

@@ -10,7 +10,7 @@ mod table;
 pub use attacks::{AttackEffect, AttackSummary};
 pub use csv::write_links;
 pub use estimators::{EstimatorNode, EstimatorSummary};
-pub(crate) use table::figure;
+pub(crate) use table::{figure, trace_figure};
 
 use serde::{Deserialize, Serialize};
 

@@ -14,11 +14,53 @@ pub(crate) fn figure(v: Option<f64>) -> String {
     })
 }
 
+/// A trace or a variance: three significant digits in plain notation from 0.01 to 10⁴ (`2.32`, not `2.321e0`;
+/// 2321 keeps its units digit), `7.630e-4` outside.
+pub(crate) fn trace_figure(v: Option<f64>) -> String {
+    v.map_or("—".to_string(), |x| {
+        let a = x.abs();
+        if a == 0.0 {
+            "0".to_string()
+        } else if (0.01..1e4).contains(&a) {
+            let decimals = (2 - a.log10().floor() as i32).max(0) as usize;
+            format!("{x:.decimals$}")
+        } else {
+            format!("{x:.3e}")
+        }
+    })
+}
+
+impl NodeSummary {
+    /// What the table's status column says of the node: `ok`, or what is not.
+    pub fn status(&self) -> String {
+        let (Some(a), Some(b)) = (&self.networked, &self.independent) else {
+            return "senses and sends only".to_string();
+        };
+        let mut status = Vec::new();
+        if a.diverged {
+            status.push("networked DIVERGED");
+        }
+        if self.role == crate::scenario::Role::Estimator {
+            status.push("no own sensor: independent = prediction only");
+        } else if b.diverged {
+            status.push("independent DIVERGED");
+        }
+        if self.restarts > 0 {
+            status.push("restarted");
+        }
+        if status.is_empty() {
+            "ok".to_string()
+        } else {
+            status.join(", ")
+        }
+    }
+}
+
 impl Summary {
     /// The human-readable table printed on stdout.
     pub fn write_table(&self, w: &mut impl Write) -> io::Result<()> {
         let f = figure;
-        let e = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{x:.3e}"));
+        let e = trace_figure;
         let pct = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{:.1} %", 100.0 * x));
         writeln!(
             w,
@@ -53,18 +95,6 @@ impl Summary {
                 )?;
                 continue;
             };
-            let mut status = Vec::new();
-            if a.diverged {
-                status.push("networked DIVERGED");
-            }
-            if n.role == crate::scenario::Role::Estimator {
-                status.push("no own sensor: independent = prediction only");
-            } else if b.diverged {
-                status.push("independent DIVERGED");
-            }
-            if n.restarts > 0 {
-                status.push("restarted");
-            }
             writeln!(
                 w,
                 "{:>5} {:>9} │ {:>10} {:>10} {:>7} │ {:>10} {:>10} │ {:>8} │ {}",
@@ -76,11 +106,7 @@ impl Summary {
                 e(a.mean_trace_p_post),
                 e(b.mean_trace_p_post),
                 pct(a.lmi_feasible_fraction),
-                if status.is_empty() {
-                    "ok".to_string()
-                } else {
-                    status.join(", ")
-                }
+                n.status()
             )?;
         }
         writeln!(w)?;
@@ -327,5 +353,21 @@ impl Summary {
             )?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::trace_figure;
+
+    #[test]
+    fn a_trace_reads_plain_between_a_hundredth_and_ten_thousand() {
+        let f = |x: f64| trace_figure(Some(x));
+        assert_eq!(
+            [f(2.321), f(23.21), f(232.1), f(2321.4), f(0.0123), f(-2.321)],
+            ["2.32", "23.2", "232", "2321", "0.0123", "-2.32"]
+        );
+        assert_eq!([f(7.63e-4), f(12345.0), f(0.0)], ["7.630e-4", "1.234e4", "0"]);
+        assert_eq!(trace_figure(None), "—");
     }
 }
