@@ -39,7 +39,7 @@ pub fn stack_file(o: &StackOptions) -> String {
         )?;
         writeln!(
             y,
-            "# Build the image first (docs/src/campaigns.md), then: docker stack deploy -c sweep.yml NAME"
+            "# Build the image first (docs/src/campaigns.md, Sharding), then: docker stack deploy -c sweep.yml NAME"
         )?;
         writeln!(
             y,
