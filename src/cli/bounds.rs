@@ -122,24 +122,24 @@ pub(super) fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
         .unwrap_or_else(|| link_loss.map_or(0.5, |l| 1.0 - l.stationary_loss()));
     let st = study::stability(&sys).map_err(usage)?;
     let (crit, lbar, lmin) = (st.critical, st.critical.value(), st.lambda_min);
-    println!(
+    outln!(
         "system: {} states, {} outputs; ρ(A) = {:.6}",
         sys.A.nrows(),
         sys.C.nrows(),
         st.rho
     );
-    println!("λ_min = {lmin:.6}   (1 − 1/ρ(A)²: below it the expected covariance diverges)");
+    outln!("λ_min = {lmin:.6}   (1 − 1/ρ(A)²: below it the expected covariance diverges)");
     if !lbar.is_finite() {
-        println!("λ̄     = ∞   (even without loss the filter is unstable: an undetectable unstable mode)");
+        outln!("λ̄     = ∞   (even without loss the filter is unstable: an undetectable unstable mode)");
     } else if crit.lo == crit.hi {
-        println!("λ̄     = {lbar:.6}   (C is invertible: λ̄ = λ_min exactly, Sinopoli et al. Thm. 6)");
+        outln!("λ̄     = {lbar:.6}   (C is invertible: λ̄ = λ_min exactly, Sinopoli et al. Thm. 6)");
     } else if crit.to_tolerance {
-        println!(
+        outln!(
             "λ̄     ∈ ({:.7}, {:.7}]   (bisection: the MARE iteration from 0 diverges at the left end, converges at the right)",
             crit.lo, crit.hi
         );
     } else {
-        println!(
+        outln!(
             "λ̄     ∈ ({:.7}, {:.7}]   (bisection stopped where the MARE iteration neither converged nor diverged in {:.0e} steps: this is the precision reached)",
             crit.lo, crit.hi, crate::estimate::bounds::MAX_ITER as f64
         );
@@ -154,7 +154,7 @@ pub(super) fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
     let (sf, vf) = study::at(&sys, lambda).map_err(usage)?;
     let (s, v) = (trace_of(&sf), trace_of(&vf));
     let bursty = matches!(link_loss, Some(LossModel::GilbertElliott { .. }));
-    print!(
+    out!(
         "λ = {lambda}{}: trace S̄ = {}, trace V̄ = {}",
         if bursty {
             " (i.i.d. arrivals at the link's mean rate: NOT bounds for its bursty loss)"
@@ -167,9 +167,9 @@ pub(super) fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
     let measured_on = topo.as_ref().filter(|_| args.measure);
     if let (Some(t), false) = (measured_on, args.sweep) {
         let m = study::measure(t, lambda).map_err(usage)?;
-        print!(", measured mean trace P_(k|k−1) = {}", fmt(m));
+        out!(", measured mean trace P_(k|k−1) = {}", fmt(m));
         if let (Some(s), Some(v), Some(m), false) = (s, v, m, bursty) {
-            print!(
+            out!(
                 " ({})",
                 if s <= m && m <= v {
                     "within the bounds"
@@ -179,7 +179,7 @@ pub(super) fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
             );
         }
     }
-    println!();
+    outln!();
     if let Some(((lhs, decay, ok), exact)) = link_loss.as_ref().and_then(|l| study::markov(&sys, l)) {
         let Some(LossModel::GilbertElliott {
             p,
@@ -190,7 +190,7 @@ pub(super) fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
         else {
             unreachable!("markov() is Some only for Gilbert–Elliott loss")
         };
-        println!(
+        outln!(
             "Gilbert–Elliott link (p = {p}, r = {r}, 1−h = {one_minus_h}, 1−k = {one_minus_k}): loss runs decay at ρ(T·diag(1−k, 1−h)) = {decay:.4} per step; ρ(A)²·{decay:.4} = {lhs:.4} {} 1 → {}",
             if ok { "<" } else { "≥" },
             match (ok, exact) {
@@ -207,9 +207,13 @@ pub(super) fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
             FixedPoint::Diverged => "∞".into(),
             FixedPoint::Undecided => "not reached".into(),
         };
-        println!("\n{:>8} {:>12} {:>12} {:>12}", "λ", "trace S̄", "trace V̄", "measured");
+        outln!("\n{:>8} {:>12} {:>12} {:>12}", "λ", "trace S̄", "trace V̄", "measured");
         let rows = study::sweep(&sys, &study::grid(&st), measured_on, &mut |r| {
-            println!(
+            // A closed stdout stops the printing, not the sweep: its files are still written, and the next line
+            // printed after it returns the error.
+            use std::io::Write as _;
+            let _ = writeln!(
+                std::io::stdout(),
                 "{:>8.4} {:>12} {:>12} {:>12}",
                 r.lambda,
                 cell(&r.lower),
@@ -234,7 +238,7 @@ pub(super) fn bounds(args: &BoundsArgs) -> anyhow::Result<ExitCode> {
             ),
         )?;
         write_atomic(&out.join("bounds.svg"), svg.as_bytes())?;
-        println!("\nwrote {}/{{bounds.csv, bounds.svg}}", out.display());
+        outln!("\nwrote {}/{{bounds.csv, bounds.svg}}", out.display());
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -1,5 +1,21 @@
 //! Command line: clap definitions, tracing setup, exit codes (0 success, 2 bad input, 1 failure while running).
 
+/// `println!` that returns a closed stdout as an error (exit 141) instead of panicking.
+macro_rules! outln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout(), $($t)*)?
+    }};
+}
+
+/// `print!` the same way.
+macro_rules! out {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        write!(std::io::stdout(), $($t)*)?
+    }};
+}
+
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -115,6 +131,31 @@ impl From<crate::scenario::FlagError> for UsageError {
     }
 }
 
+/// `simnet -q sweep …` as `simnet sweep -q …`: the top-level run options conflict with a subcommand, and clap counts
+/// the global flags given before one among them.
+fn global_flags_after_subcommand(mut args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+    use clap::CommandFactory;
+    let global = |a: &std::ffi::OsString| {
+        let a = a.to_string_lossy();
+        a == "--quiet"
+            || a == "--verbose"
+            || (a.starts_with('-')
+                && !a.starts_with("--")
+                && a.len() > 1
+                && a[1..].chars().all(|c| c == 'q' || c == 'v'))
+    };
+    let leading = args.iter().skip(1).take_while(|a| global(a)).count();
+    let names: Vec<String> = Cli::command()
+        .get_subcommands()
+        .map(|c| c.get_name().to_string())
+        .collect();
+    if leading > 0 && args.get(1 + leading).is_some_and(|a| names.iter().any(|n| *a == **n)) {
+        let flags: Vec<_> = args.drain(1..1 + leading).collect();
+        args.splice(2..2, flags);
+    }
+    args
+}
+
 fn init_tracing(verbose: u8, quiet: bool) {
     use tracing_subscriber::EnvFilter;
     let level = if quiet {
@@ -148,18 +189,12 @@ pub fn main() -> ExitCode {
             std::env::remove_var(v);
         }
     }
-    let cli = Cli::parse();
+    let cli = Cli::parse_from(global_flags_after_subcommand(std::env::args_os().collect()));
     init_tracing(cli.verbose, cli.quiet);
     let result = match cli.command {
-        Some(Command::Topologies) => {
-            list_topologies();
-            Ok(ExitCode::SUCCESS)
-        }
-        Some(Command::Estimators) => {
-            list_estimators();
-            Ok(ExitCode::SUCCESS)
-        }
-        Some(Command::Validate { files }) => Ok(validate(&files)),
+        Some(Command::Topologies) => list_topologies().map(|_| ExitCode::SUCCESS),
+        Some(Command::Estimators) => list_estimators().map(|_| ExitCode::SUCCESS),
+        Some(Command::Validate { files }) => validate(&files),
         Some(Command::Run(args)) => run(&args, cli.quiet),
         Some(Command::Compare(args)) => compare::compare(&args, cli.quiet),
         Some(Command::Attitude(args)) => attitude::attitude(&args),
@@ -235,32 +270,35 @@ fn message(e: &anyhow::Error) -> String {
     out
 }
 
-fn list_topologies() {
+fn list_topologies() -> anyhow::Result<()> {
     for (name, text) in builtin::ALL {
         let d = Scenario::from_toml(text, name)
             .map(|t| t.description().to_string())
             .unwrap_or_else(|e| format!("(invalid: {e})"));
-        println!("{name:<16} {d}");
+        outln!("{name:<16} {d}");
     }
+    Ok(())
 }
 
-fn list_estimators() {
+fn list_estimators() -> anyhow::Result<()> {
     for s in crate::estimators::SCHEMES {
-        println!(
+        outln!(
             "{}\n  {}\n  sends: {}\n  parameters: {}",
-            s.name, s.reference, s.messages, s.parameters
+            s.name,
+            s.reference,
+            s.messages,
+            s.parameters
         );
     }
-    println!(
-        "\nchoose with --estimators a,b,c (or all) and --rounds L, or [estimators] run = [...] in a topology file"
-    );
+    outln!("\nchoose with --estimators a,b,c (or all) and --rounds L, or [estimators] run = [...] in a topology file");
+    Ok(())
 }
 
-fn validate(files: &[PathBuf]) -> ExitCode {
+fn validate(files: &[PathBuf]) -> anyhow::Result<ExitCode> {
     let mut bad = false;
     for f in files {
         match Scenario::from_path(f).and_then(|t| t.check_recordings().map(|_| t)) {
-            Ok(t) => println!(
+            Ok(t) => outln!(
                 "{}: ok — `{}`, {}, {}, {} model, {} steps",
                 f.display(),
                 t.name(),
@@ -275,11 +313,7 @@ fn validate(files: &[PathBuf]) -> ExitCode {
             }
         }
     }
-    if bad {
-        ExitCode::from(2)
-    } else {
-        ExitCode::SUCCESS
-    }
+    Ok(if bad { ExitCode::from(2) } else { ExitCode::SUCCESS })
 }
 
 /// For a run stopped early by a signal, whose partial results were still written: 128 + the signal, as a shell
@@ -354,5 +388,78 @@ mod tests {
         let text = |p: &str| outs.iter().find(|(q, _)| q == p).map(|o| o.1.clone()).unwrap();
         assert_ne!(text("simnet node"), text("simnet run"), "node reuses run's --out help");
         assert_ne!(text("simnet protocol"), text("simnet run"));
+    }
+
+    /// Every `simnet …` command written inline in README's and the book's prose parses as the command line does
+    /// today: a renamed option or subcommand fails here. Placeholders (`FILE`, `N`, `…`) take a value of their kind;
+    /// a command named without its required arguments (`simnet bounds`) counts as parsed.
+    #[test]
+    fn every_inline_command_of_readme_and_the_book_parses() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut pages = vec![root.join("README.md")];
+        let mut book: Vec<_> = std::fs::read_dir(root.join("docs/src"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|x| x == "md"))
+            .collect();
+        book.sort();
+        pages.extend(book);
+        fn placeholder(w: &str) -> Option<&str> {
+            Some(match w {
+                "N" => "0",
+                "T" | "TOPOLOGY" | "NAME" => "ring3",
+                "FILE" => "file.toml",
+                "DIR" | "DIR1" | "DIR2" => "dir",
+                "S" => "10",
+                "HZ" => "50",
+                "PAPER" => "sequeira",
+                "…" | "..." | "DIR..." => return None,
+                w => w,
+            })
+        }
+        let mut checked = 0;
+        let mut wrong = Vec::new();
+        for page in &pages {
+            let text = std::fs::read_to_string(page).unwrap();
+            // Prose only: the shell blocks run in the long suite.
+            let prose: String = text.split("```").step_by(2).collect::<Vec<_>>().join(" ");
+            for span in prose.split('`').skip(1).step_by(2) {
+                let Some(rest) = span.strip_prefix("simnet ") else {
+                    continue;
+                };
+                let words: Vec<String> = rest
+                    .split_whitespace()
+                    .take_while(|w| !w.starts_with('>') && !w.starts_with('|'))
+                    .map(|w| w.trim_matches(|c| c == '[' || c == ']'))
+                    .filter(|w| !w.is_empty())
+                    .filter_map(placeholder)
+                    .map(String::from)
+                    .collect();
+                let args = std::iter::once("simnet".into()).chain(words.into_iter().map(std::ffi::OsString::from));
+                let mut argv = super::global_flags_after_subcommand(args.collect());
+                checked += 1;
+                // An option named without its value (`simnet run --out`) is given one.
+                let no_value = |a: &[std::ffi::OsString]| {
+                    Cli::try_parse_from(a).is_err_and(|e| e.kind() == clap::error::ErrorKind::InvalidValue)
+                };
+                if argv.last().is_some_and(|a| a.to_string_lossy().starts_with("--")) && no_value(&argv) {
+                    argv.push("dir".into());
+                }
+                if let Err(e) = Cli::try_parse_from(&argv) {
+                    use clap::error::ErrorKind::*;
+                    if !matches!(
+                        e.kind(),
+                        MissingRequiredArgument
+                            | DisplayHelp
+                            | DisplayVersion
+                            | DisplayHelpOnMissingArgumentOrSubcommand
+                    ) {
+                        wrong.push(format!("{}: `simnet {rest}`: {}", page.display(), e.kind()));
+                    }
+                }
+            }
+        }
+        assert!(checked > 50, "only {checked} inline commands found");
+        assert!(wrong.is_empty(), "{}", wrong.join("\n"));
     }
 }

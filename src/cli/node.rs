@@ -117,7 +117,7 @@ fn write_key(path: &std::path::Path, force: bool) -> anyhow::Result<()> {
 pub(super) fn keygen(args: &KeygenArgs) -> anyhow::Result<ExitCode> {
     if args.file.as_os_str() == "-" {
         let key = crate::wire::secure::Key::generate().map_err(|e| anyhow::anyhow!("no random source: {e}"))?;
-        print!("{}", key.to_file());
+        out!("{}", key.to_file());
     } else {
         write_key(&args.file, args.force)?;
         eprintln!(
@@ -289,7 +289,7 @@ pub(super) fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
     d.commit(&wrote)?;
     print_summary(&s, args.json, None)?;
     if !args.json {
-        println!("\nwrote {}/{{{}}}", dir.display(), wrote.join(", "));
+        outln!("\nwrote {}/{{{}}}", dir.display(), wrote.join(", "));
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -315,7 +315,7 @@ pub(super) fn compose(args: &ComposeArgs) -> anyhow::Result<ExitCode> {
         }
         Some(path.display().to_string())
     };
-    print!(
+    out!(
         "{}",
         crate::compose::compose_file(&topo, &args.topology, builtin, &args.image, secret.as_deref())
             .map_err(UsageError::Option)?

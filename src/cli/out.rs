@@ -328,6 +328,7 @@ pub(super) fn write_files(
     d.put("links.csv", &buf)?;
     let title = |what: &str| format!("{} — {what} ({})", s.topology, conditions(s));
     let burn_in_s = s.burn_in_steps as f64 * dt;
+    let faults = s.settings.as_ref().map_or(&[][..], |x| &x.faults[..]);
     let mut plots: Vec<Plot> = vec![
         (
             "trajectory.svg",
@@ -344,12 +345,13 @@ pub(super) fn write_files(
                 burn_in_s,
                 s.model,
                 &title("error, networked vs independent"),
+                faults,
             )?,
         ),
         (
             "trace_p.svg",
             "trace of the covariance, networked against independent".into(),
-            plot::trace_p(rows, dt, burn_in_s, &title("trace P, networked vs independent"))?,
+            plot::trace_p(rows, dt, burn_in_s, &title("trace P, networked vs independent"), faults)?,
         ),
     ];
     plots.extend(extra);

@@ -63,7 +63,7 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     }
     print_summary(&s, args.json, None)?;
     if let (Some(dir), false) = (&shown, args.json) {
-        println!("\nwrote {}/{{{}}}", dir.display(), wrote.join(", "));
+        outln!("\nwrote {}/{{{}}}", dir.display(), wrote.join(", "));
     }
     Ok(exit_code(s.interrupted))
 }

@@ -128,7 +128,7 @@ pub(super) fn sweep(args: &SweepArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let plan = Plan::new(base, axes, args.seeds).map_err(UsageError::from)?;
     if args.emit == Some(Emit::Stack) {
         crate::compose::check_image(&args.image).map_err(UsageError::Option)?;
-        print!("{}", stack(args, topology));
+        out!("{}", stack(args, topology));
         return Ok(ExitCode::SUCCESS);
     }
     let dir = args.out.as_deref().unwrap_or(Path::new("."));
@@ -271,7 +271,7 @@ pub(super) fn run_campaign(
 fn wrote(dir: &Path, file: &PlanFile, done: campaign::Finished, format: Format) -> anyhow::Result<ExitCode> {
     let files = files_of(dir, &done, format)?;
     print_points(file, &done.stats)?;
-    println!("\n{}", wrote_line(dir, &files, done.runs));
+    outln!("\n{}", wrote_line(dir, &files, done.runs));
     Ok(ExitCode::SUCCESS)
 }
 

@@ -15,7 +15,7 @@ pub use egress::{Egress, Stream, Transmit};
 pub const MAX_DELAY_MS: f64 = 1e7;
 use rules::{rules_of, Context};
 pub use rules::{Delivery, Rule};
-pub use schedule::{FaultSchedule, NodeEvent, ScheduledFault};
+pub use schedule::{FaultSchedule, FaultWindow, NodeEvent, ScheduledFault};
 
 use crate::rng::Rng;
 

@@ -24,6 +24,37 @@ pub enum NodeEvent {
     Restart,
 }
 
+/// One fault as a window of time: `crash` (one node), `link-down` (its two ends; from the first to the second only
+/// when `directed`) or `partition` (the nodes cut off from the rest).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FaultWindow {
+    pub kind: String,
+    pub nodes: Vec<u32>,
+    #[serde(skip_serializing_if = "std::ops::Not::not", default)]
+    pub directed: bool,
+    pub start_s: f64,
+    /// Absent for a crash without a restart: down to the end of the run.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub end_s: Option<f64>,
+}
+
+impl FaultWindow {
+    /// `crash of node 2`, `link 0–1 down`, `partition of nodes 1, 3`.
+    pub fn label(&self) -> String {
+        let ids = |sep: &str| self.nodes.iter().map(|n| n.to_string()).collect::<Vec<_>>().join(sep);
+        match self.kind.as_str() {
+            "crash" => format!("node {} crashed", ids(", ")),
+            "partition" => format!(
+                "partition of node{} {}",
+                if self.nodes.len() == 1 { "" } else { "s" },
+                ids(", ")
+            ),
+            _ if self.directed => format!("link {} down", ids("→")),
+            _ => format!("link {} down", ids("–")),
+        }
+    }
+}
+
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct FaultSchedule {
     faults: Vec<ScheduledFault>,
@@ -59,6 +90,43 @@ impl FaultSchedule {
             }
             ScheduledFault::Crash { .. } => false,
         })
+    }
+
+    /// Every fault as a time window over node ids (`id_of` maps an index to its id): what a plot shades and a
+    /// summary records. A crash without a restart lasts to the end of the run (`end_s` absent).
+    pub fn windows(&self, id_of: impl Fn(usize) -> u32) -> Vec<FaultWindow> {
+        self.faults
+            .iter()
+            .map(|f| match f {
+                ScheduledFault::LinkDown {
+                    from,
+                    to,
+                    both_ways,
+                    start,
+                    end,
+                } => FaultWindow {
+                    kind: "link-down".into(),
+                    nodes: vec![id_of(*from), id_of(*to)],
+                    directed: !both_ways,
+                    start_s: *start,
+                    end_s: Some(*end),
+                },
+                ScheduledFault::Partition { nodes, start, end } => FaultWindow {
+                    kind: "partition".into(),
+                    directed: false,
+                    nodes: nodes.iter().map(|n| id_of(*n)).collect(),
+                    start_s: *start,
+                    end_s: Some(*end),
+                },
+                ScheduledFault::Crash { node, at, restart } => FaultWindow {
+                    kind: "crash".into(),
+                    directed: false,
+                    nodes: vec![id_of(*node)],
+                    start_s: *at,
+                    end_s: *restart,
+                },
+            })
+            .collect()
     }
 
     /// When each fault starts (to warn of faults that a run ends before).

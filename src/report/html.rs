@@ -11,6 +11,7 @@ h1{font-size:1.6em}h2{font-size:1.25em;margin-top:2em;border-bottom:1px solid #c
 table{border-collapse:collapse;margin:.5em 0;font-size:.9em}\
 th,td{border:1px solid #ccc;padding:.25em .6em;text-align:right}th{background:#f2f2f2}\
 td.l,th.l{text-align:left}.meta{color:#555}figure{margin:1em 0}figure svg{max-width:100%;height:auto}\
+figure.wide{width:calc(100vw - 2em);margin-left:calc(50% - 50vw + 1em)}\
 pre{background:#f7f7f7;padding:.8em;overflow:auto;font-size:.85em}dt{font-weight:bold;margin-top:.4em}";
 
 /// `s` with `&`, `<`, `>` and `"` escaped, for text and attribute values.
@@ -314,7 +315,7 @@ pub fn sweep_page(plan: &PlanFile, manifest: &Manifest, stats: &[PointStat], svg
     h.push_str(&table("points", &header, &rows));
     let _ = writeln!(
         h,
-        "<h2>Plot</h2>\n<figure>\n{}\n<figcaption>Each figure against {}, one line per estimator, 95 % \
+        "<h2>Plot</h2>\n<figure class=\"wide\">\n{}\n<figcaption>Each figure against {}, one line per estimator, 95 % \
          confidence bands.</figcaption>\n</figure>",
         inline_svg(svg),
         escape(plan.x_axis().map_or("", |a| a.key.as_str()))

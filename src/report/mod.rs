@@ -2,6 +2,7 @@
 //! `impl Write`.
 
 pub mod html;
+pub mod outputs;
 #[cfg(feature = "parquet")]
 pub mod parquet;
 pub mod parts;

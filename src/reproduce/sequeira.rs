@@ -342,6 +342,7 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> Result<Outp
                 r.summary.burn_in_steps as f64 / rate,
                 crate::model::Kind::Pose,
                 &format!("§5: {}", r.summary.topology),
+                &[],
             )?,
         ));
     }
@@ -431,6 +432,7 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> Result<Outp
             drift_runs[0].summary.burn_in_steps as f64 / rate,
             crate::model::Kind::Pose,
             "§6, Fig. 12: drift on every node",
+            &[],
         )?,
     ));
     plots.push((
@@ -442,6 +444,7 @@ pub fn run(cfg: &Config, runner: Runner<'_>, tick: &dyn Fn(&str)) -> Result<Outp
             piece[0].summary.burn_in_steps as f64 / rate,
             crate::model::Kind::Pose,
             "§6, Fig. 13: piecewise-linear, drift",
+            &[],
         )?,
     ));
 

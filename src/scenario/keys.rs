@@ -43,7 +43,7 @@ fn segments(key: &str) -> Result<Vec<(&str, Option<usize>)>, String> {
 }
 
 /// `value` at `key` in `doc`: tables on the way are made as needed; a list entry must exist.
-fn put(doc: &mut toml::Value, key: &str, value: toml::Value) -> Result<(), String> {
+pub(super) fn put(doc: &mut toml::Value, key: &str, value: toml::Value) -> Result<(), String> {
     let path = segments(key)?;
     let mut cur = doc;
     for (i, (name, index)) in path.iter().enumerate() {

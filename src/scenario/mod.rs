@@ -20,6 +20,7 @@ mod keys;
 mod load;
 mod overrides;
 mod resolve;
+pub mod schema;
 pub(crate) mod toml;
 mod validate;
 pub use validate::check_addr;

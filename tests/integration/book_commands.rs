@@ -4,7 +4,9 @@
 //! by a Markdown table must print that table among its lines. A block that
 //! cannot run here says why in the comment above it: `<!-- book-test: skip REASON -->` (Docker, sudo, a package
 //! install, a synopsis with placeholders), or `<!-- book-test: long MINUTES -->` for a block longer than the CI budget,
-//! run only with `SIMNET_BOOK_LONG=1`.
+//! run only with `SIMNET_BOOK_LONG=1`. With `SIMNET_BLESS=1` (`cargo xtask docs --outputs`) a `text` block
+//! without `…` lines that differs is written again with what the command printed. `$BOOK` is the book's source directory, for a block that cuts a file shown on
+//! its page out of it.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -19,6 +21,9 @@ struct Block {
     line: usize,
     script: String,
     expect: Option<String>,
+    /// The lines of the page (0-based, end exclusive) of the `text` block it must print: what `SIMNET_BLESS=1`
+    /// rewrites.
+    text_at: Option<(usize, usize)>,
     skip: Option<String>,
     long: bool,
 }
@@ -52,6 +57,10 @@ fn blocks(page: &Path) -> Vec<Block> {
                 let rows: Vec<&str> = lines[j..].iter().take_while(|l| l.starts_with('|')).copied().collect();
                 (!rows.is_empty()).then(|| format!("…\n{}\n…", rows.join("\n")))
             };
+            let text_at = next.and_then(|j| match fence_at(j) {
+                Some((info, e, _)) if info == "text" => Some((j + 1, e)),
+                _ => None,
+            });
             let expect = next.and_then(|j| match fence_at(j) {
                 Some((info, _, b)) if info == "text" => Some(b),
                 Some(_) => None,
@@ -62,6 +71,7 @@ fn blocks(page: &Path) -> Vec<Block> {
                 line: i + 1,
                 script: body,
                 expect,
+                text_at,
                 skip: marker
                     .as_deref()
                     .and_then(|m| m.strip_prefix("skip"))
@@ -139,6 +149,9 @@ fn matches(want: &[String], got: &[String]) -> bool {
 #[ignore = "long suite: every shell block of README and the book (.ci/run runs it)"]
 fn every_shell_block_of_readme_and_the_book_runs_and_prints_what_it_shows() {
     let long = std::env::var_os("SIMNET_BOOK_LONG").is_some();
+    let bless = std::env::var_os("SIMNET_BLESS").is_some();
+    // (page, text block's lines, what the command printed): the blocks `SIMNET_BLESS=1` writes again.
+    let mut blessed: Vec<(String, (usize, usize), String)> = Vec::new();
     let mut failed = Vec::new();
     let mut not_run = Vec::new();
     for (k, b) in super::docs::pages().iter().flat_map(|p| blocks(p)).enumerate() {
@@ -161,8 +174,30 @@ fn every_shell_block_of_readme_and_the_book_runs_and_prints_what_it_shows() {
             .map(|l| l.replace("cargo run --release --", "simnet"))
             .collect();
         let out = run(&dir, &path, &script.join("\n"));
+        let before = failed.len();
+        let printed = String::from_utf8_lossy(&out.stdout).into_owned();
+        let ok = out.status.success();
         check(&at, b.expect.as_deref(), out, &mut failed);
+        // A text block without `…` lines is the whole output: blessed, it becomes what was printed (wall times
+        // masked as the check masks them).
+        let whole = b.expect.as_deref().is_some_and(|e| !e.lines().any(|l| l.trim() == "…"));
+        if bless && ok && failed.len() > before && whole {
+            if let Some(at_lines) = b.text_at {
+                failed.pop();
+                blessed.push((b.page.clone(), at_lines, masked(&printed).join("\n")));
+            }
+        }
         let _ = std::fs::remove_dir_all(&dir);
+    }
+    // Each page's blocks from its last up, so that earlier line numbers hold.
+    blessed.sort_by(|a, b| (&a.0, b.1).cmp(&(&b.0, a.1)));
+    for (page, (from, to), text) in &blessed {
+        let file = root().join(page);
+        let old = std::fs::read_to_string(&file).unwrap();
+        let mut lines: Vec<String> = old.lines().map(String::from).collect();
+        lines.splice(from..to, text.lines().map(String::from));
+        std::fs::write(&file, lines.join("\n") + "\n").unwrap();
+        eprintln!("blessed {page}:{}", from + 1);
     }
     for (k, (command, minutes)) in readme_tasks().into_iter().enumerate() {
         let at = format!("README.md, table of tasks: {command}");
@@ -189,6 +224,8 @@ fn run(dir: &Path, path: &str, script: &str) -> std::process::Output {
         .args(["-euo", "pipefail", "-c", script])
         .current_dir(dir)
         .env("PATH", path)
+        // The book's own pages, for a block that takes a file the page shows (`sed -n … "$BOOK/page.md"`).
+        .env("BOOK", root().join("docs/src"))
         .env_remove("RUST_LOG")
         .output()
         .unwrap()

@@ -987,3 +987,48 @@ fn every_subcommand_exits_2_naming_a_bad_topology_option_or_output() {
     }
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// `-q` and `-v` are global: given before a subcommand they mean what they mean after it.
+#[test]
+fn quiet_and_verbose_before_a_subcommand() {
+    for args in [
+        &["-q", "topologies"][..],
+        &["-q", "bounds", "-t", "sinopoli-scalar"],
+        &["-v", "estimators"],
+        &["-q", "validate", "topologies/ring3.toml"],
+    ] {
+        let out = simnet().args(args).output().unwrap();
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(!out.stdout.is_empty(), "{args:?} printed nothing");
+    }
+    let out = simnet().args(["-qv", "topologies"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--quiet"));
+}
+
+/// A listing into a pipe its reader closed ends with 141, as a shell reports SIGPIPE, not with a panic.
+#[test]
+fn a_listing_into_a_closed_pipe_is_not_a_panic() {
+    for what in ["topologies", "estimators"] {
+        let mut child = simnet()
+            .arg(what)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        // The reader goes away before reading a byte.
+        drop(child.stdout.take());
+        let out = child.wait_with_output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!stderr.contains("panicked"), "{what}: {stderr}");
+        assert!(
+            matches!(out.status.code(), Some(0) | Some(141)),
+            "{what}: {:?}",
+            out.status
+        );
+    }
+}

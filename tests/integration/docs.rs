@@ -174,3 +174,31 @@ fn the_repository_files_the_book_names_exist() {
         missing.join("\n")
     );
 }
+
+/// The book's generated pages are what `cargo xtask docs` writes from the code today: a key, a column or a field
+/// added without them fails here.
+#[test]
+fn the_generated_pages_are_what_the_code_generates() {
+    for (path, text) in [
+        ("docs/src/generated/keys.md", simnet::scenario::schema::markdown()),
+        ("docs/src/generated/outputs.md", simnet::report::outputs::markdown()),
+    ] {
+        let committed = std::fs::read_to_string(root().join(path)).unwrap_or_default();
+        assert!(
+            committed == text,
+            "{path} is not what the code generates: run `cargo xtask docs`"
+        );
+    }
+}
+
+/// Every generated page is included by a chapter.
+#[test]
+fn every_generated_page_is_in_a_chapter() {
+    let book: String = pages().iter().map(|p| std::fs::read_to_string(p).unwrap()).collect();
+    for page in ["generated/keys.md", "generated/outputs.md"] {
+        assert!(
+            book.contains(&format!("{{{{#include {page}}}}}")),
+            "no chapter includes {page}"
+        );
+    }
+}

@@ -667,3 +667,203 @@ fn a_full_disk_leaves_the_earlier_run_whole() {
     assert!(before == after, "the earlier run's files changed");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A JSON document's leaf fields as paths: `nodes[].networked.mean_error`, a list of tables as `[]`.
+fn leaves(v: &serde_json::Value, path: &str, out: &mut std::collections::BTreeSet<String>) {
+    let join = |k: &str| {
+        if path.is_empty() {
+            k.to_string()
+        } else {
+            format!("{path}.{k}")
+        }
+    };
+    match v {
+        // An empty map (no kernel drops) has no field to name.
+        serde_json::Value::Object(m) if m.is_empty() => {}
+        serde_json::Value::Object(m) => {
+            for (k, x) in m {
+                leaves(x, &join(k), out);
+            }
+        }
+        serde_json::Value::Array(a) if a.iter().any(|x| x.is_object()) => {
+            for x in a {
+                leaves(x, &format!("{path}[]"), out);
+            }
+        }
+        _ => {
+            out.insert(path.to_string());
+        }
+    }
+}
+
+/// A file's name as the outputs table gives it: `imu-3.csv` is `imu-ID.csv`.
+fn documented_name(rel: &str) -> String {
+    let digits = |s: &str| !s.is_empty() && s.chars().all(|c| c.is_ascii_digit());
+    if let Some(id) = rel
+        .strip_prefix("imu-")
+        .and_then(|r| r.strip_suffix(".csv"))
+        .filter(|i| digits(i))
+    {
+        let _ = id;
+        return "imu-ID.csv".into();
+    }
+    if rel.starts_with("runs/") && rel.ends_with(".json") {
+        return "runs/DIGEST.json".into();
+    }
+    if rel.starts_with("shards/") && rel.ends_with(".json") {
+        return "shards/SHARD.DIGEST.json".into();
+    }
+    rel.to_string()
+}
+
+/// Whether a CSV header is the documented columns: `NAME_*` takes every column with that prefix, `KEY` the swept
+/// keys (the columns up to the next documented one), `ESTIMATOR.*` every remaining column with a dot, and a column
+/// of some runs only may be absent.
+fn header_is(header: &[&str], columns: &[simnet::report::outputs::Field]) -> Result<(), String> {
+    let mut i = 0;
+    for (c, col) in columns.iter().enumerate() {
+        if let Some(prefix) = col.name.strip_suffix('*').filter(|p| p.ends_with('_')) {
+            let start = i;
+            while i < header.len() && header[i].starts_with(prefix) {
+                i += 1;
+            }
+            if i == start {
+                return Err(format!("no `{}` column at {start}", col.name));
+            }
+        } else if col.name == "KEY" {
+            let next = columns.get(c + 1).map(|n| n.name);
+            while i < header.len() && Some(header[i]) != next {
+                i += 1;
+            }
+        } else if col.name == "ESTIMATOR.*" {
+            while i < header.len() && header[i].contains('.') {
+                i += 1;
+            }
+        } else if header.get(i) == Some(&col.name) {
+            i += 1;
+        } else if !col.optional {
+            return Err(format!("column {i} is {:?}, documented `{}`", header.get(i), col.name));
+        }
+    }
+    if i != header.len() {
+        return Err(format!("undocumented columns from {i}: {:?}", &header[i..]));
+    }
+    Ok(())
+}
+
+/// The book's "Output files" chapter is generated from `simnet::report::outputs`; this holds that table to what simnet
+/// writes. Runs that between them write every kind of file and field (estimators, attacks, authentication, faults, a
+/// wall-clock run, the attitude model, a sweep): every file written is in the table with its columns in order, every
+/// field of every summary.json is named by a pattern, and everything in the table is written by one of the runs —
+/// except what only a multi-host run writes (its parts), and the Parquet copies.
+#[test]
+fn every_file_column_and_field_written_is_documented() {
+    use simnet::report::outputs::{matches, FILES, SUMMARY};
+    let base = tmp("documented");
+    std::fs::create_dir_all(&base).unwrap();
+    let faults = base.join("ring3-faults.toml");
+    let ring3 = std::fs::read_to_string("topologies/ring3.toml").unwrap();
+    std::fs::write(
+        &faults,
+        format!(
+            "{ring3}\n[[fault]]\nkind = \"crash\"\nnode = 2\nat_s = 1.0\n[[fault]]\nkind = \"link-down\"\n\
+             link = [0, 1]\ndirected = true\nstart_s = 0.5\nend_s = 1.5\n"
+        ),
+    )
+    .unwrap();
+    let runs: [(&str, Vec<&str>); 5] = [
+        (
+            "attacked",
+            vec![
+                "-t",
+                "ring3-attacked",
+                "--duration",
+                "22",
+                "--estimators",
+                "all",
+                "--auth",
+            ],
+        ),
+        ("faults", vec!["-t", faults.to_str().unwrap(), "--duration", "2"]),
+        ("attitude", vec!["-t", "attitude3", "--duration", "2"]),
+        ("realtime", vec!["-t", "ring3", "--duration", "0.5", "--realtime"]),
+        (
+            "sweep",
+            vec![
+                "sweep",
+                "-t",
+                "ring3",
+                "--set",
+                "link.loss.p=0,0.2",
+                "--seeds",
+                "2",
+                "--duration",
+                "1",
+                "--estimators",
+                "sequeira",
+            ],
+        ),
+    ];
+    let mut files_seen = std::collections::BTreeSet::new();
+    let mut fields_seen = std::collections::BTreeSet::new();
+    let mut problems = Vec::new();
+    for (name, args) in &runs {
+        let dir = base.join(name);
+        let out = simnet().arg("-q").args(args).arg("--out").arg(&dir).output().unwrap();
+        assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
+        let mut stack = vec![dir.clone()];
+        while let Some(d) = stack.pop() {
+            for e in std::fs::read_dir(&d).unwrap() {
+                let p = e.unwrap().path();
+                if p.is_dir() {
+                    stack.push(p);
+                    continue;
+                }
+                let rel = p.strip_prefix(&dir).unwrap().to_string_lossy().replace('\\', "/");
+                let doc = documented_name(&rel);
+                let Some(file) = FILES.iter().find(|f| f.name == doc) else {
+                    problems.push(format!("{name}: `{rel}` is written but not documented"));
+                    continue;
+                };
+                files_seen.insert(file.name);
+                if rel.ends_with(".csv") {
+                    let text = std::fs::read_to_string(&p).unwrap();
+                    let header: Vec<&str> = text.lines().next().unwrap_or_default().split(',').collect();
+                    if let Err(e) = header_is(&header, file.columns) {
+                        problems.push(format!("{name}: `{rel}`: {e}"));
+                    }
+                }
+                if rel == "summary.json" {
+                    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
+                    let mut paths = Default::default();
+                    leaves(&v, "", &mut paths);
+                    for path in paths {
+                        let named: Vec<&str> = SUMMARY
+                            .iter()
+                            .filter(|f| matches(f.name, &path))
+                            .map(|f| f.name)
+                            .collect();
+                        if named.is_empty() {
+                            problems.push(format!("{name}: summary field `{path}` is not documented"));
+                        }
+                        fields_seen.extend(named);
+                    }
+                }
+            }
+        }
+    }
+    // Only a multi-host run writes these, and only the parquet feature the Parquet copies.
+    let elsewhere = ["NAME.parquet", "node-ID.json", "trace-ID.csv", "estimates-ID.csv"];
+    for f in FILES {
+        if !files_seen.contains(f.name) && !elsewhere.contains(&f.name) {
+            problems.push(format!("`{}` is documented but no run wrote it", f.name));
+        }
+    }
+    for f in SUMMARY {
+        if !fields_seen.contains(f.name) && !["part.*", "transport.kernel_drops.*"].contains(&f.name) {
+            problems.push(format!("summary field `{}` is documented but no run wrote it", f.name));
+        }
+    }
+    let _ = std::fs::remove_dir_all(&base);
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}

@@ -201,6 +201,7 @@ fn over_time(
     y_desc: &str,
     value: impl Fn(&TraceRow) -> f64,
     log: bool,
+    faults: &[crate::link::FaultWindow],
 ) -> Result<String, PlotError> {
     font();
     let mut out = String::new();
@@ -245,6 +246,28 @@ fn over_time(
                         .map_err(err(name))?
                         .label("burn-in: not in the y-scale (clipped)")
                         .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], shade));
+                }
+                // Each fault window shaded (the first few named in the legend), under the lines.
+                let fault_shade = RGBColor(255, 150, 0).mix(0.16).filled();
+                for (i, w) in faults.iter().enumerate() {
+                    let end = w.end_s.unwrap_or(t_max).min(t_max);
+                    if w.start_s >= t_max || end <= w.start_s {
+                        continue;
+                    }
+                    let drawn = chart
+                        .draw_series(std::iter::once(Rectangle::new(
+                            [(w.start_s, lo), (end, hi)],
+                            fault_shade,
+                        )))
+                        .map_err(err(name))?;
+                    let label = match i {
+                        0..=2 => format!("{}, {}–{} s", w.label(), tick(w.start_s), tick(end)),
+                        3 => format!("… {} more faults", faults.len() - 3),
+                        _ => continue,
+                    };
+                    drawn
+                        .label(label)
+                        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], fault_shade));
                 }
                 let pts = |s: &Series| runs(s.rows.iter().map(|r| (r.step, r.t, value(r))), lo, hi);
                 if many {
@@ -344,13 +367,31 @@ pub fn error(
     burn_in_s: f64,
     model: Kind,
     title: &str,
+    faults: &[crate::link::FaultWindow],
 ) -> Result<String, PlotError> {
     let y = model.error_text().axis;
-    over_time("error", rows, fused, dt, burn_in_s, title, y, |r| r.error, false)
+    over_time(
+        "error",
+        rows,
+        fused,
+        dt,
+        burn_in_s,
+        title,
+        y,
+        |r| r.error,
+        false,
+        faults,
+    )
 }
 
 /// The trace of the posterior covariance against time; the y-scale from `burn_in_s` on.
-pub fn trace_p(rows: &[TraceRow], dt: f64, burn_in_s: f64, title: &str) -> Result<String, PlotError> {
+pub fn trace_p(
+    rows: &[TraceRow],
+    dt: f64,
+    burn_in_s: f64,
+    title: &str,
+    faults: &[crate::link::FaultWindow],
+) -> Result<String, PlotError> {
     over_time(
         "trace_p",
         rows,
@@ -361,5 +402,6 @@ pub fn trace_p(rows: &[TraceRow], dt: f64, burn_in_s: f64, title: &str) -> Resul
         "trace P (posterior)",
         |r| r.trace_p_post,
         true,
+        faults,
     )
 }

@@ -78,7 +78,7 @@ pub fn sweep(
                 c.stroke_width(if l.reference { 3 } else { 2 }),
             ))
             .map_err(err(NAME))?;
-            key.draw(&Text::new(l.label.clone(), (48, y - 8), ("sans-serif", 16)))
+            key.draw(&Text::new(l.label.clone(), (48, y - 9), ("sans-serif", 18)))
                 .map_err(err(NAME))?;
         }
         root.present().map_err(err(NAME))?;
@@ -104,10 +104,10 @@ fn draw_panel(
     let (y0, y1) = axis(ys(), log);
     let mut builder = ChartBuilder::on(area);
     builder
-        .caption(&p.title, ("sans-serif", 18))
+        .caption(&p.title, ("sans-serif", 20))
         .margin(10)
-        .x_label_area_size(40)
-        .y_label_area_size(70);
+        .x_label_area_size(48)
+        .y_label_area_size(80);
     let x_fmt = |v: &f64| match x_labels {
         Some(names) => {
             let i = v.round();
@@ -123,8 +123,11 @@ fn draw_panel(
         ($chart:expr) => {{
             let mut chart = $chart;
             let mut mesh = chart.configure_mesh();
+            // Larger than plotters' default: the figure is wide and a page shows it scaled down.
             mesh.x_desc(x_desc)
                 .y_desc(p.y_desc.as_str())
+                .label_style(("sans-serif", 16))
+                .axis_desc_style(("sans-serif", 16))
                 .x_label_formatter(&x_fmt)
                 .y_label_formatter(&|v| tick(*v));
             if let Some(names) = x_labels {

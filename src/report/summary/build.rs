@@ -59,6 +59,7 @@ impl Settings {
                 .collect(),
             scenario: topo.to_toml(),
             scenario_sha256: topo.digest(),
+            faults: topo.faults().windows(|i| topo.nodes()[i].id),
         }
     }
 }

@@ -89,6 +89,9 @@ pub struct Settings {
     /// Its SHA-256 ([`crate::Scenario::digest`]).
     #[serde(default)]
     pub scenario_sha256: String,
+    /// The `[[fault]]` windows (crashes, links down, partitions) by node id; absent from runs without one.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub faults: Vec<crate::link::FaultWindow>,
 }
 
 fn one() -> usize {

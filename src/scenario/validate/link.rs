@@ -26,10 +26,19 @@ impl Checks {
                         self.bad(format!("{key}.{k}"), "only for model = \"gilbert-elliott\"");
                     }
                 }
-                let p = self.prob(&format!("{key}.p"), l.p.or(l.rate), 0.0);
+                // `rate` is another name for p here: a problem names the key the file gave.
+                let which = if l.p.is_none() && l.rate.is_some() { "rate" } else { "p" };
+                let p = self.prob(&format!("{key}.{which}"), l.p.or(l.rate), 0.0);
                 LossModel::Bernoulli { p }
             }
             "gilbert-elliott" => {
+                if let Some(burst) = l.burst.filter(|b| b.is_nan() || *b < 1.0) {
+                    self.bad(
+                        format!("{key}.burst"),
+                        format!("mean loss run must be at least 1 packet, got {burst}"),
+                    );
+                    return LossModel::Bernoulli { p: 0.0 };
+                }
                 if let (Some(rate), Some(burst)) = (l.rate, l.burst) {
                     let rate = self.prob(&format!("{key}.rate"), Some(rate), 0.0);
                     if burst.is_nan() || burst < 1.0 {
@@ -127,14 +136,40 @@ impl Checks {
                     return None;
                 };
                 if !(s >= 0.0 && e > s && e.is_finite()) {
+                    let which = if s >= 0.0 { "end_s" } else { "start_s" };
                     v.bad(
-                        format!("{key}.end_s"),
+                        format!("{key}.{which}"),
                         format!("need 0 ≤ start_s < end_s, got {s}..{e}"),
                     );
                     return None;
                 }
                 Some((s, e))
             };
+            // A key of another kind would be silently ignored: refused instead.
+            let given = [
+                ("link", r.link.is_some()),
+                ("directed", r.directed.is_some()),
+                ("nodes", r.nodes.is_some()),
+                ("node", r.node.is_some()),
+                ("start_s", r.start_s.is_some()),
+                ("end_s", r.end_s.is_some()),
+                ("at_s", r.at_s.is_some()),
+                ("restart_s", r.restart_s.is_some()),
+            ];
+            let own: &[&str] = match r.kind.as_str() {
+                "link-down" => &["link", "directed", "start_s", "end_s"],
+                "partition" => &["nodes", "start_s", "end_s"],
+                "crash" => &["node", "at_s", "restart_s"],
+                _ => &[],
+            };
+            if !own.is_empty() {
+                for (field, _) in given.iter().filter(|(f, g)| *g && !own.contains(f)) {
+                    self.bad(
+                        format!("{key}.{field}"),
+                        format!("{} takes no {field} (its keys: {})", r.kind, own.join(", ")),
+                    );
+                }
+            }
             match r.kind.as_str() {
                 "link-down" => {
                     let Some(link) = &r.link else {
