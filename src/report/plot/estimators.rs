@@ -39,7 +39,23 @@ pub fn estimators(rows: &[SchemeRow], dt: f64, model: ModelKind, title: &str) ->
             (k, v)
         })
         .collect();
-    let (lo, hi) = axis(pts.iter().flat_map(|(_, v)| v.iter().map(|p| p.2)), true);
+    // A line a thousand times above the reference (a prediction-only node's twin diverging) would flatten every other
+    // line at the bottom: it is drawn clipped and its key says so.
+    let peak = |v: &Line| v.iter().map(|p| p.2).fold(0.0, f64::max);
+    let mut peaks: Vec<f64> = pts.iter().map(|(_, v)| peak(v)).collect();
+    peaks.sort_by(f64::total_cmp);
+    let reference = pts
+        .iter()
+        .find(|(k, _)| *k == Kind::Centralized)
+        .map(|(_, v)| peak(v))
+        .unwrap_or_else(|| peaks.get(peaks.len() / 2).copied().unwrap_or(0.0));
+    let off_scale = |v: &Line| reference > 0.0 && peak(v) > 1e3 * reference;
+    let (lo, hi) = axis(
+        pts.iter()
+            .filter(|(_, v)| !off_scale(v))
+            .flat_map(|(_, v)| v.iter().map(|p| p.2)),
+        true,
+    );
     let t_max = (steps as f64 * dt).max(dt);
     let mut out = String::new();
     {
@@ -67,12 +83,16 @@ pub fn estimators(rows: &[SchemeRow], dt: f64, model: ModelKind, title: &str) ->
             .map_err(err(NAME))?;
         let mut keys = Vec::new();
         for (kind, v) in pts {
-            let (style, label) = if kind == Kind::Centralized {
+            let (style, mut label) = if kind == Kind::Centralized {
                 (BLACK.stroke_width(3), "centralized (reference, no loss)".to_string())
             } else {
                 (estimator_colour(kind).stroke_width(2), kind.name().to_string())
             };
-            draw_runs(&mut chart, runs(v.into_iter(), lo, hi), style, None, NAME)?;
+            if off_scale(&v) {
+                label.push_str(" (off scale: clipped)");
+            }
+            let clipped = v.into_iter().map(|(k, t, y)| (k, t, y.min(hi)));
+            draw_runs(&mut chart, runs(clipped, lo, hi), style, None, NAME)?;
             keys.push((style, label));
         }
         for (i, (style, label)) in keys.into_iter().enumerate() {

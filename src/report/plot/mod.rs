@@ -94,7 +94,7 @@ fn axis(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
 }
 
 /// A log axis over [lo, hi] with its ticks at 1, 2 and 5 times each power of ten (at the powers alone past four
-/// decades) and its fine grid at 1–9 times them: plotters' own log ticks repeat the power of ten that ends one
+/// decades, at every k-th power past twelve) and its fine grid at 1–9 times them (at the powers past twelve): plotters' own log ticks repeat the power of ten that ends one
 /// decade and starts the next (a label drawn twice, a band of fine lines about it).
 fn log_axis(
     lo: f64,
@@ -109,8 +109,22 @@ fn log_axis(
             .filter(within)
             .collect()
     };
-    let bold = if d1 - d0 > 4 { at(&[1.0]) } else { at(&[1.0, 2.0, 5.0]) };
-    let light = at(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]);
+    let decades = d1 - d0;
+    // Past four decades the powers alone, every k-th of them past twelve: at most a dozen labels on the axis.
+    let (bold, light) = if decades > 12 {
+        let every = (decades + 11) / 12;
+        let powers: Vec<f64> = (d0..=d1).map(|d| 10f64.powi(d)).filter(within).collect();
+        let labelled = (d0..=d1)
+            .filter(|d| (d - d0) % every == 0)
+            .map(|d| 10f64.powi(d))
+            .filter(within)
+            .collect();
+        (labelled, powers)
+    } else if decades > 4 {
+        (at(&[1.0]), at(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]))
+    } else {
+        (at(&[1.0, 2.0, 5.0]), at(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]))
+    };
     (lo..hi).log_scale().with_key_points(bold).with_light_points(light)
 }
 
