@@ -18,6 +18,7 @@
 //! with [`in_memory`], or over sockets by the caller), then finished by [`outputs::finish`].
 
 mod outputs;
+pub mod page;
 mod plan;
 mod points;
 mod record;

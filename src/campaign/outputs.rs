@@ -146,7 +146,7 @@ pub fn finish(store: &Store, plan: &PlanFile, me: &ShardInfo) -> Result<Finished
     )?;
     put(
         "report.html",
-        crate::report::html::sweep_page(plan, &manifest, &stats, &svg).into_bytes(),
+        super::page::sweep_page(plan, &manifest, &stats, &svg).into_bytes(),
     )?;
     Ok(Finished {
         runs: runs.len(),

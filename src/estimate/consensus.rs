@@ -5,16 +5,10 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::kalman::{effective_observation, kalman_update, Gaussian, MissingChannels, Observation};
+use super::kalman::{effective_observation, kalman_update};
+pub use super::types::{ConsensusOutcome, Source};
+use super::types::{Gaussian, MissingChannels, Observation};
 use super::{cholesky, eigenvalues, symmetrize, EstimateError};
-
-/// One measurement that reached the node in time: its weight βⱼ, its value, and which rows it carries.
-#[derive(Debug, Clone)]
-pub struct Source<'a> {
-    pub beta: f64,
-    pub z: &'a DVector<f64>,
-    pub present: &'a [bool],
-}
 
 /// The two LMI conditions evaluated at the β actually used.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -30,13 +24,6 @@ impl LmiCheck {
     pub fn feasible(&self) -> bool {
         self.norm_z < 1.0 && self.min_eig > 0.0
     }
-}
-
-#[derive(Debug, Clone)]
-pub struct ConsensusOutcome {
-    pub posterior: Gaussian,
-    /// (17) and (19) hold at the β used ([`feasible`]).
-    pub feasible: bool,
 }
 
 /// The β-independent terms of one node's step, eqs. (5)–(6) and (13)–(19): P_{k|k−1}, A = (1 − β₀) K S Kᵀ, the

@@ -6,8 +6,7 @@
 
 use nalgebra::{Cholesky, DMatrix, DVector, SMatrix, SVector};
 
-use super::consensus::{ConsensusOutcome, Source};
-use super::kalman::{Gaussian, Observation};
+use super::types::{ConsensusOutcome, Gaussian, Observation, Source};
 use super::EstimateError;
 
 /// Run `$f::<N, M>($args)` for the sizes in the table, `None` for any other.

@@ -15,6 +15,7 @@ pub mod fusion;
 pub mod kalman;
 pub mod mekf;
 pub mod rigid_pair;
+mod types;
 
 use nalgebra::{DMatrix, DVector};
 

@@ -354,7 +354,7 @@ async fn worker(
             let window_end = if last && k + 1 == sh.steps {
                 f64::INFINITY
             } else {
-                crate::sim::round_end(&sh.topo, k, r)
+                sh.topo.round_end(k, r)
             };
             for slot in &mut slots {
                 if r == 0 {

@@ -147,7 +147,7 @@ fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedS
         // Round r closes at t_k + D(r+1)/L, the last at the step's deadline.
         for r in 0..sh.topo.estimators().rounds {
             let last = r + 1 == sh.topo.estimators().rounds;
-            let close = sh.at(crate::sim::round_end(&sh.topo, k, r));
+            let close = sh.at(sh.topo.round_end(k, r));
             loop {
                 // Send whatever is due now; the next thing due bounds the wait.
                 let now = Instant::now();

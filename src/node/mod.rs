@@ -66,7 +66,8 @@ use inbox::{Inbox, Received};
 use schemes::Schemes;
 use session::Session;
 
-pub use schemes::{Feed, Traffic};
+pub use crate::observe::schemes::Feed;
+pub use schemes::Traffic;
 
 pub use crate::observe::{LmiStep, MeasurementRow, StepEstimate, TraceRow};
 pub use events::{Arrival, NodeCounters, NodeReport};
@@ -451,7 +452,7 @@ impl Node {
         if out.is_empty() {
             return;
         }
-        let t = crate::sim::round_end(&self.topo, k, r);
+        let t = self.topo.round_end(k, r);
         for (li, group) in self.per_link(&out).into_iter().enumerate() {
             self.egress
                 .push_group(li, t, &group, self.topo.faults(), Stream::Round(r + 1));

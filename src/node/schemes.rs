@@ -11,7 +11,6 @@ use crate::estimators::{from_body, to_body, Estimator, Kind, Message, StepInput}
 use crate::model::{Measurement, Model};
 use crate::observe::{Filter, Update};
 use crate::scenario::Scenario;
-use crate::sensor::ImuInterval;
 use crate::wire::{Body, Datagram, Header, Payload};
 
 use super::wire::Wire;
@@ -278,24 +277,6 @@ fn keep(list: &mut Vec<(usize, Message)>, from: usize, m: Message) {
 /// What a node hands its schemes: its model, observation and own measurement.
 pub(super) fn input<'a>(model: &'a dyn Model, obs: &'a Observation, own: Option<&'a Measurement>) -> StepInput<'a> {
     StepInput { model, obs, own }
-}
-
-/// What a node hands the observer's fusion centers each step: its own measurement, and the prediction input of the
-/// step (the centers predict with the sink's IMU).
-#[derive(Debug, Clone)]
-pub struct Feed {
-    pub node: usize,
-    pub step: u64,
-    pub own: Option<Measurement>,
-    pub imu: Option<ImuInterval>,
-    /// The truth's re-basing shift this step (linear model).
-    pub shift: Option<DVector<f64>>,
-    /// The fresh prior the node started from this step (its first step, a restart, a late join).
-    pub prior: Option<Gaussian>,
-    pub truth: DVector<f64>,
-    /// At the sink, when the run holds centralized-net: the neighbours' measurements that arrived over the
-    /// scenario's links by the deadline (the same datagrams `sequeira` fused).
-    pub heard: Option<std::collections::BTreeMap<usize, Measurement>>,
 }
 
 impl super::Node {

@@ -111,7 +111,7 @@ impl Observer {
     }
 
     /// One step's reference feeds (before [`Observer::push`] of the same step).
-    pub fn push_feeds(&mut self, feeds: Vec<crate::node::Feed>) {
+    pub fn push_feeds(&mut self, feeds: Vec<super::schemes::Feed>) {
         if let Some(s) = self.schemes.as_mut() {
             s.push_feeds(feeds);
         }

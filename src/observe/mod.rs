@@ -79,7 +79,7 @@ pub trait Probe: Send {
     fn on_measurement(&mut self, _m: &MeasurementRow) {}
 }
 
-/// The probes of one node: the recorders that are on, then any added ([`crate::node::Node::add_probe`]).
+/// The probes of one node: the recorders that are on, then any added (a node's `add_probe`).
 #[derive(Default)]
 pub struct Probes {
     pub trace: Option<TraceRecorder>,

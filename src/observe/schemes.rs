@@ -15,11 +15,29 @@ use crate::estimators::{Centralized, Context, Estimator, Kind, Message, StepInpu
 use crate::link::{Link, Verdict};
 use crate::model::Measurement;
 use crate::model::{FusionLayout, Model};
-use crate::node::Feed;
 use crate::observe::metrics::FilterMetrics;
 use crate::observe::StepEstimate;
 use crate::scenario::Scenario;
+use crate::sensor::ImuInterval;
 use crate::wire::{Datagram, Header, Payload};
+
+/// What a node hands the observer's fusion centers each step: its own measurement, and the prediction input of the
+/// step (the centers predict with the sink's IMU).
+#[derive(Debug, Clone)]
+pub struct Feed {
+    pub node: usize,
+    pub step: u64,
+    pub own: Option<Measurement>,
+    pub imu: Option<ImuInterval>,
+    /// The truth's re-basing shift this step (linear model).
+    pub shift: Option<DVector<f64>>,
+    /// The fresh prior the node started from this step (its first step, a restart, a late join).
+    pub prior: Option<Gaussian>,
+    pub truth: DVector<f64>,
+    /// At the sink, when the run holds centralized-net: the neighbours' measurements that arrived over the
+    /// scenario's links by the deadline (the same datagrams `sequeira` fused).
+    pub heard: Option<std::collections::BTreeMap<usize, Measurement>>,
+}
 
 /// One estimator's error at one step, for plots: the median over the nodes (the reference's own).
 #[derive(Debug, Clone, PartialEq)]

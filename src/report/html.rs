@@ -1,9 +1,8 @@
 //! `report.html`: one self-contained page (inline CSS and SVG, nothing fetched) for a run — its tables, plots and
-//! provenance — and for a campaign — its points with confidence intervals, `sweep.svg`, the manifest.
+//! provenance (a campaign's page, built from the same parts, is `crate::campaign::page`).
 
 use std::fmt::Write;
 
-use crate::campaign::{cell, Manifest, PlanFile, PointStat};
 use crate::Summary;
 
 const STYLE: &str = "body{font-family:sans-serif;margin:2em auto;max-width:1200px;padding:0 1em;color:#222}\
@@ -30,11 +29,11 @@ pub fn escape(s: &str) -> String {
 }
 
 /// An SVG made by simnet's plots, inline: the document's own root element, any XML prologue dropped.
-fn inline_svg(svg: &str) -> &str {
+pub(crate) fn inline_svg(svg: &str) -> &str {
     svg.find("<svg").map_or("", |i| &svg[i..])
 }
 
-fn head(title: &str) -> String {
+pub(crate) fn head(title: &str) -> String {
     format!(
         "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
          <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n<title>{}</title>\n\
@@ -44,7 +43,7 @@ fn head(title: &str) -> String {
 }
 
 /// A table: header cells (the first column left-aligned) and rows, `id` for scripts and tests.
-fn table(id: &str, header: &[String], rows: &[Vec<String>]) -> String {
+pub(crate) fn table(id: &str, header: &[String], rows: &[Vec<String>]) -> String {
     let mut t = format!("<table id=\"{id}\">\n<tr>");
     for (i, h) in header.iter().enumerate() {
         let _ = write!(t, "<th{}>{}</th>", if i == 0 { " class=\"l\"" } else { "" }, escape(h));
@@ -281,117 +280,6 @@ pub fn run_page(s: &Summary, plots: &[(String, String)], header: &RunHeader) -> 
             escape(&st.scenario)
         );
     }
-    h.push_str("</body>\n</html>\n");
-    h
-}
-
-/// The page of a campaign: `svg` is `sweep.svg`.
-pub fn sweep_page(plan: &PlanFile, manifest: &Manifest, stats: &[PointStat], svg: &str) -> String {
-    let keys: Vec<&str> = plan.axes.iter().map(|a| a.key.as_str()).collect();
-    let title = format!("simnet sweep · {} against {}", plan.topology, keys.join(" × "));
-    let mut h = head(&title);
-    let _ = writeln!(h, "<h1>{}</h1>", escape(&title));
-    let _ = writeln!(
-        h,
-        "<p class=\"meta\">{}</p>",
-        escape(&format!(
-            "{} × {} = {} runs · {} model · {} to {} · simnet {}",
-            crate::scenario::count(manifest.points, "point"),
-            crate::scenario::count(manifest.seeds as usize, "seed"),
-            manifest.runs,
-            plan.model,
-            manifest.started,
-            manifest.finished,
-            manifest.simnet
-        ))
-    );
-    let _ = writeln!(
-        h,
-        "<h2>Mean error per point</h2>\n<p>{}: mean over the seeds ± half the 95 % confidence interval \
-         (Student's t); loss: the measured fraction of datagrams lost.</p>",
-        escape(plan.model.error_text().label)
-    );
-    let (header, rows) = crate::campaign::mean_error_table(plan, stats);
-    h.push_str(&table("points", &header, &rows));
-    let _ = writeln!(
-        h,
-        "<h2>Plot</h2>\n<figure class=\"wide\">\n{}\n<figcaption>Each figure against {}, one line per estimator, 95 % \
-         confidence bands.</figcaption>\n</figure>",
-        inline_svg(svg),
-        escape(plan.x_axis().map_or("", |a| a.key.as_str()))
-    );
-    h.push_str("<h2>Every figure</h2>\n<details><summary>points.csv as a table</summary>\n");
-    let mut header: Vec<String> = keys.iter().map(|k| k.to_string()).collect();
-    header.extend(["estimator", "metric", "n", "mean", "sd", "95 % low", "95 % high"].map(String::from));
-    let rows: Vec<Vec<String>> = stats
-        .iter()
-        .map(|s| {
-            let mut r: Vec<String> = plan.points[s.point].values.iter().map(cell).collect();
-            r.extend([s.estimator.clone(), s.metric.clone(), s.stat.n.to_string()]);
-            r.extend([s.stat.mean, s.stat.sd, s.stat.low, s.stat.high].map(|v| {
-                if v.is_finite() {
-                    format!("{v:.6}")
-                } else {
-                    "—".into()
-                }
-            }));
-            r
-        })
-        .collect();
-    h.push_str(&table("all-points", &header, &rows));
-    h.push_str("</details>\n<h2>Provenance</h2>\n<dl>\n");
-    let mut dl = |k: &str, v: &str| {
-        let _ = writeln!(h, "<dt>{}</dt><dd>{}</dd>", escape(k), escape(v));
-    };
-    dl("simnet", &manifest.simnet);
-    dl("command", &manifest.command.join(" "));
-    dl(
-        "base scenario",
-        &format!("{} (SHA-256 {})", manifest.topology, manifest.base_sha256),
-    );
-    for a in &manifest.axes {
-        dl(
-            &format!("swept {}", a.key),
-            &a.values.iter().map(cell).collect::<Vec<_>>().join(", "),
-        );
-    }
-    dl("seeds", &format!("1 … {}", manifest.seeds));
-    dl("estimators", &manifest.estimators.join(", "));
-    h.push_str("</dl>\n");
-    let rows: Vec<Vec<String>> = manifest
-        .made_by
-        .iter()
-        .map(|m| {
-            vec![
-                m.shard.clone(),
-                m.started.clone(),
-                m.finished.clone(),
-                m.cores.to_string(),
-                m.ran.to_string(),
-                m.transport.clone(),
-                m.simnet.clone(),
-            ]
-        })
-        .collect();
-    h.push_str(&table(
-        "made-by",
-        &[
-            "made by",
-            "started",
-            "finished",
-            "cores",
-            "runs made",
-            "transport",
-            "simnet",
-        ]
-        .map(String::from),
-        &rows,
-    ));
-    let _ = writeln!(
-        h,
-        "<details><summary>The base scenario (TOML)</summary><pre>{}</pre></details>",
-        escape(&manifest.base_scenario)
-    );
     h.push_str("</body>\n</html>\n");
     h
 }

@@ -345,6 +345,12 @@ impl Scenario {
 }
 
 impl Scenario {
+    /// The sub-deadline of round r of step k: t_k + D(r+1)/L.
+    pub fn round_end(&self, k: u64, r: usize) -> f64 {
+        let sim = self.sim();
+        k as f64 * sim.dt() + sim.deadline_s * (r + 1) as f64 / self.estimators().rounds as f64
+    }
+
     /// Index of the node whose file id is `id`.
     pub fn index_of(&self, id: u32) -> Option<usize> {
         self.by_id.get(&id).copied()

@@ -230,11 +230,7 @@ pub(crate) fn lockstep(nodes: &mut [Node], k: u64, window_end: f64) -> Vec<StepE
     };
     let rounds = s.estimators().rounds;
     for r in 0..rounds {
-        let end = if r + 1 == rounds {
-            window_end
-        } else {
-            round_end(&s, k, r)
-        };
+        let end = if r + 1 == rounds { window_end } else { s.round_end(k, r) };
         let mut moved = Vec::new();
         for n in nodes.iter_mut() {
             while let Some(tx) = n.poll_transmit(end) {
@@ -249,12 +245,6 @@ pub(crate) fn lockstep(nodes: &mut [Node], k: u64, window_end: f64) -> Vec<StepE
         }
     }
     nodes.iter_mut().filter_map(|n| n.handle_deadline(k)).collect()
-}
-
-/// The sub-deadline of round r of step k: t_k + D(r+1)/L.
-pub fn round_end(s: &Scenario, k: u64, r: usize) -> f64 {
-    let sim = s.sim();
-    k as f64 * sim.dt() + sim.deadline_s * (r + 1) as f64 / s.estimators().rounds as f64
 }
 
 pub(crate) fn observer_for(scenario: &Scenario, record: bool) -> Observer {

@@ -11,6 +11,7 @@ mod estimation;
 mod estimators;
 mod fusion;
 mod golden;
+mod layering;
 mod loss;
 mod network;
 mod outputs;

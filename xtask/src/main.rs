@@ -47,18 +47,35 @@ fn main() -> ExitCode {
         }
         println!("{path}: written");
     }
+    let mut steps: Vec<(&str, std::process::Command)> = Vec::new();
+    if outputs {
+        let mut c = std::process::Command::new(env!("CARGO"));
+        c.args([
+            "test",
+            "--locked",
+            "--test",
+            "integration",
+            "every_shell_block",
+            "--",
+            "--ignored",
+        ])
+        .env("SIMNET_BLESS", "1");
+        steps.push(("the book's command outputs", c));
+    }
     if images {
-        let status = std::process::Command::new("bash")
-            .arg(root.join("docs/images.sh"))
-            .status();
-        match status {
+        let mut c = std::process::Command::new("bash");
+        c.arg(root.join("docs/images.sh"));
+        steps.push(("docs/images.sh", c));
+    }
+    for (what, mut c) in steps {
+        match c.current_dir(&root).status() {
             Ok(s) if s.success() => {}
             Ok(s) => {
-                eprintln!("error: docs/images.sh failed ({s})");
+                eprintln!("error: {what} failed ({s})");
                 return ExitCode::FAILURE;
             }
             Err(e) => {
-                eprintln!("error: cannot run docs/images.sh: {e}");
+                eprintln!("error: cannot run {what}: {e}");
                 return ExitCode::FAILURE;
             }
         }

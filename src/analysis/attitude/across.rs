@@ -10,7 +10,7 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3, Vector4};
 
-use super::sensor::Part;
+use super::disturbance::Part;
 use crate::estimate::attitude::{rotation, turn};
 use crate::imu_csv::ImuRecording;
 

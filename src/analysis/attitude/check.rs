@@ -5,7 +5,8 @@
 
 use nalgebra::{Vector3, Vector4};
 
-use super::sensor::{Characterised, Part};
+use super::disturbance::Part;
+use super::sensor::Characterised;
 use super::unit;
 use crate::imu_csv::ImuRecording;
 use crate::stats;

@@ -19,6 +19,7 @@ use crate::imu_csv::ImuRecording;
 pub mod across;
 pub mod calibrate;
 pub mod check;
+pub mod disturbance;
 pub mod filters;
 pub mod sensor;
 pub mod study;
