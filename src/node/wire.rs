@@ -157,3 +157,44 @@ impl Wire {
         })
     }
 }
+
+/// Sending: one out-link's bytes, sealed for its receiver when the run is authenticated.
+impl super::Node {
+    /// `ds` as bytes for every out-link: sealed for each receiver when the run is authenticated, else encoded once
+    /// and shared.
+    pub(super) fn per_link(&mut self, ds: &[Datagram]) -> Vec<Vec<bytes::Bytes>> {
+        let links = self.egress.len();
+        if self.wire.seals() {
+            (0..links).map(|li| self.seal_for(li, ds)).collect()
+        } else if links == 0 {
+            Vec::new()
+        } else {
+            vec![self.seal_for(0, ds); links]
+        }
+    }
+
+    /// The boot node `j` is bound to in what this node seals for it: its boot as its hellos give it (one node per
+    /// process; 0 before the first, which it refuses), or the run's boot that every node of an in-process run
+    /// shares.
+    pub(super) fn boot_of(&self, j: usize) -> u64 {
+        if self.handshake {
+            self.session.boot(j).unwrap_or(0)
+        } else {
+            self.booted
+        }
+    }
+
+    /// `ds` as bytes for the receiver of out-link `li`: sealed for it when the run is authenticated.
+    pub(super) fn seal_for(&mut self, li: usize, ds: &[Datagram]) -> Vec<bytes::Bytes> {
+        let j = self.egress.to(li);
+        let (to, boot) = (self.topo.nodes()[j].id, self.boot_of(j));
+        ds.iter()
+            .filter_map(|d| {
+                self.wire
+                    .encode(d, to, boot)
+                    .inspect_err(|e| tracing::error!(node = self.id, "cannot encode a datagram: {e}"))
+                    .ok()
+            })
+            .collect()
+    }
+}
