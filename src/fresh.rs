@@ -30,6 +30,13 @@ pub fn token() -> String {
     token_bytes().iter().map(|x| format!("{x:02x}")).collect()
 }
 
+/// A fresh sealing key from the operating system's random source (`simnet keygen`, a node without `--key`).
+pub fn key() -> Result<crate::wire::secure::Key, getrandom::Error> {
+    let mut k = [0u8; 16];
+    getrandom::getrandom(&mut k)?;
+    Ok(crate::wire::secure::Key::from_bytes(k))
+}
+
 /// 8 random bytes (a challenge no one can guess).
 pub fn token_bytes() -> [u8; 8] {
     bytes::<8>()

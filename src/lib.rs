@@ -4,20 +4,24 @@
 //!
 //! # Layout
 //!
-//! The modules follow one step of data. Everything except `net` and `cli` is pure: no sockets, no
-//! clocks, randomness from seeded streams.
+//! The modules follow one step of data. The lowest layer is a crate of its own, `simnet-core` (`crates/core`):
+//! `geom`, `rng`, `stats`, `motion`, `sensor`, `estimate`, `wire`, `link` and `attack`, re-exported here under the
+//! same names. It depends on no tokio and no filesystem crate and, being below this one, cannot name anything above
+//! it: the compiler holds that layer. Above it, only `net` touches sockets and clocks; `report`, `campaign` and
+//! `cli` write files, `input` reads them (bounded, never trusted); `fresh` draws from the operating system. The rest
+//! is pure: randomness from seeded streams.
 //!
 //! | module | owns |
 //! |---|---|
 //! | [`scenario`] | topology TOML and overrides → a validated [`scenario::Scenario`]; every error names the file and the key; built-ins |
 //! | [`model`] | the estimation models behind one trait: pose, attitude (quaternion EKF), linear — state, process, observation, sensing, scoring |
-//! | [`motion`] | analytic ground-truth trajectories shared by every node |
-//! | [`sensor`] | accelerometer/gyro (noise, bias, Wiener drift), magnetometer, pose fixes, linear measurements |
-//! | [`estimate`] | pure maths: Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKF and the multiplicative one, Madgwick and Mahony (VQF through `vqf-rs`), the rigid-pair EKF, the FEM boundary-value solver |
+//! | [`motion`] (core) | analytic ground-truth trajectories shared by every node |
+//! | [`sensor`] (core) | accelerometer/gyro (noise, bias, Wiener drift), magnetometer, pose fixes, linear measurements |
+//! | [`estimate`] (core) | pure maths: Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKF and the multiplicative one, Madgwick and Mahony (VQF through `vqf-rs`), the rigid-pair EKF, the FEM boundary-value solver |
 //! | [`estimators`] | the distributed schemes behind one [`estimators::Estimator`] trait — independent, centralized, KCF, ICF, HCMCI, diffusion, CI — pure, per node, one message per round; the node runs them over L consensus rounds |
-//! | [`wire`] | the datagram format: postcard + CRC-32, checked decode |
-//! | [`link`] | per-datagram rules (outage, Bernoulli / Gilbert–Elliott loss, duplication, delay and jitter, corruption), the egress queue, fault schedules |
-//! | [`attack`] | the adversary model of `[[attack]]`: forge, tamper, replay, flood on the air in front of a node, false data from a compromised one; what became of each injected datagram |
+//! | [`wire`] (core) | the datagram format: postcard + CRC-32, checked decode |
+//! | [`link`] (core) | per-datagram rules (outage, Bernoulli / Gilbert–Elliott loss, duplication, delay and jitter, corruption), the egress queue, fault schedules |
+//! | [`attack`] (core) | the adversary model of `[[attack]]`: forge, tamper, replay, flood on the air in front of a node, false data from a compromised one; what became of each injected datagram |
 //! | [`node`] | one node's sans-IO state machine: `handle_crash`/`handle_restart`, `handle_step`, `handle_datagram`, `handle_round`, `handle_deadline`, `poll_transmit`, over any [`model::Model`]; simulated or recorded IMU |
 //! | [`observe`] | what is measured as a run goes: the [`observe::Probe`]s a node feeds (the scorer, the trace, IMU and LMI recorders, your own), per-filter metrics, the fusion observer, the estimators' agreement and the two fusion centers (centralized, and centralized-net over lossy links) |
 //! | [`sim`] | whole runs in memory: [`Sim`] steps every node in lockstep and returns [`RunResults`], the same as over UDP |
@@ -31,8 +35,8 @@
 //! | `compose` (crate-private) | the docker compose file of a topology (one container per node) |
 //!
 //! Support: [`checks`] (the validator's shared checks, each problem keyed), [`input`] (untrusted files: regular,
-//! bounded, never quoted), [`geom`] (Euler ZYX attitude),
-//! [`rng`] (seeded streams), [`stats`] (quantiles for tests and reports), `par` (jobs over every core,
+//! bounded, never quoted), [`geom`] (Euler ZYX attitude; core),
+//! [`rng`] (seeded streams; core), [`stats`] (quantiles for tests and reports; core), `par` (jobs over every core,
 //! crate-private), [`imu_csv`] (recorded IMU files: `simnet run --out` writes them, `imu_csv` on a node and
 //! `simnet reconstruct` and `simnet attitude` read them, and makers' layouts through `imu_csv::layout`).
 //!
@@ -41,20 +45,15 @@
 //! `simnet run`'s options as values; the Python package (`python/`, pyo3) is built on these calls alone.
 
 pub mod analysis;
-pub mod attack;
 pub mod campaign;
 pub mod checks;
 mod cli;
 mod compose;
-pub mod estimate;
 pub mod estimators;
 pub mod fresh;
-pub mod geom;
 pub mod imu_csv;
 pub mod input;
-pub mod link;
 pub mod model;
-pub mod motion;
 pub mod net;
 pub mod node;
 pub mod observe;
@@ -63,12 +62,10 @@ pub mod protocol;
 pub mod reconstruct;
 pub mod report;
 pub mod reproduce;
-pub mod rng;
 pub mod scenario;
-pub mod sensor;
 pub mod sim;
-pub mod stats;
-pub mod wire;
+
+pub use simnet_core::{attack, estimate, geom, link, motion, rng, sensor, stats, wire};
 
 pub use report::summary::Summary;
 

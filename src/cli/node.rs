@@ -70,7 +70,7 @@ pub struct KeygenArgs {
 /// Write a fresh key to `path`, readable by its owner alone; an existing file is kept unless `force`.
 fn write_key(path: &std::path::Path, force: bool) -> anyhow::Result<()> {
     use std::io::Write;
-    let key = crate::wire::secure::Key::generate().map_err(|e| anyhow::anyhow!("no random source: {e}"))?;
+    let key = crate::fresh::key().map_err(|e| anyhow::anyhow!("no random source: {e}"))?;
     if !force && std::fs::symlink_metadata(path).is_ok() {
         return Err(UsageError::Option(format!(
             "{} exists: keep it, or replace it with --force (nodes holding the old key then reject the new one's datagrams)",
@@ -116,7 +116,7 @@ fn write_key(path: &std::path::Path, force: bool) -> anyhow::Result<()> {
 
 pub(super) fn keygen(args: &KeygenArgs) -> anyhow::Result<ExitCode> {
     if args.file.as_os_str() == "-" {
-        let key = crate::wire::secure::Key::generate().map_err(|e| anyhow::anyhow!("no random source: {e}"))?;
+        let key = crate::fresh::key().map_err(|e| anyhow::anyhow!("no random source: {e}"))?;
         out!("{}", key.to_file());
     } else {
         write_key(&args.file, args.force)?;

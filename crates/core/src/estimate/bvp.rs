@@ -9,6 +9,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
+/// A boundary condition at one end of the recording.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum End {
     /// Dirichlet: the position is known.
@@ -17,18 +18,25 @@ pub enum End {
     Velocity(f64),
 }
 
+/// Why a boundary value problem could not be set up.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum BvpError {
+    /// Fewer than 3 samples.
     #[error("need at least 3 samples, got {0}")]
     TooShort(usize),
+    /// Sample times do not increase strictly at this sample.
     #[error("sample times must increase strictly (sample {0})")]
     Times(usize),
+    /// This many values for that many sample times.
     #[error("{0} values for {1} sample times")]
     Length(usize, usize),
+    /// Velocities at both ends and no position.
     #[error("velocities at both ends fix the shape, not the place: give a position at one end at least")]
     NoPosition,
+    /// The constraints leave the error model undetermined: parameters, rank.
     #[error("the additional constraints do not determine the {0} error-model parameters (rank {1})")]
     Underdetermined(usize, usize),
+    /// A constraint's time (s) outside the recording's first and last time.
     #[error("constraint time {0} s is outside the recording's [{1:.3}, {2:.3}] s")]
     OutOfRange(f64, f64, f64),
 }
@@ -170,8 +178,20 @@ pub fn trapezoid(t: &[f64], a: &[f64], x0: f64, v0: f64) -> Vec<f64> {
 /// An additional constraint: the position or the velocity of one axis at a time.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Constraint {
-    Position { t: f64, value: f64 },
-    Velocity { t: f64, value: f64 },
+    /// The position at `t`.
+    Position {
+        /// Time, s.
+        t: f64,
+        /// Position, m.
+        value: f64,
+    },
+    /// The velocity at `t`.
+    Velocity {
+        /// Time, s.
+        t: f64,
+        /// Velocity, m/s.
+        value: f64,
+    },
 }
 
 /// Row of an interpolation (position) or differentiation (velocity) at time `tc` over the samples.

@@ -18,14 +18,18 @@ pub fn gravity() -> Vector3<f64> {
 /// to g and little rotation) the attitude is pulled toward the accelerometer's tilt by `gain` per sample.
 #[derive(Debug, Clone)]
 pub struct Orientation {
+    /// The attitude quaternion [w, x, y, z], body to navigation.
     pub q: Vector4<f64>,
+    /// The fraction of the way to the accelerometer's tilt taken per quasi-static sample.
     pub gain: f64,
     /// Quasi-static when |‖f‖ − g| < this (m/s²) and ‖ω‖ < `rate_limit` (rad/s).
     pub accel_tolerance: f64,
+    /// Largest rate for a quasi-static sample, rad/s.
     pub rate_limit: f64,
 }
 
 impl Orientation {
+    /// A filter from attitude `q` with the default gain and limits.
     pub fn new(q: Vector4<f64>) -> Orientation {
         Orientation {
             q,
@@ -40,6 +44,7 @@ impl Orientation {
         rotation(&self.q)
     }
 
+    /// One sample: propagate by `gyro` over `dt`, correct toward gravity if quasi-static.
     pub fn step(&mut self, gyro: &Vector3<f64>, specific_force: &Vector3<f64>, dt: f64) {
         self.q = (transition(gyro, dt) * self.q).normalize();
         if (specific_force.norm() - GRAVITY).abs() < self.accel_tolerance && gyro.norm() < self.rate_limit {
@@ -71,16 +76,20 @@ pub fn quat_mul(a: &Vector4<f64>, b: &Vector4<f64>) -> Vector4<f64> {
 /// One sensor's dead reckoning: global acceleration R f + g, integrated by the trapezoid rule.
 #[derive(Debug, Clone)]
 pub struct DeadReckoning {
+    /// Position, m.
     pub p: Vector3<f64>,
+    /// Velocity, m/s.
     pub v: Vector3<f64>,
     last_a: Option<Vector3<f64>>,
 }
 
 impl DeadReckoning {
+    /// Dead reckoning from position `p` and velocity `v`.
     pub fn new(p: Vector3<f64>, v: Vector3<f64>) -> DeadReckoning {
         DeadReckoning { p, v, last_a: None }
     }
 
+    /// One sample of acceleration in the navigation frame over `dt` (trapezoid).
     pub fn step(&mut self, a_global: &Vector3<f64>, dt: f64) {
         let a0 = self.last_a.unwrap_or(*a_global);
         let v_new = self.v + (a0 + a_global) * (0.5 * dt);
@@ -93,7 +102,9 @@ impl DeadReckoning {
 /// Stage two: x = [p₁, v₁, p₂, v₂] (12 states), each sensor's acceleration in the global frame as the input.
 #[derive(Debug, Clone)]
 pub struct SeparationEkf {
+    /// Both sensors' position and velocity, 6 states each.
     pub x: SVector<f64, 12>,
+    /// The state covariance.
     pub P: SMatrix<f64, 12, 12>,
     last_a: Option<[Vector3<f64>; 2]>,
     /// Accelerometer noise variance per sample, (m/s²)².
@@ -105,6 +116,7 @@ pub struct SeparationEkf {
 }
 
 impl SeparationEkf {
+    /// The filter from both sensors' positions and velocities; noise variances of the acceleration, the separation vector and its norm.
     pub fn new(p: [Vector3<f64>; 2], v: [Vector3<f64>; 2], accel_var: f64, vector_var: f64, norm_var: f64) -> Self {
         let mut x = SVector::<f64, 12>::zeros();
         for s in 0..2 {
@@ -121,6 +133,7 @@ impl SeparationEkf {
         }
     }
 
+    /// Sensor `s`'s position (0 or 1).
     pub fn position(&self, s: usize) -> Vector3<f64> {
         self.x.fixed_rows::<3>(6 * s).into_owned()
     }

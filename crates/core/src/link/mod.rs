@@ -19,17 +19,24 @@ pub use schedule::{FaultSchedule, FaultWindow, NodeEvent, ScheduledFault};
 
 use crate::rng::Rng;
 
+/// How a link loses datagrams.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(tag = "model", rename_all = "kebab-case")]
 pub enum LossModel {
+    /// Each datagram lost with probability `p`, independently.
     Bernoulli {
+        /// Loss probability.
         p: f64,
     },
     /// netem's gemodel: p = P(Good→Bad), r = P(Bad→Good), loss 1−h in Bad and 1−k in Good.
     GilbertElliott {
+        /// P(Good → Bad).
         p: f64,
+        /// P(Bad → Good).
         r: f64,
+        /// Loss probability in Bad.
         one_minus_h: f64,
+        /// Loss probability in Good.
         one_minus_k: f64,
     },
 }
@@ -37,12 +44,22 @@ pub enum LossModel {
 /// A Gilbert–Elliott channel that target loss and burst cannot make.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LossError {
+    /// The target loss is outside [0, 1).
     #[error("loss must be in [0, 1) for gilbert-elliott, got {0}")]
     Loss(f64),
+    /// The mean burst is under one datagram.
     #[error("mean burst must be ≥ 1 packet, got {0}")]
     Burst(f64),
     #[error("loss {loss} with burst {burst} needs P(Good→Bad) = {p:.3} > 1; use a longer burst")]
-    BurstTooShort { loss: f64, burst: f64, p: f64 },
+    /// The burst is too short for the loss: P(Good→Bad) would exceed 1.
+    BurstTooShort {
+        /// The target loss.
+        loss: f64,
+        /// The mean burst.
+        burst: f64,
+        /// The P(Good→Bad) they need.
+        p: f64,
+    },
 }
 
 impl LossModel {
@@ -81,6 +98,7 @@ impl LossModel {
     }
 }
 
+/// The distribution of a datagram's extra delay.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Jitter {
@@ -90,13 +108,20 @@ pub enum Jitter {
     Normal,
 }
 
+/// A directed link's rules, as configured.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LinkConfig {
+    /// How it loses datagrams.
     pub loss: LossModel,
+    /// Fixed delay, ms.
     pub delay_ms: f64,
+    /// Jitter on top of the delay, ms.
     pub jitter_ms: f64,
+    /// The jitter's distribution.
     pub jitter: Jitter,
+    /// Probability that a datagram is delivered twice.
     pub duplicate: f64,
+    /// Probability that a delivered copy has a bit flipped.
     pub corrupt: f64,
 }
 
@@ -122,8 +147,10 @@ pub enum DropCause {
     Down,
 }
 
+/// The fate of one datagram on one link.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Verdict {
+    /// Not delivered, and why.
     Drop(DropCause),
     /// One copy, or two when duplicated.
     Deliver(Vec<Delivery>),
@@ -132,18 +159,26 @@ pub enum Verdict {
 /// What the sender side of a link saw.
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LinkCounters {
+    /// Datagrams sent.
     pub sent: u64,
     /// Bytes of the datagrams sent (one copy each).
     #[serde(default)]
     pub bytes: u64,
+    /// Lost to the loss model.
     pub lost_random: u64,
+    /// Lost to a link-down window, a partition or a crash.
     pub lost_down: u64,
+    /// Delivered twice.
     pub duplicated: u64,
+    /// Delivered with a bit flipped.
     pub corrupted: u64,
     /// Completed runs of consecutive losses and their total length.
     pub loss_runs: u64,
+    /// Datagrams in the completed loss runs.
     pub loss_run_total: u64,
+    /// The longest loss run.
     pub longest_loss_run: u64,
+    /// The loss run still open (datagrams).
     pub current_run: u64,
 }
 
@@ -162,7 +197,9 @@ impl LinkCounters {
 /// A directed link: its rules ([`rules::rules_of`]), its seeded stream, its counters.
 #[derive(Debug)]
 pub struct Link {
+    /// Sending node, by index.
     pub from: usize,
+    /// Receiving node, by index.
     pub to: usize,
     rules: Vec<Box<dyn Rule>>,
     rng: Rng,
@@ -170,6 +207,7 @@ pub struct Link {
 }
 
 impl Link {
+    /// The link `from` → `to` with `config`'s rules, drawing from `rng`.
     pub fn new(from: usize, to: usize, config: LinkConfig, rng: Rng) -> Link {
         Link {
             from,
@@ -180,6 +218,7 @@ impl Link {
         }
     }
 
+    /// What it has done so far.
     pub fn counters(&self) -> &LinkCounters {
         &self.counters
     }

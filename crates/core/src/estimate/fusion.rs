@@ -4,8 +4,10 @@
 
 use super::{cholesky, symmetrize, wrap_rows, EstimateError, Gaussian};
 
+/// The covariance-intersection weight ω.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Omega {
+    /// This ω ∈ [0, 1].
     Fixed(f64),
     /// ω ∈ [0, 1] minimising trace P, by golden-section search (trace P(ω) is convex).
     TraceOptimal,
@@ -142,6 +144,7 @@ pub struct CentredMedian {
 }
 
 impl CentredMedian {
+    /// A filter over `window` samples (centred: window/2 on each side).
     pub fn new(window: usize) -> CentredMedian {
         CentredMedian {
             window: window.max(1),

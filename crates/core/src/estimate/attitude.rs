@@ -189,8 +189,10 @@ pub struct AttitudeModel {
     pub lambda: f64,
 }
 
+/// The quaternion attitude EKF: state q, covariance P or its square root, one [`Form`].
 #[derive(Debug, Clone)]
 pub struct AttitudeEkf {
+    /// The attitude quaternion [w, x, y, z], body to navigation.
     pub q: Vector4<f64>,
     form: Form,
     /// P (standard) or its upper-triangular square root S, Sᵀ S = P.
@@ -224,6 +226,7 @@ fn triangularise(pre: DMatrix<f64>) -> DMatrix<f64> {
 }
 
 impl AttitudeEkf {
+    /// A filter from attitude `q` and covariance `P` (4 × 4), propagated in `form`.
     pub fn new(q: Vector4<f64>, P: &DMatrix<f64>, form: Form) -> Result<AttitudeEkf, EstimateError> {
         let cov = match form {
             Form::Standard => P.clone(),
@@ -236,6 +239,7 @@ impl AttitudeEkf {
         })
     }
 
+    /// The covariance P (from its square root in the square-root form).
     pub fn P(&self) -> DMatrix<f64> {
         match self.form {
             Form::Standard => self.cov.clone(),

@@ -10,12 +10,15 @@ use crate::rng::Rng;
 
 /// One datagram on its way: where and when.
 pub struct Context<'a> {
+    /// Sending node, by index.
     pub from: usize,
+    /// Receiving node, by index.
     pub to: usize,
     /// Simulated send time, s.
     pub now: f64,
     /// Bytes.
     pub len: usize,
+    /// The run's fault windows.
     pub faults: &'a FaultSchedule,
 }
 
@@ -30,6 +33,7 @@ pub struct Delivery {
 
 /// A link rule. `admit` may drop the datagram, `copies` may add copies of it, `shape` acts on each copy.
 pub trait Rule: Send + Sync + std::fmt::Debug {
+    /// Drop the datagram, and why (none: keep it).
     fn admit(&mut self, _cx: &Context<'_>, _rng: &mut Rng) -> Option<DropCause> {
         None
     }
@@ -37,6 +41,7 @@ pub trait Rule: Send + Sync + std::fmt::Debug {
     fn copies(&mut self, _cx: &Context<'_>, _rng: &mut Rng) -> usize {
         0
     }
+    /// Act on one copy (delay it, flip a bit).
     fn shape(&mut self, _cx: &Context<'_>, _copy: &mut Delivery, _rng: &mut Rng) {}
 }
 

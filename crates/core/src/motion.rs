@@ -7,6 +7,7 @@ use std::str::FromStr;
 
 use crate::geom::body_rates;
 
+/// An analytic ground-truth trajectory: position, velocity, acceleration and attitude at any time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Trajectory {
@@ -27,6 +28,7 @@ pub enum Trajectory {
     Tumble,
 }
 
+/// Every trajectory's name, for errors and `--help`.
 pub const TRAJECTORIES: &[&str] = &["spiral", "circle", "line", "rest", "piecewise", "figure8", "tumble"];
 
 /// A trajectory name that is not one of [`TRAJECTORIES`].
@@ -69,17 +71,22 @@ impl std::fmt::Display for Trajectory {
 /// The true state of the package at one instant.
 #[derive(Debug, Clone, Copy)]
 pub struct PoseTruth {
+    /// Position, m.
     pub p: Vector3<f64>,
+    /// Velocity, m/s.
     pub v: Vector3<f64>,
+    /// Acceleration, m/s².
     pub a: Vector3<f64>,
     /// [roll, pitch, yaw], Euler ZYX.
     pub euler: Vector3<f64>,
+    /// The Euler angles' rates, rad/s.
     pub euler_rate: Vector3<f64>,
     /// Body-frame angular rate: what an ideal gyro reads.
     pub omega_body: Vector3<f64>,
 }
 
 impl Trajectory {
+    /// The truth at time `t` (s).
     pub fn at(self, t: f64) -> PoseTruth {
         let (p, v, a) = self.translation(t);
         let (euler, euler_rate) = if self == Trajectory::Rest {

@@ -4,6 +4,7 @@
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
+/// The generator of every seeded stream: ChaCha8, the same on every platform.
 pub type Rng = ChaCha8Rng;
 
 fn splitmix(mut z: u64) -> u64 {

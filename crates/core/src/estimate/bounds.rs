@@ -59,6 +59,7 @@ pub fn mare(
 /// Outcome of a fixed-point iteration.
 #[derive(Debug, Clone, PartialEq)]
 pub enum FixedPoint {
+    /// The iterates settled: the fixed point.
     Converged(DMatrix<f64>),
     /// The iterates grew past any bound: no positive semidefinite fixed point.
     Diverged,
@@ -67,6 +68,7 @@ pub enum FixedPoint {
 }
 
 impl FixedPoint {
+    /// The fixed point, if the iterates settled.
     pub fn matrix(&self) -> Option<&DMatrix<f64>> {
         match self {
             FixedPoint::Converged(m) => Some(m),
@@ -76,6 +78,7 @@ impl FixedPoint {
 }
 
 const LIMIT: f64 = 1e14;
+/// Iterations before a fixed-point search gives up.
 pub const MAX_ITER: usize = 2_000_000;
 
 fn iterate(
@@ -123,13 +126,16 @@ pub fn lower_bound(A: &DMatrix<f64>, Q: &DMatrix<f64>, lambda: f64) -> Result<Fi
 /// (or lo = λ_min, which λ̄ never undercuts).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Critical {
+    /// Every rate up to this one is shown to diverge (or it is λ_min).
     pub lo: f64,
+    /// Every rate from this one on is shown to converge.
     pub hi: f64,
     /// hi − lo reached the requested tolerance, or λ̄ is known in closed form.
     pub to_tolerance: bool,
 }
 
 impl Critical {
+    /// The critical rate's upper end: the rate that is known to suffice.
     pub fn value(&self) -> f64 {
         self.hi
     }

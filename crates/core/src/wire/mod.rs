@@ -13,7 +13,7 @@
 //! Decoding untrusted bytes never panics: every failure is a [`WireError`].
 //!
 //! ```
-//! use simnet::wire::{Datagram, Header, Payload};
+//! use simnet_core::wire::{Datagram, Header, Payload};
 //! let d = Datagram { header: Header::new(3, 7, 42), payload: Payload::measurement(0b11, vec![1.0, 2.0]) };
 //! let bytes = d.encode().unwrap();
 //! assert_eq!(Datagram::decode(&bytes).unwrap(), d);
@@ -26,7 +26,9 @@ mod frame;
 pub mod secure;
 pub use frame::{Frame, FrameView, FrameWriter, Nack, MAX_FRAME};
 
+/// The first two bytes of every datagram: "SN".
 pub const MAGIC: u16 = 0x534E; // "SN"
+/// The datagram format's version; a datagram of another version is refused.
 pub const VERSION: u8 = 3;
 /// Fits any MTU.
 pub const MAX_DATAGRAM: usize = 1200;
@@ -35,33 +37,48 @@ pub const MAX_ROWS: usize = 64;
 /// The CRC-32 that ends every datagram.
 pub const CRC_LEN: usize = 4;
 
+/// Why bytes are not a datagram (decoding untrusted bytes never panics).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum WireError {
+    /// Fewer bytes than the smallest datagram.
     #[error("datagram of {0} bytes is shorter than any valid datagram")]
     TooShort(usize),
+    /// More than [`MAX_DATAGRAM`] bytes.
     #[error("datagram of {0} bytes exceeds the {MAX_DATAGRAM}-byte limit")]
     TooLong(usize),
+    /// The CRC-32 does not match.
     #[error("checksum mismatch (corrupted datagram)")]
     Checksum,
+    /// postcard could not read (or write) the header or the payload.
     #[error("malformed encoding: {0}")]
     Malformed(String),
+    /// Bytes left over after the payload.
     #[error("{0} trailing bytes after the payload")]
     Trailing(usize),
+    /// Not simnet's [`MAGIC`].
     #[error("bad magic {0:#06x}")]
     Magic(u16),
+    /// A [`VERSION`] other than this one.
     #[error("unsupported version {0}")]
     Version(u8),
+    /// Flags this decoder does not know (or a sealed datagram given to the unsealed decoder).
     #[error("reserved flags set: {0:#04x}")]
     Flags(u8),
+    /// Well formed, but not a valid payload (row mask and values disagree, a non-finite value, …).
     #[error("invalid payload: {0}")]
     Invalid(&'static str),
 }
 
+/// The clear header every datagram starts with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Header {
+    /// Always [`MAGIC`].
     pub magic: u16,
+    /// Always [`VERSION`].
     pub version: u8,
+    /// [`KIND_MEASUREMENT`], [`KIND_HELLO`] or [`KIND_ROUND`]: must match the payload.
     pub kind: u8,
+    /// Bit 0: sealed ([`secure::SEALED`]); every other bit must be 0.
     pub flags: u8,
     /// Sending node (its id in the topology).
     pub src: u32,
@@ -72,6 +89,7 @@ pub struct Header {
 }
 
 impl Header {
+    /// A measurement's header.
     pub fn new(src: u32, seq: u32, step: u64) -> Header {
         Header {
             magic: MAGIC,
@@ -92,6 +110,7 @@ impl Header {
         }
     }
 
+    /// A handshake hello's header (step 0).
     pub fn hello(src: u32, seq: u32) -> Header {
         Header {
             kind: KIND_HELLO,
@@ -100,16 +119,25 @@ impl Header {
     }
 }
 
+/// `Header::kind` of a [`Payload::Measurement`].
 pub const KIND_MEASUREMENT: u8 = 1;
+/// `Header::kind` of a [`Payload::Hello`].
 pub const KIND_HELLO: u8 = 2;
+/// `Header::kind` of a [`Payload::Round`].
 pub const KIND_ROUND: u8 = 3;
 /// Largest state a round's message may carry (a 16-state information pair is 1,216 bytes: too long anyway).
 pub const MAX_STATES: usize = 15;
 
+/// What a datagram carries after its header.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum Payload {
     /// Some rows of one measurement vector: bit i of `rows` set means row i is present; `values` in row order.
-    Measurement { rows: u64, values: Vec<f64> },
+    Measurement {
+        /// Bit i set: row i is present.
+        rows: u64,
+        /// The present rows' values, in row order.
+        values: Vec<f64>,
+    },
     /// Start handshake of separate processes: "I am here", the step I am running, if any (`header.step` is 0), the
     /// run I take part in (the smallest boot epoch heard: every node of one run ends on the same one), `boot`: this
     /// process's boot epoch, and `echo`: the boot epoch of the node the hello is sent to, as last heard from it (0:
@@ -118,41 +146,66 @@ pub enum Payload {
     /// address the receiver's datagrams newly came from (0: none); `answer`: the last probe heard from the node the
     /// hello is sent to. A neighbour's address moves only to where a hello answering the probe sent there came from.
     Hello {
+        /// The step the sender is running, if it has started.
         running: Option<u64>,
+        /// The run the sender takes part in: the smallest boot epoch it has heard.
         run: u64,
+        /// The sender's boot epoch.
         boot: u64,
+        /// The receiver's boot epoch as last heard by the sender (0: none yet).
         echo: u64,
+        /// A random challenge to a new address (0: none).
         probe: u64,
+        /// The last probe heard from the receiver.
         answer: u64,
     },
     /// One estimator's message of consensus round `round` of `header.step`; `scheme` is its index in
     /// `simnet estimators`.
-    Round { round: u8, scheme: u8, body: Body },
+    Round {
+        /// The consensus round, 0-based.
+        round: u8,
+        /// The scheme's index in `simnet estimators`.
+        scheme: u8,
+        /// The scheme's message.
+        body: Body,
+    },
 }
 
 /// What a round's message carries: `n` is the state dimension, `sym` a symmetric n×n matrix's upper triangle.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub enum Body {
+    /// Some rows of a measurement (the schemes that exchange measurements).
     Measurement {
+        /// Bit i set: row i is present.
         rows: u64,
+        /// The present rows' values, in row order.
         values: Vec<f64>,
     },
     /// (Y, y): an information matrix and vector.
     Information {
+        /// State dimension.
         n: u8,
+        /// Y's upper triangle, row by row.
         sym: Vec<f64>,
+        /// y.
         vec: Vec<f64>,
     },
     /// The prior's and the measurement's information pairs.
     Hybrid {
+        /// State dimension.
         n: u8,
+        /// The prior's (Y, y), Y as its upper triangle.
         prior: (Vec<f64>, Vec<f64>),
+        /// The measurement's (Y, y), likewise.
         measurement: (Vec<f64>, Vec<f64>),
     },
     /// (x, P).
     Estimate {
+        /// State dimension.
         n: u8,
+        /// The state estimate.
         x: Vec<f64>,
+        /// P's upper triangle, row by row.
         sym: Vec<f64>,
     },
 }
@@ -200,10 +253,12 @@ fn check_measurement(rows: u64, values: &[f64]) -> Result<(), WireError> {
 }
 
 impl Payload {
+    /// Rows `rows` (bit i: row i) with their values in row order.
     pub fn measurement(rows: u64, values: Vec<f64>) -> Payload {
         Payload::Measurement { rows, values }
     }
 
+    /// The `Header::kind` this payload travels under.
     pub fn kind(&self) -> u8 {
         match self {
             Payload::Measurement { .. } => KIND_MEASUREMENT,
@@ -213,13 +268,17 @@ impl Payload {
     }
 }
 
+/// One datagram: a header and its payload.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Datagram {
+    /// The clear header.
     pub header: Header,
+    /// What it carries.
     pub payload: Payload,
 }
 
 impl Datagram {
+    /// The bytes on the wire, checksum included; an invalid payload or one over [`MAX_DATAGRAM`] is an error.
     pub fn encode(&self) -> Result<Bytes, WireError> {
         self.validate()?;
         let mut buf =
@@ -372,7 +431,7 @@ pub(crate) mod tests {
         let bytes: Vec<Bytes> = datagrams.iter().map(|d| d.encode().unwrap()).collect();
         seeds.push(("frame-0".into(), Frame::pack(4, bytes)[0].to_vec()));
         seeds.push(("empty-frame-0".into(), Frame::pack(5, Vec::new())[0].to_vec()));
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/seeds/datagram");
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/seeds/datagram");
         if std::env::var_os("SIMNET_BLESS").is_some() {
             for e in std::fs::read_dir(&dir).unwrap().flatten() {
                 std::fs::remove_file(e.path()).unwrap();

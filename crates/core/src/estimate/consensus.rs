@@ -31,10 +31,13 @@ impl LmiCheck {
 /// the posterior covariance and both conditions are functions of β alone, which is what a protocol search varies.
 #[derive(Debug, Clone)]
 pub struct LmiTerms {
+    /// The prior covariance P_{k|k−1}.
     pub P: DMatrix<f64>,
+    /// A = (1 − β₀) K S Kᵀ.
     pub A: DMatrix<f64>,
     /// K z̃ⱼ, one per source, in the order the sources were given.
     pub kz: Vec<DVector<f64>>,
+    /// e^{γ(k−k₀)}/α of (15).
     pub scale: f64,
 }
 

@@ -1,26 +1,48 @@
 //! Faults over simulated time: link-down windows, partitions, node crashes with optional restart.
 
+/// A fault window of `[[fault]]`, nodes by index, times in seconds.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ScheduledFault {
     /// The link from → to (and back, if `both_ways`) carries nothing in [start, end).
     LinkDown {
+        /// Sending node.
         from: usize,
+        /// Receiving node.
         to: usize,
+        /// Down both ways.
         both_ways: bool,
+        /// Start, s.
         start: f64,
+        /// End, s.
         end: f64,
     },
     /// Nodes in `nodes` cannot talk to nodes outside it in [start, end).
-    Partition { nodes: Vec<usize>, start: f64, end: f64 },
+    Partition {
+        /// One side of the partition.
+        nodes: Vec<usize>,
+        /// Start, s.
+        start: f64,
+        /// End, s.
+        end: f64,
+    },
     /// The node stops at `at`; at `restart` (if any) it comes back with its filters re-initialised.
-    Crash { node: usize, at: f64, restart: Option<f64> },
+    Crash {
+        /// The node.
+        node: usize,
+        /// When it stops, s.
+        at: f64,
+        /// When it comes back, s (none: never).
+        restart: Option<f64>,
+    },
 }
 
 /// A change of a node's state between two steps: the crash timeline a driver feeds to the node
-/// ([`crate::node::Node::handle_crash`], [`crate::node::Node::handle_restart`]).
+/// (the node's `handle_crash` and `handle_restart`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NodeEvent {
+    /// The node stops.
     Crash,
+    /// The node comes back, its filters re-initialised.
     Restart,
 }
 
@@ -28,10 +50,14 @@ pub enum NodeEvent {
 /// when `directed`) or `partition` (the nodes cut off from the rest).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FaultWindow {
+    /// `link-down`, `partition` or `crash`.
     pub kind: String,
+    /// The nodes it touches, by id.
     pub nodes: Vec<u32>,
+    /// A link down one way only.
     #[serde(skip_serializing_if = "std::ops::Not::not", default)]
     pub directed: bool,
+    /// Start, s.
     pub start_s: f64,
     /// Absent for a crash without a restart: down to the end of the run.
     #[serde(skip_serializing_if = "Option::is_none", default)]
@@ -55,16 +81,19 @@ impl FaultWindow {
     }
 }
 
+/// A run's fault windows: which links carry nothing and which nodes are down, at any time.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct FaultSchedule {
     faults: Vec<ScheduledFault>,
 }
 
 impl FaultSchedule {
+    /// The schedule of these faults.
     pub fn new(faults: Vec<ScheduledFault>) -> FaultSchedule {
         FaultSchedule { faults }
     }
 
+    /// Node `node` is running at time `t` (s).
     pub fn node_up(&self, node: usize, t: f64) -> bool {
         !self.faults.iter().any(|f| match f {
             ScheduledFault::Crash { node: n, at, restart } => *n == node && t >= *at && restart.is_none_or(|r| t < r),

@@ -11,7 +11,9 @@ use super::{FaultSchedule, Link, LinkCounters, Verdict};
 /// A datagram ready to leave for node `to`.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Transmit {
+    /// Receiving node, by index.
     pub to: usize,
+    /// The datagram.
     pub bytes: Bytes,
 }
 
@@ -60,6 +62,7 @@ pub struct Egress {
 }
 
 impl Egress {
+    /// A node's egress over its out-links.
     pub fn new(links: Vec<Link>) -> Egress {
         Egress::with_rounds(links, Vec::new())
     }
@@ -80,10 +83,12 @@ impl Egress {
         self.links[link].to
     }
 
+    /// Out-links.
     pub fn len(&self) -> usize {
         self.links.len()
     }
 
+    /// No out-link.
     pub fn is_empty(&self) -> bool {
         self.links.is_empty()
     }

@@ -24,8 +24,11 @@ const CRC: usize = 4;
 /// A frame read in place: its datagrams are slices of the received bytes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FrameView<'a> {
+    /// The step whose window this is.
     pub window: u64,
+    /// 0-based; a window's parts are `0..parts`.
     pub part: u16,
+    /// How many parts the window went out in.
     pub parts: u16,
     count: u16,
     /// The datagrams with their length prefixes.
@@ -97,6 +100,7 @@ impl<'a> FrameView<'a> {
         })
     }
 
+    /// The frame with its datagrams copied out of the received bytes.
     pub fn to_owned(&self) -> Frame {
         Frame {
             window: self.window,
@@ -186,8 +190,11 @@ impl FrameWriter {
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Nack {
+    /// The window whose frames are missing.
     pub window: u64,
+    /// The receiver, which asks.
     pub from: u32,
+    /// The sender, which resends.
     pub to: u32,
 }
 
@@ -195,6 +202,7 @@ pub const NACK_MAGIC: u16 = 0x4B53; // "SK"
 const NACK_LEN: usize = 2 + 1 + 8 + 4 + 4 + CRC;
 
 impl Nack {
+    /// The bytes on the wire.
     pub fn encode(&self) -> [u8; NACK_LEN] {
         let mut b = [0u8; NACK_LEN];
         b[..2].copy_from_slice(&NACK_MAGIC.to_le_bytes());
@@ -233,7 +241,9 @@ pub struct Frame {
     pub window: u64,
     /// 0-based; a window's parts are `0..parts`.
     pub part: u16,
+    /// How many parts the window goes out in.
     pub parts: u16,
+    /// The inner datagrams, in delivery order, each with its own checksum.
     pub datagrams: Vec<Bytes>,
 }
 

@@ -22,17 +22,24 @@ use serde::{Deserialize, Serialize};
 
 use crate::wire::{Datagram, Header, Payload, KIND_MEASUREMENT};
 
+/// What an `[[attack]]` does.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum AttackKind {
+    /// Outsiders send datagrams in a neighbour's name.
     Forge,
+    /// Outsiders change a neighbour's datagrams on the air.
     Tamper,
+    /// Outsiders send a neighbour's datagrams again, `delay_s` later.
     Replay,
+    /// Outsiders send garbage at `rate_hz`.
     Flood,
+    /// A compromised node sends measurements moved by `bias` and `ramp`.
     FalseData,
 }
 
 impl AttackKind {
+    /// Every kind, in the order of the tables.
     pub const ALL: [AttackKind; 5] = [
         AttackKind::Forge,
         AttackKind::Tamper,
@@ -41,6 +48,7 @@ impl AttackKind {
         AttackKind::FalseData,
     ];
 
+    /// The name in a topology file.
     pub fn as_str(self) -> &'static str {
         match self {
             AttackKind::Forge => "forge",
@@ -51,6 +59,7 @@ impl AttackKind {
         }
     }
 
+    /// The kind named `s` in a topology file.
     pub fn parse(s: &str) -> Option<AttackKind> {
         AttackKind::ALL.into_iter().find(|k| k.as_str() == s)
     }
@@ -64,6 +73,7 @@ impl AttackKind {
 /// One `[[attack]]`, validated; nodes by index.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Attack {
+    /// What the attack does.
     pub kind: AttackKind,
     /// The node attacked (outsiders).
     pub target: Option<usize>,
@@ -71,17 +81,22 @@ pub struct Attack {
     pub claim: Option<usize>,
     /// The compromised node (false-data).
     pub node: Option<usize>,
+    /// Start of the attack, s.
     pub start_s: f64,
+    /// End of the attack, s.
     pub end_s: f64,
     /// Added to each measurement row (forge, tamper, false-data).
     pub bias: Vec<f64>,
     /// Per second since `start_s`, on top of `bias` (false-data).
     pub ramp: Vec<f64>,
+    /// How long a replayer holds a datagram before sending it again, s.
     pub delay_s: f64,
+    /// Datagrams per second a flood sends.
     pub rate_hz: f64,
 }
 
 impl Attack {
+    /// The attack is on at time `t` (s): start ≤ t < end.
     pub fn active(&self, t: f64) -> bool {
         t >= self.start_s && t < self.end_s
     }
@@ -103,19 +118,26 @@ impl Attack {
 /// Why an injected datagram was refused.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Refusals {
+    /// The authentication tag failed (forged or tampered with, on a sealed network).
     pub bad_tag: u64,
+    /// A counter already accepted.
     pub replay: u64,
+    /// Below the receiver's replay window, or an earlier boot.
     pub too_old: u64,
+    /// A source the receiver does not hear from.
     pub unknown_source: u64,
     /// Not a datagram (garbage), or a datagram naming the wrong source.
     pub malformed: u64,
     /// The checksum failed.
     pub corrupted: u64,
+    /// A step the receiver could not be running.
     pub implausible_step: u64,
+    /// From an address no neighbour has.
     pub unknown_address: u64,
 }
 
 impl Refusals {
+    /// Every refusal.
     pub fn total(&self) -> u64 {
         self.bad_tag
             + self.replay
@@ -127,6 +149,7 @@ impl Refusals {
             + self.unknown_address
     }
 
+    /// Add `o`'s counts (saturating).
     pub fn add(&mut self, o: &Refusals) {
         self.bad_tag = self.bad_tag.saturating_add(o.bad_tag);
         self.replay = self.replay.saturating_add(o.replay);
@@ -159,19 +182,23 @@ impl Refusals {
 /// What became of one attack's datagrams.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Tally {
+    /// Datagrams the attack put on the air.
     pub sent: u64,
     /// Accepted and taken as a step's data (a measurement nothing had delivered yet).
     pub used: u64,
     /// Accepted, but nothing new: a duplicate, a closed step, or a node that was down.
     pub ignored: u64,
+    /// Refused, by cause.
     pub rejected: Refusals,
 }
 
 impl Tally {
+    /// Used or ignored: the datagrams the node did not refuse.
     pub fn accepted(&self) -> u64 {
         self.used + self.ignored
     }
 
+    /// Add `o`'s counts (saturating).
     pub fn add(&mut self, o: &Tally) {
         self.sent = self.sent.saturating_add(o.sent);
         self.used = self.used.saturating_add(o.used);
@@ -185,7 +212,9 @@ impl Tally {
 pub struct Injection {
     /// Index of the attack in the scenario.
     pub attack: usize,
+    /// The node whose address it arrives with (none: an address no neighbour has).
     pub from: Option<usize>,
+    /// The datagram.
     pub bytes: Bytes,
 }
 
@@ -223,6 +252,7 @@ impl Air {
         }
     }
 
+    /// No attack is aimed at this node.
     pub fn is_empty(&self) -> bool {
         self.attacks.is_empty()
     }

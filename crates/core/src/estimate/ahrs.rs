@@ -16,10 +16,12 @@ use super::attitude::{rotate_to_body, rotation};
 /// Madgwick's β for a gyro, accelerometer and magnetometer (MARG) array, and for gyro and accelerometer only, as
 /// published (report of 2010 §7: the β that minimised the error in the experiments).
 pub const MADGWICK_BETA_MARG: f64 = 0.041;
+/// Madgwick's β without a magnetometer (the same report's IMU figure).
 pub const MADGWICK_BETA_IMU: f64 = 0.033;
 /// Mahony's proportional and integral gains, rad/s (the defaults of the open `ahrs` implementation, after
 /// Mahony et al. 2008 §VI).
 pub const MAHONY_KP: f64 = 1.0;
+/// Mahony's integral gain, rad/s (see [`MAHONY_KP`]).
 pub const MAHONY_KI: f64 = 0.3;
 
 /// A filter of this family: one sample at a time, the attitude as a unit quaternion.
@@ -36,6 +38,7 @@ pub trait Ahrs {
         dt: f64,
     );
 
+    /// The attitude quaternion [w, x, y, z], body to navigation.
     fn attitude(&self) -> Vector4<f64>;
 }
 
@@ -77,11 +80,14 @@ fn directions(q: &Vector4<f64>, u: &Vector3<f64>, reading: &Vector3<f64>) -> Opt
 /// measured directions of gravity and of the field.
 #[derive(Debug, Clone)]
 pub struct Madgwick {
+    /// The attitude quaternion [w, x, y, z], body to navigation.
     pub q: Vector4<f64>,
+    /// The gradient step's gain β, rad/s.
     pub beta: f64,
 }
 
 impl Madgwick {
+    /// A filter from attitude `q` (normalised) with gain `beta`.
     pub fn new(q: Vector4<f64>, beta: f64) -> Madgwick {
         Madgwick { q: q.normalize(), beta }
     }
@@ -129,14 +135,18 @@ impl Ahrs for Madgwick {
 /// integral term, ω_mes = Σ v_i × v̂_i over the measured (v) and predicted (v̂) directions.
 #[derive(Debug, Clone)]
 pub struct Mahony {
+    /// The attitude quaternion [w, x, y, z], body to navigation.
     pub q: Vector4<f64>,
     /// The gyro bias estimate b̂, rad/s.
     pub bias: Vector3<f64>,
+    /// Proportional gain k_P, rad/s.
     pub kp: f64,
+    /// Integral gain k_I, rad/s.
     pub ki: f64,
 }
 
 impl Mahony {
+    /// A filter from attitude `q` (normalised), zero bias, gains `kp` and `ki`.
     pub fn new(q: Vector4<f64>, kp: f64, ki: f64) -> Mahony {
         Mahony {
             q: q.normalize(),

@@ -18,12 +18,15 @@ pub struct SensorProfile {
     pub gyro_noise: f64,
     /// Constant offsets, m/s² and rad/s.
     pub accel_bias: [f64; 3],
+    /// Constant gyro offset, rad/s.
     pub gyro_bias: [f64; 3],
     /// Wiener drift per step: a_offset_k = a_offset_k−1 + drift·randn (the paper's §2.1 uses 0.05 on x).
     pub accel_drift: [f64; 3],
+    /// Gyro Wiener drift per step, rad/s.
     pub gyro_drift: [f64; 3],
     /// Pose-fix noise variances (paper §2.2: N(0, 0.01) position, N(0, 0.001) orientation).
     pub pos_noise: f64,
+    /// Orientation-fix noise variance, rad².
     pub att_noise: f64,
     /// Magnetometer noise variance per sample, in the squared unit of `model.mag_field` (attitude model).
     pub mag_noise: f64,
@@ -46,6 +49,7 @@ impl Default for SensorProfile {
     }
 }
 
+/// One IMU reading.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ImuSample {
     /// Specific force in the body frame, m/s².
@@ -57,7 +61,9 @@ pub struct ImuSample {
 /// IMU samples at the start and the end of one prediction interval.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ImuInterval {
+    /// The reading at the interval's start.
     pub start: ImuSample,
+    /// The reading at its end.
     pub end: ImuSample,
 }
 
@@ -80,6 +86,7 @@ fn randn3(rng: &mut Rng) -> Vector3<f64> {
 }
 
 impl Sensor {
+    /// A sensor of `profile` sampled every `dt` s, drawing from `rng`.
     pub fn new(profile: SensorProfile, rng: Rng, dt: f64) -> Sensor {
         Sensor {
             profile,
@@ -90,6 +97,7 @@ impl Sensor {
         }
     }
 
+    /// Its noise and bias profile.
     pub fn profile(&self) -> &SensorProfile {
         &self.profile
     }

@@ -36,12 +36,15 @@ pub fn median(v: &[f64]) -> f64 {
 /// A sample's mean, standard deviation (n − 1) and the confidence interval of its mean from Student's t.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MeanCi {
+    /// Values.
     pub n: usize,
+    /// Their mean.
     pub mean: f64,
     /// NaN for fewer than two values.
     pub sd: f64,
     /// mean ∓ t_{(1+level)/2, n−1} · sd/√n; NaN for fewer than two values.
     pub low: f64,
+    /// Upper end of the interval (see `low`).
     pub high: f64,
 }
 

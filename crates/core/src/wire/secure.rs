@@ -44,6 +44,7 @@ type Cipher = Ccm<Aes128, U8, U13>;
 
 /// `header.flags` of a sealed datagram.
 pub const SEALED: u8 = 1;
+/// Bytes of the authentication tag after a sealed payload.
 pub const TAG_LEN: usize = 8;
 /// Epoch and counter, in the clear after the header.
 const SEQ_LEN: usize = 16;
@@ -60,8 +61,10 @@ impl std::fmt::Debug for Key {
     }
 }
 
+/// Why a key file was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum KeyError {
+    /// Not one line `simnet-key-v1 <32 hex digits>`.
     #[error("not a simnet key file: expected one line `simnet-key-v1 <32 hex digits>`")]
     Format,
 }
@@ -70,15 +73,9 @@ pub enum KeyError {
 const KEY_TAG: &str = "simnet-key-v1";
 
 impl Key {
+    /// A key of these 16 bytes.
     pub fn from_bytes(b: [u8; 16]) -> Key {
         Key(b)
-    }
-
-    /// A fresh key from the operating system's random source (`simnet keygen`).
-    pub fn generate() -> Result<Key, getrandom::Error> {
-        let mut k = [0u8; 16];
-        getrandom::getrandom(&mut k)?;
-        Ok(Key(k))
     }
 
     /// A key file's text: `simnet-key-v1 <32 hex digits>` (comments after `#`).
@@ -154,6 +151,7 @@ pub struct Sealer {
 }
 
 impl Sealer {
+    /// The sealer of node `src` for the boot of epoch `epoch` (its counter starts at 0).
     pub fn new(key: &Key, src: u32, epoch: u64) -> Sealer {
         Sealer {
             key: key.clone(),
@@ -222,10 +220,20 @@ pub enum Rejected {
     BadTag,
     /// A counter already accepted.
     #[error("replayed: counter {counter} of epoch {epoch} was accepted before")]
-    Replay { epoch: u64, counter: u64 },
+    Replay {
+        /// The source's boot epoch.
+        epoch: u64,
+        /// The datagram's counter.
+        counter: u64,
+    },
     /// An earlier epoch of the source, or a counter below its window.
     #[error("too old: counter {counter} of epoch {epoch}")]
-    TooOld { epoch: u64, counter: u64 },
+    TooOld {
+        /// The source's boot epoch.
+        epoch: u64,
+        /// The datagram's counter.
+        counter: u64,
+    },
     /// A source the receiver does not hear from.
     #[error("from unknown source {0}")]
     UnknownSource(u32),
@@ -234,6 +242,7 @@ pub enum Rejected {
 /// The counters of one source's current epoch that were accepted: the highest, and a bitmap of the 64 below it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Replay {
+    /// The source's boot epoch the window belongs to.
     pub epoch: u64,
     highest: u64,
     /// Bit i: counter `highest − i` was accepted.

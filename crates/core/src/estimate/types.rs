@@ -9,14 +9,18 @@ use super::wrap_rows;
 /// A state estimate: mean and covariance.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Gaussian {
+    /// The state estimate x.
     pub x: DVector<f64>,
+    /// Its covariance P.
     pub P: DMatrix<f64>,
 }
 
 /// How an observation maps the state: z = H x + v, v ~ N(0, R).
 #[derive(Debug, Clone)]
 pub struct Observation {
+    /// The observation matrix H (z = H x + v).
     pub H: DMatrix<f64>,
+    /// The measurement noise covariance R.
     pub R: DMatrix<f64>,
     /// Rows that are angles: innovations on them wrap to (−π, π].
     pub angle_rows: Vec<bool>,
@@ -25,9 +29,11 @@ pub struct Observation {
 }
 
 impl Observation {
+    /// Rows of the measurement.
     pub fn dim(&self) -> usize {
         self.H.nrows()
     }
+    /// Channels the rows are grouped in.
     pub fn channels(&self) -> usize {
         self.channel_of_row.iter().copied().max().map_or(0, |c| c + 1)
     }
@@ -72,14 +78,18 @@ impl MissingChannels {
 /// One measurement that reached the node in time: its weight βⱼ, its value, and which rows it carries.
 #[derive(Debug, Clone)]
 pub struct Source<'a> {
+    /// The source's consensus weight β.
     pub beta: f64,
+    /// Its measurement z.
     pub z: &'a DVector<f64>,
+    /// Which rows of `z` arrived.
     pub present: &'a [bool],
 }
 
 /// A consensus update's posterior and whether the LMI conditions held.
 #[derive(Debug, Clone)]
 pub struct ConsensusOutcome {
+    /// The fused estimate.
     pub posterior: Gaussian,
     /// (17) and (19) hold at the β used ([`super::consensus::feasible`]).
     pub feasible: bool,

@@ -32,6 +32,7 @@ type Vec7 = SVector<f64, N>;
 /// A first-order Gauss–Markov process: stationary variance and correlation time.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GaussMarkov {
+    /// Stationary variance per axis.
     pub var: f64,
     /// Correlation time, s.
     pub tau: f64,
@@ -55,10 +56,12 @@ pub struct MekfModel {
     pub gyro_var: f64,
     /// Accelerometer and magnetometer white noise per axis.
     pub accel_var: f64,
+    /// Magnetometer white noise per axis.
     pub mag_var: f64,
     /// Linear acceleration, horizontal (per axis) and vertical; one correlation time for both (the vertical's `tau`
     /// is not used).
     pub accel_horizontal: GaussMarkov,
+    /// The vertical component (its `tau` not used).
     pub accel_vertical: GaussMarkov,
     /// The field's disturbance across it, horizontal (the component that turns heading).
     pub field: GaussMarkov,
@@ -84,10 +87,13 @@ impl MekfModel {
 /// One correction's normalised innovation squared, and its degrees of freedom.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Nis {
+    /// The normalised innovation squared νᵀ S⁻¹ ν.
     pub value: f64,
+    /// Degrees of freedom (the rows of the innovation).
     pub dof: usize,
 }
 
+/// The multiplicative attitude EKF: a quaternion and a 7-state error (δθ, linear acceleration, field disturbance).
 #[derive(Debug, Clone)]
 pub struct Mekf {
     q: UnitQuaternion<f64>,
@@ -135,6 +141,7 @@ impl Mekf {
         Vector4::new(self.q.w, self.q.i, self.q.j, self.q.k)
     }
 
+    /// The error state's covariance.
     pub fn P(&self) -> &SMatrix<f64, 7, 7> {
         &self.P
     }

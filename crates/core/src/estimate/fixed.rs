@@ -21,22 +21,23 @@ macro_rules! by_size {
     };
 }
 
-/// A copy on the stack (one memcpy; nalgebra's `from_column_slice` goes element by element).
+/// A column-major slice copied to the stack (one memcpy; nalgebra's `from_column_slice` goes element by element).
 #[inline]
-pub(crate) fn fixed<const R: usize, const C: usize>(m: &[f64]) -> SMatrix<f64, R, C> {
+pub fn fixed<const R: usize, const C: usize>(m: &[f64]) -> SMatrix<f64, R, C> {
     let mut s = SMatrix::<f64, R, C>::zeros();
     s.as_mut_slice().copy_from_slice(m);
     s
 }
 
-/// A copy on the heap, likewise.
+/// A stack matrix copied to the heap, likewise.
 #[inline]
-pub(crate) fn dynamic<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>) -> DMatrix<f64> {
+pub fn dynamic<const R: usize, const C: usize>(m: &SMatrix<f64, R, C>) -> DMatrix<f64> {
     DMatrix::from_vec(R, C, m.as_slice().to_vec())
 }
 
+/// `m ← (m + mᵀ)/2` in place: a covariance kept symmetric against rounding.
 #[inline]
-pub(crate) fn symmetrize<const N: usize>(m: &mut SMatrix<f64, N, N>) {
+pub fn symmetrize<const N: usize>(m: &mut SMatrix<f64, N, N>) {
     for i in 0..N {
         for j in (i + 1)..N {
             let a = 0.5 * (m[(i, j)] + m[(j, i)]);

@@ -20,17 +20,30 @@ mod types;
 use nalgebra::{DMatrix, DVector};
 
 pub use consensus::{consensus_update, guarded_update, ConsensusOutcome, LmiCheck, LmiTerms, Source};
-pub(crate) use fixed::{dynamic, fixed, symmetrize as symmetrize_fixed};
+pub use fixed::{dynamic, fixed, symmetrize as symmetrize_fixed};
 pub use kalman::{kalman_update, nees, predict, Gaussian, MissingChannels, Observation};
 
+/// Why an estimation step could not run: the input, not the code, is at fault.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum EstimateError {
     #[error("{what} is not positive definite")]
-    NotPositiveDefinite { what: &'static str },
+    /// A covariance or innovation covariance that is not positive definite.
+    NotPositiveDefinite {
+        /// The matrix.
+        what: &'static str,
+    },
     #[error("non-finite value in {what}")]
-    NonFinite { what: &'static str },
+    /// A NaN or an infinity.
+    NonFinite {
+        /// Where.
+        what: &'static str,
+    },
     #[error("dimension mismatch: {what}")]
-    Dimension { what: String },
+    /// Sizes that do not fit together.
+    Dimension {
+        /// Which sizes disagree.
+        what: String,
+    },
 }
 
 /// Lower Cholesky factor, or the error naming the matrix.

@@ -7,6 +7,7 @@ use std::f64::consts::PI;
 /// Gravity in the navigation frame (z up).
 pub const GRAVITY: f64 = 9.81;
 
+/// The rotation matrix of Euler angles [roll, pitch, yaw] (ZYX: R = Rz Ry Rx), body to navigation.
 pub fn rotation(e: &Vector3<f64>) -> Matrix3<f64> {
     rz(e[2]) * ry(e[1]) * rx(e[0])
 }

@@ -1,0 +1,34 @@
+#![warn(missing_docs)]
+//! simnet's pure layer: the estimation maths, sensors and motion, seeded random streams, the per-datagram link rules
+//! and the wire format. Nothing here opens a socket or a file, reads a clock or draws from the operating system:
+//! every input is an argument, every random draw comes from a stream named by a seed. The `simnet` crate builds
+//! nodes, runs, drivers and reports on top of it and re-exports every module under its own name
+//! (`simnet::estimate` is [`estimate`]).
+//!
+//! # Layout
+//!
+//! | module | owns |
+//! |---|---|
+//! | [`geom`] | Euler ZYX attitude: rotation matrices, angle wrapping |
+//! | [`rng`] | seeded streams, one per (seed, stream, from, to) |
+//! | [`stats`] | quantiles for tests and reports (normal, chi-square, Student's t) |
+//! | [`motion`] | analytic ground-truth trajectories shared by every node |
+//! | [`sensor`] | accelerometer/gyro (noise, bias, Wiener drift), magnetometer, pose fixes, linear measurements |
+//! | [`estimate`] | Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKFs, Madgwick and Mahony, the rigid-pair EKF, the FEM boundary-value solver |
+//! | [`wire`] | the datagram format: postcard + CRC-32, checked decode; authenticated frames (AES-128-CCM) |
+//! | [`link`] | per-datagram rules (outage, Bernoulli / Gilbert–Elliott loss, duplication, delay and jitter, corruption), the egress queue, fault schedules |
+//! | [`attack`] | the adversary model of `[[attack]]`: forge, tamper, replay, flood on the air in front of a node, false data from a compromised one |
+//!
+//! Dependencies point down the table's order and never back up: `attack` uses `wire` and `rng`, `link` uses `rng`,
+//! `sensor` uses `motion` and `geom`, `estimate` uses `geom`. The crate has no tokio and no filesystem dependency, so
+//! the compiler holds the rest.
+
+pub mod attack;
+pub mod estimate;
+pub mod geom;
+pub mod link;
+pub mod motion;
+pub mod rng;
+pub mod sensor;
+pub mod stats;
+pub mod wire;
