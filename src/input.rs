@@ -50,24 +50,7 @@ fn open(path: &Path, limit: u64) -> io::Result<std::fs::File> {
     std::fs::File::open(path)
 }
 
-/// A piece of an untrusted file as a message shows it: its first 24 characters, `…` where it goes on (a message
-/// never carries a file's megabytes).
-pub fn clip(s: &str) -> String {
-    match s.char_indices().nth(24) {
-        Some((i, _)) => format!("{}…", &s[..i]),
-        None => s.to_string(),
-    }
-}
-
-/// [`clip`] in backquotes, with the length of what was cut.
-pub fn quoted(s: &str) -> String {
-    let c = clip(s);
-    if c.len() < s.len() {
-        format!("`{c}` ({} bytes)", s.len())
-    } else {
-        format!("`{c}`")
-    }
-}
+pub use simnet_core::text::{clip, quoted};
 
 /// `limit` as a reader would say it: bytes below a MiB.
 fn size_text(limit: u64) -> String {

@@ -5,8 +5,8 @@
 //! # Layout
 //!
 //! The modules follow one step of data. The lowest layer is a crate of its own, `simnet-core` (`crates/core`):
-//! `geom`, `rng`, `stats`, `motion`, `sensor`, `estimate`, `wire`, `link` and `attack`, re-exported here under the
-//! same names. It depends on no tokio and no filesystem crate and, being below this one, cannot name anything above
+//! `geom`, `rng`, `stats`, `motion`, `sensor`, `estimate`, `imu_csv`, `checks`, `model`, `estimators`, `wire`, `link`
+//! and `attack`, re-exported here under the same names (marked "core" below). It depends on no tokio and no filesystem crate and, being below this one, cannot name anything above
 //! it: the compiler holds that layer. Above it, only `net` touches sockets and clocks; `report`, `campaign` and
 //! `cli` write files, `input` reads them (bounded, never trusted); `fresh` draws from the operating system. The rest
 //! is pure: randomness from seeded streams.
@@ -14,11 +14,11 @@
 //! | module | owns |
 //! |---|---|
 //! | [`scenario`] | topology TOML and overrides → a validated [`scenario::Scenario`]; every error names the file and the key; built-ins |
-//! | [`model`] | the estimation models behind one trait: pose, attitude (quaternion EKF), linear — state, process, observation, sensing, scoring |
+//! | [`model`] (core) | the estimation models behind one trait: pose, attitude (quaternion EKF), linear — state, process, observation, sensing, scoring |
 //! | [`motion`] (core) | analytic ground-truth trajectories shared by every node |
 //! | [`sensor`] (core) | accelerometer/gyro (noise, bias, Wiener drift), magnetometer, pose fixes, linear measurements |
 //! | [`estimate`] (core) | pure maths: Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKF and the multiplicative one, Madgwick and Mahony (VQF through `vqf-rs`), the rigid-pair EKF, the FEM boundary-value solver |
-//! | [`estimators`] | the distributed schemes behind one [`estimators::Estimator`] trait — independent, centralized, KCF, ICF, HCMCI, diffusion, CI — pure, per node, one message per round; the node runs them over L consensus rounds |
+//! | [`estimators`] (core) | the distributed schemes behind one [`estimators::Estimator`] trait — independent, centralized, KCF, ICF, HCMCI, diffusion, CI — pure, per node, one message per round; the node runs them over L consensus rounds |
 //! | [`wire`] (core) | the datagram format: postcard + CRC-32, checked decode |
 //! | [`link`] (core) | per-datagram rules (outage, Bernoulli / Gilbert–Elliott loss, duplication, delay and jitter, corruption), the egress queue, fault schedules |
 //! | [`attack`] (core) | the adversary model of `[[attack]]`: forge, tamper, replay, flood on the air in front of a node, false data from a compromised one; what became of each injected datagram |
@@ -34,10 +34,10 @@
 //! | `cli` (crate-private) | clap definitions, exit codes, tracing setup |
 //! | `compose` (crate-private) | the docker compose file of a topology (one container per node) |
 //!
-//! Support: [`checks`] (the validator's shared checks, each problem keyed), [`input`] (untrusted files: regular,
+//! Support: [`checks`] (core: the validator's shared checks, each problem keyed), [`input`] (untrusted files: regular,
 //! bounded, never quoted), [`geom`] (Euler ZYX attitude; core),
 //! [`rng`] (seeded streams; core), [`stats`] (quantiles for tests and reports; core), `par` (jobs over every core,
-//! crate-private), [`imu_csv`] (recorded IMU files: `simnet run --out` writes them, `imu_csv` on a node and
+//! crate-private), [`imu_csv`] (core: recorded IMU files: `simnet run --out` writes them, `imu_csv` on a node and
 //! `simnet reconstruct` and `simnet attitude` read them, and makers' layouts through `imu_csv::layout`).
 //!
 //! The library API: build or load a [`Scenario`] ([`Scenario::builder`], [`Scenario::resolve`], [`Scenario::with`]),
@@ -46,14 +46,10 @@
 
 pub mod analysis;
 pub mod campaign;
-pub mod checks;
 mod cli;
 mod compose;
-pub mod estimators;
 pub mod fresh;
-pub mod imu_csv;
 pub mod input;
-pub mod model;
 pub mod net;
 pub mod node;
 pub mod observe;
@@ -65,7 +61,9 @@ pub mod reproduce;
 pub mod scenario;
 pub mod sim;
 
-pub use simnet_core::{attack, estimate, geom, link, motion, rng, sensor, stats, wire};
+pub use simnet_core::{
+    attack, checks, estimate, estimators, geom, imu_csv, link, model, motion, rng, sensor, stats, wire,
+};
 
 pub use report::summary::Summary;
 

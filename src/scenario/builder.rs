@@ -2,7 +2,7 @@
 //! runs the file's validator on them, so a scenario built in code has the same checks and the same error keys.
 
 use super::toml::{RawEdge, RawFault, RawLink, RawLoss, RawNode, RawTopology};
-use super::{Checks, Role, Scenario, ScenarioError};
+use super::{Role, Scenario, ScenarioError, Validator};
 use crate::link::{Jitter, LossModel};
 use crate::model::ModelConfig;
 use crate::motion::Trajectory;
@@ -232,7 +232,7 @@ impl ScenarioBuilder {
     /// The validated scenario, or every problem with its key (as for a file).
     pub fn build(self) -> Result<Scenario, ScenarioError> {
         let file = format!("builder:{}", self.name.as_deref().unwrap_or("scenario"));
-        let t = Checks::default().validate(self.raw, &file)?;
+        let t = Validator::default().validate(self.raw, &file)?;
         t.check_recordings()?;
         Ok(t)
     }
@@ -385,7 +385,7 @@ mod tests {
         let file = {
             let mut raw = file.raw.clone();
             raw.sim.get_or_insert_with(Default::default).burn_in_s = Some(1.0);
-            Checks::default().validate(raw, "ring3").unwrap()
+            Validator::default().validate(raw, "ring3").unwrap()
         };
         let a = crate::sim::Sim::new(&built).unwrap().run().unwrap().summary();
         let b = crate::sim::Sim::new(&file).unwrap().run().unwrap().summary();

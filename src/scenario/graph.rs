@@ -5,7 +5,7 @@
 use rand::Rng;
 
 use super::toml::{RawNode, RawTopology};
-use crate::checks::Checks;
+use crate::scenario::Validator;
 
 /// The most nodes `[generate]` makes, the most edges, and the most nodes of the graphs whose construction looks at
 /// every pair (complete, random geometric).
@@ -80,7 +80,7 @@ pub(super) fn connected(n: usize, edges: &[(usize, usize)]) -> bool {
     seen.into_iter().all(|s| s)
 }
 
-impl Checks {
+impl Validator {
     /// The file's `[generate]` table written out as `[[node]]` and `[[edge]]` lists; the raw file unchanged
     /// without one. Problems are recorded under `generate.*`.
     pub(super) fn generated(&mut self, mut raw: RawTopology) -> RawTopology {

@@ -4,9 +4,9 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use super::{Checks, NodeConfig, Problem, RecordedImu, Scenario, ScenarioError, SimConfig};
+use super::{NodeConfig, Problem, RecordedImu, Scenario, ScenarioError, SimConfig, Validator};
 
-impl Checks {
+impl Validator {
     /// Read `imu_csv`: relative to the topology file's folder, or to the working directory for a built-in.
     /// `[security]`: the key file read (relative to the topology file), or the run's own key from its seed when
     /// `auth` is set without a file.

@@ -35,6 +35,24 @@ use crate::motion::Trajectory;
 use crate::sensor::SensorProfile;
 
 pub use crate::checks::{Checks, Problem};
+
+/// The validator of a topology: the shared [`Checks`] (its problems, the recordings read) and the scenario's own
+/// checks as methods on it (`validate/`, `graph.rs`, `load.rs`).
+#[derive(Debug, Default)]
+pub(crate) struct Validator(pub(crate) Checks);
+
+impl std::ops::Deref for Validator {
+    type Target = Checks;
+    fn deref(&self) -> &Checks {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Validator {
+    fn deref_mut(&mut self) -> &mut Checks {
+        &mut self.0
+    }
+}
 pub use builder::{LinkSpec, ScenarioBuilder};
 pub use flags::{parse_set, FlagError, Flags, LossKind, MAX_STEPS};
 pub use keys::{parse_value, OPTION_KEYS};

@@ -1,7 +1,7 @@
 //! Command-line overrides on top of a file.
 
 use super::toml::{RawLoss, RawTopology};
-use super::{Checks, Problem, Scenario, ScenarioError};
+use super::{Problem, Scenario, ScenarioError, Validator};
 use crate::link::LossModel;
 
 /// Command-line overrides applied on top of a file (as `summary.json` records them: unset ones left out).
@@ -40,7 +40,7 @@ pub struct Overrides {
 
 impl Overrides {
     /// Each value in its range, keyed by its field.
-    fn check(&self, c: &mut Checks) {
+    fn check(&self, c: &mut Validator) {
         let key = |k: &str| format!("overrides.{k}");
         if let Some(l) = self.loss {
             c.loss(&key("loss"), &RawLoss::from(l));
@@ -103,7 +103,7 @@ impl Scenario {
         if !c.problems.is_empty() {
             return Err(ScenarioError::Invalid {
                 file: self.source.clone(),
-                problems: c.problems,
+                problems: c.0.problems,
             });
         }
         let mut raw = self.raw.clone();
@@ -228,15 +228,15 @@ impl Scenario {
     }
 
     /// Checks that know this scenario's recordings.
-    pub(super) fn checks(&self) -> Checks {
-        let mut c = Checks::default();
+    pub(super) fn checks(&self) -> Validator {
+        let mut c = Validator::default();
         for r in self.nodes.iter().filter_map(|n| n.recording.as_ref()) {
             c.loaded.insert(r.path.clone(), r.data.clone());
         }
         c
     }
 
-    pub(super) fn revalidate(&self, raw: RawTopology, c: Checks) -> Result<Scenario, ScenarioError> {
+    pub(super) fn revalidate(&self, raw: RawTopology, c: Validator) -> Result<Scenario, ScenarioError> {
         let mut t = c.validate(raw, &self.source)?;
         t.source = self.source.clone();
         t.name = self.name.clone();

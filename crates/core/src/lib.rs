@@ -1,6 +1,6 @@
 #![warn(missing_docs)]
-//! simnet's pure layer: the estimation maths, sensors and motion, seeded random streams, the per-datagram link rules
-//! and the wire format. Nothing here opens a socket or a file, reads a clock or draws from the operating system:
+//! simnet's pure layer: the estimation maths, sensors and motion, seeded random streams, recorded IMU files as text,
+//! the estimation models, the distributed estimators, the per-datagram link rules and the wire format. Nothing here opens a socket or a file, reads a clock or draws from the operating system:
 //! every input is an argument, every random draw comes from a stream named by a seed. The `simnet` crate builds
 //! nodes, runs, drivers and reports on top of it and re-exports every module under its own name
 //! (`simnet::estimate` is [`estimate`]).
@@ -15,20 +15,30 @@
 //! | [`motion`] | analytic ground-truth trajectories shared by every node |
 //! | [`sensor`] | accelerometer/gyro (noise, bias, Wiener drift), magnetometer, pose fixes, linear measurements |
 //! | [`estimate`] | Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKFs, Madgwick and Mahony, the rigid-pair EKF, the FEM boundary-value solver |
+//! | [`text`] | untrusted text as a message shows it (clipped) |
+//! | [`imu_csv`] | recorded IMU files from their text: simnet's columns, and makers' layouts through `imu_csv::layout` |
+//! | [`checks`] | the validator's shared checks: each problem keyed, a usable default returned |
+//! | [`model`] | the estimation models behind one [`model::Model`] trait — pose, attitude (quaternion EKF), linear — state, process, observation, sensing, truth, scoring layout |
 //! | [`wire`] | the datagram format: postcard + CRC-32, checked decode; authenticated frames (AES-128-CCM) |
 //! | [`link`] | per-datagram rules (outage, Bernoulli / Gilbert–Elliott loss, duplication, delay and jitter, corruption), the egress queue, fault schedules |
+//! | [`estimators`] | the distributed schemes behind one [`estimators::Estimator`] trait — independent, centralized, KCF, ICF, HCMCI, diffusion, CI — per node, one message per round; the registry by name and the wire form of their messages |
 //! | [`attack`] | the adversary model of `[[attack]]`: forge, tamper, replay, flood on the air in front of a node, false data from a compromised one |
 //!
-//! Dependencies point down the table's order and never back up: `attack` uses `wire` and `rng`, `link` uses `rng`,
-//! `sensor` uses `motion` and `geom`, `estimate` uses `geom`. The crate has no tokio and no filesystem dependency, so
+//! Dependencies point down the table's order and never back up (`model` uses `estimate`, `imu_csv`, `checks`,
+//! `sensor`; `estimators` uses `model` and `wire`; `attack` uses `wire`); `tests/integration/layering.rs` holds it. The crate has no tokio and no filesystem dependency, so
 //! the compiler holds the rest.
 
 pub mod attack;
+pub mod checks;
 pub mod estimate;
+pub mod estimators;
 pub mod geom;
+pub mod imu_csv;
 pub mod link;
+pub mod model;
 pub mod motion;
 pub mod rng;
 pub mod sensor;
 pub mod stats;
+pub mod text;
 pub mod wire;

@@ -4,12 +4,13 @@ use std::collections::{HashMap, HashSet};
 
 use super::super::toml::RawAttack;
 use crate::attack::{Attack, AttackKind};
-use crate::checks::{num, Checks};
+use crate::checks::num;
+use crate::scenario::Validator;
 
 /// The fastest flood an in-process run simulates (datagrams per second).
 pub const MAX_FLOOD_HZ: f64 = 1e6;
 
-impl Checks {
+impl Validator {
     /// `rows`: the rows of a measurement (bias and ramp have at most that many); `linked`: (from, to) of every link.
     pub(crate) fn attacks(
         &mut self,
@@ -30,7 +31,7 @@ impl Checks {
                 );
                 continue;
             };
-            let node = |v: &mut Checks, field: &str, id: Option<i64>, wanted: bool| -> Option<usize> {
+            let node = |v: &mut Validator, field: &str, id: Option<i64>, wanted: bool| -> Option<usize> {
                 match (id, wanted) {
                     (None, true) => {
                         v.bad(
@@ -82,7 +83,7 @@ impl Checks {
                 }
             };
             let moves = matches!(kind, AttackKind::Forge | AttackKind::Tamper | AttackKind::FalseData);
-            let vector = |v: &mut Checks, field: &str, given: &Option<Vec<f64>>, takes: bool| -> Vec<f64> {
+            let vector = |v: &mut Validator, field: &str, given: &Option<Vec<f64>>, takes: bool| -> Vec<f64> {
                 let Some(x) = given else { return Vec::new() };
                 if !takes {
                     v.bad(format!("{key}.{field}"), format!("{} takes no {field}", kind.as_str()));
@@ -100,7 +101,7 @@ impl Checks {
             };
             let bias = vector(self, "bias", &r.bias, moves);
             let ramp = vector(self, "ramp", &r.ramp, kind == AttackKind::FalseData);
-            let only = |v: &mut Checks, field: &str, given: Option<f64>, for_kind: AttackKind| {
+            let only = |v: &mut Validator, field: &str, given: Option<f64>, for_kind: AttackKind| {
                 if given.is_some() && kind != for_kind {
                     v.bad(
                         format!("{key}.{field}"),

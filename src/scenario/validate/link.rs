@@ -5,9 +5,9 @@ use std::collections::HashMap;
 
 use crate::link::{FaultSchedule, Jitter, LinkConfig, LossModel, ScheduledFault};
 use crate::scenario::toml::{RawFault, RawLink, RawLoss};
-use crate::scenario::Checks;
+use crate::scenario::Validator;
 
-impl Checks {
+impl Validator {
     pub(crate) fn loss(&mut self, key: &str, l: &RawLoss) -> LossModel {
         let inferred = if [l.r, l.one_minus_h, l.one_minus_k, l.burst].iter().any(Option::is_some) {
             "gilbert-elliott"
@@ -123,14 +123,14 @@ impl Checks {
         let mut out = Vec::new();
         for (f, r) in raw.iter().enumerate() {
             let key = format!("fault[{f}]");
-            let idx = |v: &mut Checks, k: &str, id: i64| -> Option<usize> {
+            let idx = |v: &mut Validator, k: &str, id: i64| -> Option<usize> {
                 let r = ids.get(&id).copied();
                 if r.is_none() {
                     v.bad(format!("{key}.{k}"), format!("no [[node]] has id {id}"));
                 }
                 r
             };
-            let window = |v: &mut Checks| -> Option<(f64, f64)> {
+            let window = |v: &mut Validator| -> Option<(f64, f64)> {
                 let (Some(s), Some(e)) = (r.start_s, r.end_s) else {
                     v.bad(key.clone(), "needs start_s and end_s");
                     return None;

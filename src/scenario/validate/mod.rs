@@ -10,8 +10,8 @@ use std::sync::Arc;
 
 use super::toml::*;
 use super::{
-    Beta, Checks, ConsensusConfig, DirectedLink, EstimatorsConfig, LmiConfig, NodeConfig, Overrides, Role, Scenario,
-    ScenarioError, SimConfig, MAX_ROUNDS,
+    Beta, ConsensusConfig, DirectedLink, EstimatorsConfig, LmiConfig, NodeConfig, Overrides, Role, Scenario,
+    ScenarioError, SimConfig, Validator, MAX_ROUNDS,
 };
 use crate::link::LinkConfig;
 use crate::motion::Trajectory;
@@ -24,7 +24,7 @@ impl Scenario {
             file: file.to_string(),
             message: parse_error(text, &e),
         })?;
-        Checks::default().validate(raw, file)
+        Validator::default().validate(raw, file)
     }
 }
 
@@ -43,7 +43,7 @@ fn parse_error(text: &str, e: &::toml::de::Error) -> String {
     }
 }
 
-impl Checks {
+impl Validator {
     /// Raw → typed, or every problem found.
     pub(crate) fn validate(mut self, raw: RawTopology, file: &str) -> Result<Scenario, ScenarioError> {
         let topo = self.topology(raw, file);
@@ -52,13 +52,13 @@ impl Checks {
         } else {
             Err(ScenarioError::Invalid {
                 file: file.to_string(),
-                problems: self.problems,
+                problems: self.0.problems,
             })
         }
     }
 }
 
-impl Checks {
+impl Validator {
     fn topology(&mut self, raw: RawTopology, file: &str) -> Option<Scenario> {
         // The file as written (a `[generate]` table stays one) is what a change validates again.
         let kept = raw.clone();
@@ -144,7 +144,7 @@ impl Checks {
             });
         }
         let n = nodes.len();
-        let index = |v: &mut Checks, key: &str, id: i64| -> Option<usize> {
+        let index = |v: &mut Validator, key: &str, id: i64| -> Option<usize> {
             let r = ids.get(&id).copied();
             if r.is_none() {
                 v.bad(key, format!("no [[node]] has id {id}"));
@@ -182,7 +182,7 @@ impl Checks {
                 corrupt: edge.corrupt,
             };
             let cfg = self.link(&key, over, &default_link);
-            let mut add = |v: &mut Checks, from: usize, to: usize| {
+            let mut add = |v: &mut Validator, from: usize, to: usize| {
                 if !linked.insert((from, to)) {
                     v.bad(
                         format!("{key}.nodes"),
@@ -391,7 +391,7 @@ impl Checks {
 
     fn sensor(&mut self, key: &str, raw: Option<&RawSensor>, base: &SensorProfile) -> SensorProfile {
         let Some(s) = raw else { return base.clone() };
-        let vec3 = |v: &mut Checks, k: &str, x: Option<[f64; 3]>, d: [f64; 3]| -> [f64; 3] {
+        let vec3 = |v: &mut Validator, k: &str, x: Option<[f64; 3]>, d: [f64; 3]| -> [f64; 3] {
             match x {
                 Some(a) if a.iter().any(|e| !e.is_finite()) => {
                     v.bad(format!("{key}.{k}"), "entries must be finite");
@@ -401,7 +401,7 @@ impl Checks {
                 None => d,
             }
         };
-        let non_neg3 = |v: &mut Checks, k: &str, x: Option<[f64; 3]>, d: [f64; 3]| -> [f64; 3] {
+        let non_neg3 = |v: &mut Validator, k: &str, x: Option<[f64; 3]>, d: [f64; 3]| -> [f64; 3] {
             let a = vec3(v, k, x, d);
             if a.iter().any(|e| *e < 0.0) {
                 v.bad(format!("{key}.{k}"), "standard deviations must be non-negative");

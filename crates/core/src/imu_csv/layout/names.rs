@@ -2,7 +2,7 @@
 //! usual names makers give them, their units and the factors into simnet's units, and the `--columns`/`--units`
 //! flags that name what the usual names miss.
 
-use crate::input::clip;
+use crate::text::clip;
 
 /// Standard gravity, m/s² per g.
 pub const G0: f64 = 9.80665;
@@ -10,9 +10,13 @@ pub const G0: f64 = 9.80665;
 /// What each value of the file becomes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Target {
+    /// Time.
     T,
+    /// Accelerometer axis (0 = x).
     Accel(usize),
+    /// Gyro axis.
     Gyro(usize),
+    /// Magnetometer axis.
     Mag(usize),
     /// Reference quaternion component (0 = scalar).
     Quat(usize),
@@ -21,6 +25,7 @@ pub enum Target {
 }
 
 impl Target {
+    /// The target named `s` (`t`, `ax`, `gz`, `qw`, …).
     pub fn parse(s: &str) -> Option<Target> {
         let axis = |c: char| "xyz".find(c);
         let mut ch = s.chars();
@@ -34,6 +39,7 @@ impl Target {
         }
     }
 
+    /// Its name (`ax`, `qw`, …).
     pub fn name(self) -> String {
         let xyz = |i: usize| ["x", "y", "z"][i];
         match self {

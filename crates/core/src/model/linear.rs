@@ -27,6 +27,7 @@ pub struct Linear {
 }
 
 impl Linear {
+    /// The model of its matrices (validated by the caller); the truth's process noise is drawn from Q.
     pub fn new(
         A: DMatrix<f64>,
         C: DMatrix<f64>,
@@ -52,25 +53,32 @@ impl Linear {
         }
     }
 
+    /// The transition matrix A.
     pub fn A(&self) -> &DMatrix<f64> {
         &self.A
     }
+    /// The observation matrix C.
     pub fn C(&self) -> &DMatrix<f64> {
         &self.C
     }
+    /// The process noise covariance Q.
     pub fn Q(&self) -> &DMatrix<f64> {
         &self.Q
     }
+    /// The measurement noise covariance R.
     pub fn R(&self) -> &DMatrix<f64> {
         &self.R
     }
+    /// The initial state x₀.
     pub fn x0(&self) -> &DVector<f64> {
         &self.x0
     }
+    /// The initial covariance P₀.
     pub fn P0(&self) -> &DMatrix<f64> {
         &self.P0
     }
 
+    /// State dimension n.
     pub fn state_dim(&self) -> usize {
         self.A.nrows()
     }

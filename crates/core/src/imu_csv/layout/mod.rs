@@ -8,7 +8,7 @@
 use nalgebra::{Vector3, Vector4};
 
 use super::{CsvError, ImuRecording};
-use crate::input::clip;
+use crate::text::clip;
 
 mod names;
 
@@ -20,6 +20,7 @@ use names::{split_unit, squash, usual, ALL_TARGETS};
 pub struct ReadOptions {
     /// `TARGET=COLUMN` pairs (`t=Counter/rate,ax=Acc_X`); unnamed targets are found by their usual names.
     pub columns: Vec<(String, String)>,
+    /// The units of the columns (when the header does not say).
     pub units: Units,
     /// Samples per second, when the file has only a counter.
     pub rate_hz: Option<f64>,
@@ -28,6 +29,7 @@ pub struct ReadOptions {
 /// What a file is read as: each target's column and the factor into simnet's units, and what was assumed.
 #[derive(Debug, Clone, Default)]
 pub struct Reading {
+    /// What was read.
     pub recording: ImuRecording,
     /// `(target, column as the file names it)`.
     pub columns: Vec<(String, String)>,

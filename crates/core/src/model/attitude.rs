@@ -12,6 +12,7 @@ use crate::estimate::{Gaussian, Observation};
 use crate::rng::Rng;
 use crate::sensor::{ImuInterval, ImuSample, Sensor, SensorProfile};
 
+/// The attitude model's noise and field (the `[model]` keys of `kind = "attitude"`).
 #[derive(Debug, Clone)]
 pub struct Attitude {
     /// Accelerometer noise variance in the filter, (m/s²)²; covers unmodelled linear acceleration too.
@@ -41,6 +42,7 @@ impl Attitude {
         Vector3::new(0.0, 0.0, -crate::geom::GRAVITY)
     }
 
+    /// Earth's field in the navigation frame.
     pub fn field(&self) -> Vector3<f64> {
         Vector3::from(self.mag_field)
     }

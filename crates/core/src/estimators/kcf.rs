@@ -14,6 +14,7 @@ use super::local::own_update;
 use super::{Context, Estimator, Message, StepInput};
 use crate::estimate::{wrap_rows, EstimateError, Gaussian, MissingChannels};
 
+/// The Kalman consensus filter (KCF).
 pub struct Kcf {
     ctx: Context,
     g: Gaussian,
@@ -25,6 +26,7 @@ pub struct Kcf {
 }
 
 impl Kcf {
+    /// The scheme at the node of `ctx`, from `initial`, with consensus gain `gamma`.
     pub fn new(ctx: Context, initial: Gaussian, policy: MissingChannels, gamma: f64) -> Kcf {
         let n = initial.x.len();
         Kcf {

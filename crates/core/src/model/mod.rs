@@ -29,7 +29,7 @@ use crate::sensor::{ImuInterval, ImuSample, Sensor, SensorProfile};
 pub use attitude::Attitude;
 pub use linear::Linear;
 pub use parse::RawModel;
-pub(crate) use parse::{matrix_rows, parse, to_raw};
+pub use parse::{matrix_rows, parse, to_raw};
 pub use pose::Pose;
 pub use truth::{psd_sqrt, Truth, REBASE_LIMIT};
 
@@ -37,12 +37,16 @@ pub use truth::{psd_sqrt, Truth, REBASE_LIMIT};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Kind {
+    /// Position, velocity and attitude from a strapdown IMU and pose fixes.
     Pose,
+    /// Attitude from gyro, accelerometer and magnetometer.
     Attitude,
+    /// x⁺ = A x + w, z = C x + v, given by its matrices.
     Linear,
 }
 
 impl Kind {
+    /// Its name in files and summaries.
     pub fn as_str(self) -> &'static str {
         match self {
             Kind::Pose => "pose",
@@ -96,12 +100,16 @@ impl std::fmt::Display for Kind {
 #[derive(Debug, Clone)]
 #[allow(clippy::large_enum_variant)] // one per scenario
 pub enum ModelConfig {
+    /// The pose model.
     Pose(Pose),
+    /// The attitude model.
     Attitude(Attitude),
+    /// A linear model.
     Linear(Linear),
 }
 
 impl ModelConfig {
+    /// The model behind its trait.
     pub fn get(&self) -> &dyn Model {
         match self {
             ModelConfig::Pose(m) => m,
@@ -131,11 +139,14 @@ impl ModelConfig {
 /// A measurement: values and which rows are present.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Measurement {
+    /// The measurement vector (a missing row holds any value).
     pub z: DVector<f64>,
+    /// Which rows arrived.
     pub present: Vec<bool>,
 }
 
 impl Measurement {
+    /// Every row present.
     pub fn full(z: DVector<f64>) -> Measurement {
         let m = z.len();
         Measurement {
@@ -144,6 +155,7 @@ impl Measurement {
         }
     }
 
+    /// `m` rows, none present.
     pub fn empty(m: usize) -> Measurement {
         Measurement {
             z: DVector::zeros(m),
@@ -272,6 +284,7 @@ pub struct ErrorText {
 
 /// One estimation model. A node holds it as `&dyn Model`; so do the observer, the recorders and the plots.
 pub trait Model: Send + Sync + std::fmt::Debug {
+    /// Which model it is.
     fn kind(&self) -> Kind;
 
     /// The node's IMU drives the prediction (so a recorded IMU may replace it).
@@ -350,6 +363,7 @@ pub trait Model: Send + Sync + std::fmt::Debug {
     /// The variances of the reported columns.
     fn reported_var(&self, g: &Gaussian) -> Vec<f64>;
 
+    /// Which state rows the fusion observer fuses, and how.
     fn fusion(&self) -> FusionLayout;
 
     /// The truth with the sign of `est` where states have two representations (a NEES needs it).
@@ -364,11 +378,11 @@ pub trait Model: Send + Sync + std::fmt::Debug {
 }
 
 /// Standard normal samples.
-pub(crate) fn randn(rng: &mut Rng, n: usize) -> DVector<f64> {
+pub fn randn(rng: &mut Rng, n: usize) -> DVector<f64> {
     DVector::from_fn(n, |_, _| rand::Rng::sample(rng, rand_distr::StandardNormal))
 }
 
 /// The stacked measurement [a; b].
-pub(crate) fn stacked(a: &Vector3<f64>, b: &Vector3<f64>) -> DVector<f64> {
+pub fn stacked(a: &Vector3<f64>, b: &Vector3<f64>) -> DVector<f64> {
     DVector::from_iterator(6, a.iter().chain(b.iter()).copied())
 }

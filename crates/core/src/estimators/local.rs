@@ -3,12 +3,14 @@
 use super::{Estimator, Message, StepInput};
 use crate::estimate::{EstimateError, Gaussian, MissingChannels};
 
+/// The node's own filter alone: the baseline.
 pub struct Local {
     g: Gaussian,
     policy: MissingChannels,
 }
 
 impl Local {
+    /// The filter from `initial`, missing rows handled by `policy`.
     pub fn new(initial: Gaussian, policy: MissingChannels) -> Local {
         Local { g: initial, policy }
     }

@@ -6,39 +6,52 @@
 
 use nalgebra::Vector3;
 
-use crate::input::clip;
 use crate::sensor::ImuSample;
+use crate::text::clip;
 
 pub mod layout;
 
 /// One IMU sample as sensed, with the true pose at its time (`imu-ID.csv`).
 #[derive(Debug, Clone, Copy)]
 pub struct ImuRow {
+    /// Time, s.
     pub t: f64,
+    /// Specific force and angular rate.
     pub sample: ImuSample,
     /// Magnetometer (attitude model).
     pub mag: Option<Vector3<f64>>,
+    /// Reference position, m.
     pub position: Vector3<f64>,
     /// Euler ZYX [roll, pitch, yaw], rad.
     pub euler: Vector3<f64>,
 }
 
+/// A line of a recorded IMU file that cannot be read.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{file}:{line}: {message}")]
 pub struct CsvError {
+    /// The file, as named to the user.
     pub file: String,
     /// 1-based line number.
     pub line: usize,
+    /// What is wrong with the line.
     pub message: String,
 }
 
+/// A recorded IMU file, column by column.
 #[derive(Debug, Clone, Default)]
 pub struct ImuRecording {
+    /// Sample times, s, increasing.
     pub t: Vec<f64>,
+    /// Specific force, body frame, m/s².
     pub accel: Vec<Vector3<f64>>,
+    /// Angular rate, body frame, rad/s.
     pub gyro: Vec<Vector3<f64>>,
+    /// Magnetometer, if recorded.
     pub mag: Option<Vec<Vector3<f64>>>,
+    /// Reference position, m, if recorded.
     pub position: Option<Vec<Vector3<f64>>>,
+    /// Reference attitude, Euler ZYX [roll, pitch, yaw], rad, if recorded.
     pub euler: Option<Vec<Vector3<f64>>>,
     /// Reference attitude as a unit quaternion (scalar first, body to navigation), as makers' files give it.
     pub quat: Option<Vec<nalgebra::Vector4<f64>>>,
@@ -52,6 +65,7 @@ const GROUPS: [(&str, [&str; 3]); 5] = [
     ("reference attitude", ["roll", "pitch", "yaw"]),
 ];
 
+/// A recording from simnet's CSV text (`t,ax,ay,az,gx,gy,gz[,…]`); `file` names it in errors.
 pub fn parse(text: &str, file: &str) -> Result<ImuRecording, CsvError> {
     let err = |line: usize, message: String| CsvError {
         file: file.to_string(),
@@ -154,9 +168,13 @@ pub fn parse(text: &str, file: &str) -> Result<ImuRecording, CsvError> {
 /// (angles along the shorter arc).
 #[derive(Debug, Clone, PartialEq)]
 pub struct StepRecording {
+    /// One IMU interval's samples per step.
     pub imu: Vec<ImuSample>,
+    /// Magnetometer per step, if recorded.
     pub mag: Option<Vec<Vector3<f64>>>,
+    /// Reference position per step, if recorded.
     pub position: Option<Vec<Vector3<f64>>>,
+    /// Reference attitude per step, if recorded.
     pub euler: Option<Vec<Vector3<f64>>>,
 }
 
@@ -165,6 +183,7 @@ impl StepRecording {
     pub fn len(&self) -> usize {
         self.imu.len()
     }
+    /// No step.
     pub fn is_empty(&self) -> bool {
         self.imu.is_empty()
     }

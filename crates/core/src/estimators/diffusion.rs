@@ -16,6 +16,7 @@ use super::{renormalised, Context, Estimator, Message, StepInput};
 use crate::estimate::{wrap_rows, EstimateError, Gaussian, MissingChannels};
 use crate::model::Measurement;
 
+/// Diffusion Kalman filtering: incremental updates with the neighbours' measurements, then a convex combination of their estimates.
 pub struct Diffusion {
     ctx: Context,
     g: Gaussian,
@@ -31,6 +32,7 @@ pub struct Diffusion {
 }
 
 impl Diffusion {
+    /// The scheme at the node of `ctx`, from `initial`; `share` the measurements, `combine` the estimates.
     pub fn new(ctx: Context, initial: Gaussian, policy: MissingChannels, share: bool, combine: bool) -> Diffusion {
         Diffusion {
             ctx,

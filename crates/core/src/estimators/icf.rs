@@ -12,6 +12,7 @@
 use super::{Context, Estimator, Info, Message, StepInput};
 use crate::estimate::{wrap_rows, EstimateError, Gaussian};
 
+/// The information consensus filter (ICF).
 pub struct Icf {
     ctx: Context,
     g: Gaussian,
@@ -20,6 +21,7 @@ pub struct Icf {
 }
 
 impl Icf {
+    /// The scheme at the node of `ctx`, from `initial`.
     pub fn new(ctx: Context, initial: Gaussian) -> Icf {
         let n = initial.x.len();
         Icf {

@@ -12,6 +12,7 @@ use super::{Context, Estimator, Info, Message, StepInput};
 use crate::estimate::{symmetrize, wrap_rows, EstimateError, Gaussian};
 use crate::model::Measurement;
 
+/// The centralized Kalman filter: every node's measurement stacked, one filter.
 pub struct Centralized {
     ctx: Context,
     /// The center's filter; `None` at a node that only reports.

@@ -59,13 +59,17 @@ pub use local::Local;
 /// One scheme as `simnet estimators` lists it.
 #[derive(Debug, Clone, Copy)]
 pub struct Scheme {
+    /// Its name in topology files and `--estimators`.
     pub name: &'static str,
+    /// The source document and equations it implements.
     pub reference: &'static str,
     /// What each round carries.
     pub messages: &'static str,
+    /// Its `[estimators]` parameters.
     pub parameters: &'static str,
 }
 
+/// Every scheme, in registry order (the order of [`Kind::ALL`]).
 pub const SCHEMES: &[Scheme] = &[
     Scheme {
         name: "independent",
@@ -128,11 +132,13 @@ pub const SCHEMES: &[Scheme] = &[
 /// What one node's estimator knows of the network.
 #[derive(Debug, Clone)]
 pub struct Context {
+    /// This node, by index.
     pub index: usize,
     /// Nodes in the network (ICF and HCMCI scale information by it).
     pub nodes: usize,
     /// Consensus weights to each neighbour (sorted by node index) and to itself.
     pub weights: Vec<(usize, f64)>,
+    /// The consensus weight on its own estimate.
     pub self_weight: f64,
     /// State rows that are angles.
     pub angle_states: Vec<bool>,
@@ -227,11 +233,14 @@ pub fn metropolis(neighbours: &[Vec<usize>]) -> Vec<Weights> {
 /// An information pair: Y = P⁻¹ and y = P⁻¹ x.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Info {
+    /// The information matrix Y = P⁻¹.
     pub Y: DMatrix<f64>,
+    /// The information vector y = P⁻¹ x.
     pub y: DVector<f64>,
 }
 
 impl Info {
+    /// The zero pair of an n-state (no information).
     pub fn zero(n: usize) -> Info {
         Info {
             Y: DMatrix::zeros(n, n),
@@ -239,11 +248,13 @@ impl Info {
         }
     }
 
+    /// The pair of an estimate: (P⁻¹, P⁻¹ x).
     pub fn of(g: &Gaussian) -> Result<Info, EstimateError> {
         let Y = cholesky(&g.P, "P")?.inverse();
         Ok(Info { y: &Y * &g.x, Y })
     }
 
+    /// The estimate of the pair: (Y⁻¹, Y⁻¹ y).
     pub fn gaussian(&self) -> Result<Gaussian, EstimateError> {
         let mut P = cholesky(&self.Y, "information matrix")?.inverse();
         symmetrize(&mut P);
@@ -328,7 +339,12 @@ pub enum Message {
     /// An information pair (ICF).
     Information(Info),
     /// The prior's and the measurement's information pairs (HCMCI).
-    Hybrid { prior: Info, measurement: Info },
+    Hybrid {
+        /// The prior's pair.
+        prior: Info,
+        /// The measurement's pair.
+        measurement: Info,
+    },
     /// An estimate (KCF's prior, diffusion's combine step, CI).
     Estimate(Gaussian),
 }
@@ -337,8 +353,11 @@ pub enum Message {
 /// for a non-linear one) and the node's own measurement (none for a naive node, or when sensing failed).
 #[derive(Clone, Copy)]
 pub struct StepInput<'a> {
+    /// The node's model.
     pub model: &'a dyn Model,
+    /// The step's observation (H, R).
     pub obs: &'a Observation,
+    /// The node's own measurement of the step, if any arrived.
     pub own: Option<&'a Measurement>,
 }
 
@@ -381,10 +400,12 @@ impl<'a> StepInput<'a> {
 /// round r = 0 … L−1 [`Estimator::message`] (sent to every out-neighbour) and [`Estimator::combine`] (what arrived,
 /// sorted by source), then [`Estimator::finish`].
 pub trait Estimator: Send {
+    /// Its name in the registry.
     fn name(&self) -> &'static str;
 
     /// The node's estimate (none at a node that only reports to a fusion center).
     fn state(&self) -> Option<&Gaussian>;
+    /// The node's estimate, to change (a restart, a rebase of coordinates).
     fn state_mut(&mut self) -> Option<&mut Gaussian>;
 
     /// The prediction to this step, by the node's model (the same for every estimator of the node).

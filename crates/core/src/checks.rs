@@ -10,6 +10,7 @@ use nalgebra::DMatrix;
 pub struct Problem {
     /// Dotted key path, e.g. `edge[2].nodes`.
     pub key: String,
+    /// What is wrong with it.
     pub message: String,
 }
 
@@ -22,9 +23,10 @@ impl fmt::Display for Problem {
 /// Checks a probability, a positive number, a matrix, … and records a problem naming the key.
 #[derive(Debug, Default)]
 pub struct Checks {
+    /// Every problem found so far, in the order found.
     pub problems: Vec<Problem>,
     /// Recordings already read, by resolved path: validating a changed scenario again does not re-read them.
-    pub(crate) loaded: std::collections::HashMap<String, std::sync::Arc<crate::imu_csv::ImuRecording>>,
+    pub loaded: std::collections::HashMap<String, std::sync::Arc<crate::imu_csv::ImuRecording>>,
 }
 
 /// A number as a message shows it: exponent form when very large or very small (1e308, not 309 digits).
@@ -37,14 +39,16 @@ pub fn num(v: f64) -> String {
 }
 
 impl Checks {
-    pub(crate) fn bad(&mut self, key: impl Into<String>, message: impl Into<String>) {
+    /// Record a problem at `key`.
+    pub fn bad(&mut self, key: impl Into<String>, message: impl Into<String>) {
         self.problems.push(Problem {
             key: key.into(),
             message: message.into(),
         });
     }
 
-    pub(crate) fn prob(&mut self, key: &str, v: Option<f64>, default: f64) -> f64 {
+    /// `v` if it is a probability in [0, 1], else a problem and `default`; `default` when absent.
+    pub fn prob(&mut self, key: &str, v: Option<f64>, default: f64) -> f64 {
         match v {
             Some(x) if !(0.0..=1.0).contains(&x) || !x.is_finite() => {
                 self.bad(key, format!("must be a probability in [0, 1], got {x}"));
@@ -55,7 +59,8 @@ impl Checks {
         }
     }
 
-    pub(crate) fn positive(&mut self, key: &str, v: Option<f64>, default: f64) -> f64 {
+    /// `v` if it is positive and finite, else a problem and `default`; `default` when absent.
+    pub fn positive(&mut self, key: &str, v: Option<f64>, default: f64) -> f64 {
         match v {
             Some(x) if !(x > 0.0 && x.is_finite()) => {
                 self.bad(key, format!("must be a positive finite number, got {x}"));
@@ -68,7 +73,7 @@ impl Checks {
 
     /// `v` (already checked finite) no larger than `max`: a value past what any run needs would overflow the clocks
     /// and distributions it feeds (a 1e308 ms jitter, a delay of 1e20 s).
-    pub(crate) fn at_most(&mut self, key: &str, v: f64, max: f64, unit: &str) -> f64 {
+    pub fn at_most(&mut self, key: &str, v: f64, max: f64, unit: &str) -> f64 {
         if v > max {
             self.bad(key, format!("must be at most {}{unit}, got {}", num(max), num(v)));
             return max;
@@ -76,7 +81,8 @@ impl Checks {
         v
     }
 
-    pub(crate) fn non_negative(&mut self, key: &str, v: Option<f64>, default: f64) -> f64 {
+    /// `v` if it is zero or more and finite, else a problem and `default`; `default` when absent.
+    pub fn non_negative(&mut self, key: &str, v: Option<f64>, default: f64) -> f64 {
         match v {
             Some(x) if !(x >= 0.0 && x.is_finite()) => {
                 self.bad(key, format!("must be a non-negative finite number, got {x}"));
@@ -87,7 +93,8 @@ impl Checks {
         }
     }
 
-    pub(crate) fn matrix(&mut self, key: &str, rows: &Option<Vec<Vec<f64>>>) -> Option<DMatrix<f64>> {
+    /// The matrix of `rows` (rows of equal length, finite values), else a problem; none when absent.
+    pub fn matrix(&mut self, key: &str, rows: &Option<Vec<Vec<f64>>>) -> Option<DMatrix<f64>> {
         let rows = rows.as_ref()?;
         let r = rows.len();
         let c = rows.first().map_or(0, |x| x.len());
@@ -106,7 +113,8 @@ impl Checks {
         Some(DMatrix::from_fn(r, c, |i, j| rows[i][j]))
     }
 
-    pub(crate) fn spd(&mut self, key: &str, m: &DMatrix<f64>, n: usize, semi: bool) {
+    /// A problem unless `m` is n × n, symmetric and positive definite (positive semidefinite when `semi`).
+    pub fn spd(&mut self, key: &str, m: &DMatrix<f64>, n: usize, semi: bool) {
         if m.nrows() != n || m.ncols() != n {
             self.bad(key, format!("must be {n}×{n}, got {}×{}", m.nrows(), m.ncols()));
             return;

@@ -13,6 +13,7 @@
 use super::{renormalised, Context, Estimator, Info, Message, StepInput};
 use crate::estimate::{wrap_rows, EstimateError, Gaussian};
 
+/// Hybrid consensus on measurements and on information (HCMCI).
 pub struct Hcmci {
     ctx: Context,
     g: Gaussian,
@@ -23,6 +24,7 @@ pub struct Hcmci {
 }
 
 impl Hcmci {
+    /// The scheme at the node of `ctx`, from `initial`, with weight `omega` on the measurements.
     pub fn new(ctx: Context, initial: Gaussian, omega: f64) -> Hcmci {
         let n = initial.x.len();
         Hcmci {

@@ -12,18 +12,28 @@ use crate::wire::Body;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Kind {
+    /// The node's own filter, nothing exchanged.
     Independent,
+    /// The β-weighted consensus of Sequeira (2023).
     Sequeira,
+    /// The centralized filter over every measurement, delivered whole.
     Centralized,
+    /// The centralized filter at a sink, over the lossy links.
     CentralizedNet,
+    /// The Kalman consensus filter.
     Kcf,
+    /// The information consensus filter.
     Icf,
+    /// Hybrid consensus on measurements and information.
     Hcmci,
+    /// Diffusion Kalman filtering.
     Diffusion,
+    /// Covariance intersection.
     Ci,
 }
 
 impl Kind {
+    /// Every scheme, in registry order.
     pub const ALL: [Kind; 9] = [
         Kind::Independent,
         Kind::Sequeira,
@@ -36,6 +46,7 @@ impl Kind {
         Kind::Ci,
     ];
 
+    /// Its name in topology files.
     pub fn name(self) -> &'static str {
         super::SCHEMES[self as usize].name
     }
@@ -73,6 +84,7 @@ impl Kind {
         Ok(out)
     }
 
+    /// The scheme at `i` in [`Kind::ALL`].
     pub fn from_index(i: u8) -> Option<Kind> {
         Kind::ALL.get(i as usize).copied()
     }
@@ -156,9 +168,17 @@ fn symmetric(n: usize, v: &[f64]) -> DMatrix<f64> {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum MessageError {
     #[error("a message of {got} states, the model has {want}")]
-    States { got: usize, want: usize },
+    /// A message with another state dimension.
+    States {
+        /// The message's.
+        got: usize,
+        /// The model's.
+        want: usize,
+    },
+    /// A measurement row past the model's rows.
     #[error("a measurement with rows beyond the model's {0}")]
     Rows(usize),
+    /// A state too large for a datagram.
     #[error("a state of {0} rows cannot travel (at most {max})", max = crate::wire::MAX_STATES)]
     TooLarge(usize),
 }

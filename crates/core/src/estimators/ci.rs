@@ -8,6 +8,7 @@ use super::local::own_update;
 use super::{renormalised, Context, Estimator, Info, Message, StepInput};
 use crate::estimate::{wrap_rows, EstimateError, Gaussian, MissingChannels};
 
+/// Covariance intersection of the neighbours' estimates after the node's own update.
 pub struct Ci {
     ctx: Context,
     g: Gaussian,
@@ -15,6 +16,7 @@ pub struct Ci {
 }
 
 impl Ci {
+    /// The scheme at the node of `ctx`, from `initial`, missing rows handled by `policy`.
     pub fn new(ctx: Context, initial: Gaussian, policy: MissingChannels) -> Ci {
         Ci {
             ctx,

@@ -15,12 +15,19 @@ use crate::sensor::{ImuInterval, ImuSample, Sensor, SensorProfile};
 pub struct Pose {
     /// Extra process noise on top of what the IMU noise densities imply (unmodelled effects).
     pub q_pos: f64,
+    /// Extra velocity process noise, (m/s)² per step.
     pub q_vel: f64,
+    /// Extra attitude process noise, rad² per step.
     pub q_att: f64,
+    /// Position-fix noise variance, m².
     pub r_pos: f64,
+    /// Attitude-fix noise variance, rad².
     pub r_att: f64,
+    /// Initial position variance, m².
     pub p0_pos: f64,
+    /// Initial velocity variance, (m/s)².
     pub p0_vel: f64,
+    /// Initial attitude variance, rad².
     pub p0_att: f64,
 }
 

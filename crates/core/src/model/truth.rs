@@ -13,19 +13,37 @@ use crate::imu_csv::StepRecording;
 use crate::motion::{PoseTruth, Trajectory};
 use crate::rng::Rng;
 
+/// The truth a node is scored against, step by step.
 #[derive(Debug, Clone)]
 #[allow(clippy::large_enum_variant)] // one per node
 pub enum Truth {
     /// An analytic trajectory sampled at step k.
-    Motion { trajectory: Trajectory, dt: f64, k: u64 },
+    Motion {
+        /// The trajectory.
+        trajectory: Trajectory,
+        /// Step length, s.
+        dt: f64,
+        /// The step.
+        k: u64,
+    },
     /// A recording's reference columns; a missing column is NaN, and its errors are not computed.
-    Recorded { rec: Arc<StepRecording>, k: u64 },
+    Recorded {
+        /// The recording, per step.
+        rec: Arc<StepRecording>,
+        /// The step.
+        k: u64,
+    },
     /// x⁺ = A x + w.
     Linear {
+        /// The state.
         x: DVector<f64>,
+        /// The transition matrix A.
         A: DMatrix<f64>,
+        /// A square root of Q, to draw w.
         Q_sqrt: DMatrix<f64>,
+        /// The process noise's stream.
         rng: Rng,
+        /// The step.
         k: u64,
         /// Shift of coordinates not yet applied to the estimates (see [`REBASE_LIMIT`]).
         shift: Option<DVector<f64>>,
@@ -49,10 +67,12 @@ pub fn psd_sqrt(m: &DMatrix<f64>) -> DMatrix<f64> {
 }
 
 impl Truth {
+    /// The trajectory's truth from step 0, steps `dt` s apart.
     pub fn motion(trajectory: Trajectory, dt: f64) -> Truth {
         Truth::Motion { trajectory, dt, k: 0 }
     }
 
+    /// The recording's truth from step 0.
     pub fn recorded(rec: Arc<StepRecording>) -> Truth {
         Truth::Recorded { rec, k: 0 }
     }
@@ -71,6 +91,7 @@ impl Truth {
         }
     }
 
+    /// Move on to step `target` (a later one).
     pub fn advance_to(&mut self, target: u64) {
         match self {
             Truth::Motion { k, .. } | Truth::Recorded { k, .. } => *k = target,

@@ -11,31 +11,49 @@ use crate::checks::Checks;
 #[derive(Debug, Serialize, Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawModel {
+    /// `pose`, `attitude` or `linear`.
     pub kind: Option<String>,
     // pose
+    /// Pose: position process noise, m² per step.
     pub q_pos: Option<f64>,
+    /// Pose: velocity process noise, (m/s)² per step.
     pub q_vel: Option<f64>,
+    /// Pose: attitude process noise, rad² per step.
     pub q_att: Option<f64>,
+    /// Pose: position-fix noise variance, m².
     pub r_pos: Option<f64>,
+    /// Pose: attitude-fix noise variance, rad².
     pub r_att: Option<f64>,
+    /// Pose: initial position variance, m².
     pub p0_pos: Option<f64>,
+    /// Pose: initial velocity variance, (m/s)².
     pub p0_vel: Option<f64>,
+    /// Pose: initial attitude variance, rad².
     pub p0_att: Option<f64>,
     // attitude
+    /// Attitude: accelerometer noise variance, (m/s²)².
     pub r_acc: Option<f64>,
+    /// Attitude: magnetometer noise variance.
     pub r_mag: Option<f64>,
+    /// Attitude: Earth's field in the navigation frame.
     pub mag_field: Option<[f64; 3]>,
     // linear
+    /// Linear: A, row by row.
     pub a: Option<Vec<Vec<f64>>>,
+    /// Linear: C, row by row.
     pub c: Option<Vec<Vec<f64>>>,
+    /// Linear: Q, row by row.
     pub q: Option<Vec<Vec<f64>>>,
+    /// Linear: R, row by row.
     pub r: Option<Vec<Vec<f64>>>,
+    /// Linear: x₀.
     pub x0: Option<Vec<f64>>,
+    /// Linear: P₀, row by row.
     pub p0: Option<Vec<Vec<f64>>>,
 }
 
 /// The validated model of a `[model]` table; problems go to `ck` with their keys.
-pub(crate) fn parse(m: RawModel, ck: &mut Checks) -> ModelConfig {
+pub fn parse(m: RawModel, ck: &mut Checks) -> ModelConfig {
     let kind = m.kind.as_deref().unwrap_or("pose");
     // Keys that belong to some kinds only.
     let owned: [(&str, bool, &[&str]); 17] = [
@@ -160,13 +178,13 @@ pub(crate) fn parse(m: RawModel, ck: &mut Checks) -> ModelConfig {
 }
 
 /// A matrix as the rows a `[model]` table writes.
-pub(crate) fn matrix_rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
+pub fn matrix_rows(m: &DMatrix<f64>) -> Vec<Vec<f64>> {
     (0..m.nrows()).map(|i| m.row(i).iter().copied().collect()).collect()
 }
 
 /// The `[model]` table that [`parse`] turns back into `m` (a scenario built in code goes through the same checks as
 /// a file).
-pub(crate) fn to_raw(m: &ModelConfig) -> RawModel {
+pub fn to_raw(m: &ModelConfig) -> RawModel {
     let rows = |m: &DMatrix<f64>| Some(matrix_rows(m));
     match m {
         ModelConfig::Pose(p) => RawModel {
