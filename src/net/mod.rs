@@ -3,7 +3,7 @@
 //!
 //! | file | owns |
 //! |---|---|
-//! | `lockstep.rs` | the virtual clock (default): every node steps in lockstep, each step closes when what the link layer delivered by the deadline is in; same seed, same results |
+//! | `lockstep/` | the virtual clock (default; `slot.rs`: one node a worker owns, its frames and what it keeps for a resend): every node steps in lockstep, each step closes when what the link layer delivered by the deadline is in; same seed, same results |
 //! | `realtime.rs` | the wall clock: every worker paces its nodes from a common start; delay and jitter are real waits |
 //! | `collect.rs` | what the workers hand in per step, and the task that fuses the steps in order |
 //! | `host.rs` | one node per process (`simnet node`): the handshake, catching up, the part it writes |

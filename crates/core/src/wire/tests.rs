@@ -1,0 +1,233 @@
+/// A consensus round's message carrying a 2-state information pair (node 2, step 9).
+pub(crate) fn information_round() -> super::Datagram {
+    use super::*;
+    Datagram {
+        header: Header::round(2, 5, 9),
+        payload: Payload::Round {
+            round: 1,
+            scheme: 4,
+            body: Body::Information {
+                n: 2,
+                sym: vec![1.0, 0.5, 2.0],
+                vec: vec![0.25, -1.0],
+            },
+        },
+    }
+}
+
+/// The fuzz target's seed corpus (`fuzz/seeds/datagram/`): datagrams of every kind, a sealed one and frames
+/// holding them, in the current format (`SIMNET_BLESS=1 cargo test fuzz_seeds` rewrites them after a change).
+#[test]
+fn fuzz_seeds_are_current_datagrams() {
+    use super::secure::{Key, Sealer};
+    let measurement = Datagram {
+        header: Header::new(3, 17, 12345),
+        payload: Payload::measurement(0b101101, vec![0.1, -0.2, 9.8, 0.25]),
+    };
+    let datagrams = [
+        measurement.clone(),
+        Datagram {
+            header: Header::hello(1, 2),
+            payload: Payload::Hello {
+                running: Some(40),
+                run: 7,
+                boot: 9,
+                echo: 11,
+                probe: 13,
+                answer: 0,
+            },
+        },
+        information_round(),
+        Datagram {
+            header: Header::round(2, 6, 9),
+            payload: Payload::Round {
+                round: 0,
+                scheme: 6,
+                body: Body::Estimate {
+                    n: 2,
+                    x: vec![1.0, 2.0],
+                    sym: vec![1.0, 0.0, 1.0],
+                },
+            },
+        },
+    ];
+    let mut seeds: Vec<(String, Vec<u8>)> = datagrams
+        .iter()
+        .enumerate()
+        .map(|(i, d)| (format!("datagram-{i}"), d.encode().unwrap().to_vec()))
+        .collect();
+    // Sealed under the fuzz target's key, for its node 9 in boot 5.
+    let sealed = Sealer::new(&Key::from_bytes([7; 16]), 3, 1)
+        .seal(&measurement, 9, 5)
+        .unwrap();
+    seeds.push(("sealed-0".into(), sealed.to_vec()));
+    let bytes: Vec<Bytes> = datagrams.iter().map(|d| d.encode().unwrap()).collect();
+    seeds.push(("frame-0".into(), Frame::pack(4, bytes)[0].to_vec()));
+    seeds.push(("empty-frame-0".into(), Frame::pack(5, Vec::new())[0].to_vec()));
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fuzz/seeds/datagram");
+    if std::env::var_os("SIMNET_BLESS").is_some() {
+        for e in std::fs::read_dir(&dir).unwrap().flatten() {
+            std::fs::remove_file(e.path()).unwrap();
+        }
+        for (name, b) in &seeds {
+            std::fs::write(dir.join(name), b).unwrap();
+        }
+    }
+    for (name, b) in &seeds {
+        let committed = std::fs::read(dir.join(name)).unwrap_or_default();
+        assert_eq!(
+            &committed, b,
+            "fuzz/seeds/datagram/{name} is stale: SIMNET_BLESS=1 cargo test fuzz_seeds"
+        );
+    }
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        seeds.len(),
+        "a seed not made here"
+    );
+}
+
+use super::*;
+
+fn sample() -> Datagram {
+    Datagram {
+        header: Header::new(2, 99, 1234),
+        payload: Payload::measurement(0b111000, vec![0.1, -0.2, 3.0]),
+    }
+}
+
+#[test]
+fn every_single_bit_flip_is_caught() {
+    for d in [sample(), information_round()] {
+        let bytes = d.encode().unwrap();
+        for bit in 0..bytes.len() * 8 {
+            let mut b = bytes.to_vec();
+            b[bit / 8] ^= 1 << (bit % 8);
+            assert!(Datagram::decode(&b).is_err(), "{d:?}: bit {bit} went undetected");
+        }
+    }
+}
+
+#[test]
+fn bad_lengths_and_impossible_values() {
+    assert_eq!(Datagram::decode(&[]), Err(WireError::TooShort(0)));
+    assert!(matches!(Datagram::decode(&[0u8; 1500]), Err(WireError::TooLong(1500))));
+    let mut d = sample();
+    d.payload = Payload::measurement(0b1, vec![f64::NAN]);
+    assert!(d.encode().is_err());
+    d.payload = Payload::measurement(0b11, vec![1.0]);
+    assert!(d.encode().is_err());
+    let mut d = sample();
+    d.header.flags = 1;
+    assert_eq!(d.encode(), Err(WireError::Flags(1)));
+    // A valid body with a valid CRC but a wrong magic.
+    let mut body = postcard::to_allocvec(&(
+        Header {
+            magic: 1,
+            ..sample().header
+        },
+        &sample().payload,
+    ))
+    .unwrap();
+    let crc = crc32fast::hash(&body);
+    body.extend_from_slice(&crc.to_le_bytes());
+    assert_eq!(Datagram::decode(&body), Err(WireError::Magic(1)));
+}
+
+#[test]
+fn hello_round_trips_and_kind_must_match() {
+    let h = Datagram {
+        header: Header::hello(4, 1),
+        payload: Payload::Hello {
+            running: Some(77),
+            run: 5,
+            boot: 6,
+            echo: 0,
+            probe: 0,
+            answer: 3,
+        },
+    };
+    assert_eq!(Datagram::decode(&h.encode().unwrap()).unwrap(), h);
+    let bad = Datagram {
+        header: Header::new(4, 1, 0),
+        payload: Payload::Hello {
+            running: None,
+            run: 5,
+            boot: 6,
+            echo: 0,
+            probe: 0,
+            answer: 3,
+        },
+    };
+    assert!(bad.encode().is_err());
+}
+
+#[test]
+fn round_messages_round_trip_and_are_checked() {
+    let n = 9;
+    let tri = |v: f64| vec![v; n * (n + 1) / 2];
+    let d = Datagram {
+        header: Header::round(1, 5, 77),
+        payload: Payload::Round {
+            round: 2,
+            scheme: 5,
+            body: Body::Hybrid {
+                n: n as u8,
+                prior: (tri(0.5), vec![1.0; n]),
+                measurement: (tri(-0.25), vec![2.0; n]),
+            },
+        },
+    };
+    let bytes = d.encode().unwrap();
+    // A 9-state hybrid message (the pose model's HCMCI) fits one datagram.
+    assert_eq!(bytes.len(), 886);
+    assert_eq!(Datagram::decode(&bytes).unwrap(), d);
+    for bad in [
+        Body::Estimate {
+            n: 3,
+            x: vec![0.0; 3],
+            sym: vec![0.0; 5],
+        },
+        Body::Estimate {
+            n: 0,
+            x: vec![],
+            sym: vec![],
+        },
+        Body::Information {
+            n: 2,
+            sym: vec![1.0, f64::INFINITY, 1.0],
+            vec: vec![0.0; 2],
+        },
+        Body::Measurement {
+            rows: 0b11,
+            values: vec![1.0],
+        },
+    ] {
+        let d = Datagram {
+            header: Header::round(1, 5, 77),
+            payload: Payload::Round {
+                round: 0,
+                scheme: 3,
+                body: bad,
+            },
+        };
+        assert!(matches!(d.encode(), Err(WireError::Invalid(_))), "{d:?}");
+    }
+}
+
+#[test]
+fn oversized_measurement_is_refused() {
+    let d = Datagram {
+        header: Header::new(0, 0, 0),
+        payload: Payload::measurement(u64::MAX, vec![1.0; 64]),
+    };
+    assert!(d.encode().is_ok());
+    let big = Datagram {
+        header: Header::new(0, 0, 0),
+        payload: Payload::Measurement {
+            rows: u64::MAX,
+            values: vec![1.0; 200],
+        },
+    };
+    assert!(big.encode().is_err());
+}
