@@ -62,7 +62,7 @@ pub mod scenario;
 pub mod sim;
 
 pub use simnet_core::{
-    attack, checks, estimate, estimators, geom, imu_csv, link, model, motion, rng, sensor, stats, wire,
+    attack, checks, estimate, estimators, geom, imu_csv, link, model, motion, rng, sensor, stats, text, wire,
 };
 
 pub use report::summary::Summary;

@@ -68,6 +68,41 @@ pub struct Score {
 }
 
 /// Something fed by a node as it runs. Each method defaults to ignoring its event.
+///
+/// A probe of your own goes on one node with [`crate::Sim::add_probe`] (or a node's `add_probe` under any driver).
+/// This one keeps node 0's networked errors after the burn-in; their mean is the one `summary.json` reports:
+///
+/// ```
+/// use std::sync::{Arc, Mutex};
+/// use simnet::observe::{Filter, Probe, Score, Update};
+/// use simnet::{Overrides, Scenario, Sim};
+///
+/// struct Errors {
+///     after: u64,
+///     seen: Arc<Mutex<Vec<f64>>>,
+/// }
+///
+/// impl Probe for Errors {
+///     fn on_update(&mut self, u: &Update<'_>, s: &Score) {
+///         if u.filter == Filter::Networked && u.step >= self.after {
+///             self.seen.lock().unwrap().extend(s.error);
+///         }
+///     }
+/// }
+///
+/// let scenario = Scenario::resolve("ring3")?.with(&Overrides { duration_s: Some(3.0), ..Default::default() })?;
+/// let seen = Arc::new(Mutex::new(Vec::new()));
+/// let mut sim = Sim::new(&scenario)?;
+/// sim.add_probe(0, Box::new(Errors { after: scenario.sim().burn_in_steps(), seen: seen.clone() }))?;
+/// let summary = sim.run()?.summary();
+///
+/// let seen = seen.lock().unwrap();
+/// let mean = seen.iter().sum::<f64>() / seen.len() as f64;
+/// let reported = summary.nodes[0].networked.as_ref().unwrap().mean_error.unwrap();
+/// assert_eq!(seen.len() as u64, scenario.sim().steps() - scenario.sim().burn_in_steps());
+/// assert!((mean - reported).abs() <= 1e-12 * reported, "{mean} against {reported}");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub trait Probe: Send {
     /// One filter's update, scored.
     fn on_update(&mut self, _u: &Update<'_>, _s: &Score) {}

@@ -182,7 +182,7 @@ pub fn markdown() -> String {
         if s.is_empty() {
             "—".to_string()
         } else {
-            s.replace('|', "\\|").replace('<', "&lt;").replace('>', "&gt;")
+            crate::text::markdown_cell(s)
         }
     };
     let mut out = String::from(

@@ -179,10 +179,7 @@ fn the_repository_files_the_book_names_exist() {
 /// added without them fails here.
 #[test]
 fn the_generated_pages_are_what_the_code_generates() {
-    for (path, text) in [
-        ("docs/src/generated/keys.md", simnet::scenario::schema::markdown()),
-        ("docs/src/generated/outputs.md", simnet::report::outputs::markdown()),
-    ] {
+    for (path, text) in simnet::report::outputs::book_pages() {
         let committed = std::fs::read_to_string(root().join(path)).unwrap_or_default();
         assert!(
             committed == text,
@@ -195,7 +192,8 @@ fn the_generated_pages_are_what_the_code_generates() {
 #[test]
 fn every_generated_page_is_in_a_chapter() {
     let book: String = pages().iter().map(|p| std::fs::read_to_string(p).unwrap()).collect();
-    for page in ["generated/keys.md", "generated/outputs.md"] {
+    for (path, _) in simnet::report::outputs::book_pages() {
+        let page = path.trim_start_matches("docs/src/");
         assert!(
             book.contains(&format!("{{{{#include {page}}}}}")),
             "no chapter includes {page}"

@@ -9,10 +9,7 @@ use std::process::ExitCode;
 
 /// Each generated page and what writes it.
 fn pages() -> [(&'static str, String); 2] {
-    [
-        ("docs/src/generated/keys.md", simnet::scenario::schema::markdown()),
-        ("docs/src/generated/outputs.md", simnet::report::outputs::markdown()),
-    ]
+    simnet::report::outputs::book_pages()
 }
 
 fn root() -> PathBuf {

@@ -1,4 +1,5 @@
-//! Untrusted text as an error message shows it: clipped, never a whole file.
+//! Text as a reader sees it: untrusted text clipped in an error message (never a whole file), and a table cell of a
+//! Markdown page.
 
 /// A piece of an untrusted file as a message shows it: its first 24 characters, `…` where it goes on (a message
 /// never carries a file's megabytes).
@@ -17,4 +18,10 @@ pub fn quoted(s: &str) -> String {
     } else {
         format!("`{c}`")
     }
+}
+
+/// `s` as one cell of a Markdown table: `|` escaped, `<` and `>` as entities (a default of `node<ID>` is not read
+/// as an HTML tag).
+pub fn markdown_cell(s: &str) -> String {
+    s.replace('|', "\\|").replace('<', "&lt;").replace('>', "&gt;")
 }
