@@ -419,6 +419,28 @@ fn estimation_ratios() {
     });
     let consensus = p.consensus_ns(2);
     let kernels = 2.0 * predict + update + consensus;
+    // Scoring each of the two updates against the truth (error, NEES, trace P): work every node-step of a run does.
+    let mut scorer = simnet::observe::Scorer::new(Arc::new(p.pose.clone()), 0, f64::INFINITY);
+    let truth = &p.g.x * 1.01;
+    let post = Gaussian {
+        x: &p.g.x * 0.99,
+        P: &p.g.P * 0.5,
+    };
+    let score = time_per_call(|| {
+        black_box(scorer.score(&simnet::observe::Update {
+            node: 0,
+            step: 1,
+            t: 0.01,
+            filter: simnet::observe::Filter::Networked,
+            truth: black_box(&truth),
+            prior: &p.g,
+            post: &post,
+            failed: false,
+            feasible: true,
+            received: &[],
+        }));
+    });
+    let scored = kernels + 2.0 * score;
     let s = Scenario::resolve("ring100")
         .unwrap()
         .with(&Overrides {
@@ -434,6 +456,12 @@ fn estimation_ratios() {
         "ratio sim_pose_ring100_throughput = {:.2} (target ≥ 0.8)   kernels {:.2} µs per node-step, Sim {:.2} µs",
         kernels / sim,
         kernels / 1e3,
+        sim / 1e3
+    );
+    println!(
+        "ratio sim_pose_ring100_throughput_scored = {:.2} (target ≥ 0.8)   kernels and scoring {:.2} µs per node-step, Sim {:.2} µs",
+        scored / sim,
+        scored / 1e3,
         sim / 1e3
     );
     let c0 = cpu_s();

@@ -20,9 +20,10 @@
 //! | [`estimate`] (core) | pure maths: Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKF and the multiplicative one, Madgwick and Mahony (VQF through `vqf-rs`), the rigid-pair EKF, the FEM boundary-value solver |
 //! | [`estimators`] (core) | the distributed schemes behind one [`estimators::Estimator`] trait — independent, centralized, KCF, ICF, HCMCI, diffusion, CI — pure, per node, one message per round; the node runs them over L consensus rounds |
 //! | [`wire`] (core) | the datagram format: postcard + CRC-32, checked decode |
+//! | [`medium`] (core) | what carries the nodes' datagrams: the [`medium::Medium`] trait a driver hands every transmission to, and [`medium::PairwiseMedium`], the scenario's directed links (built by [`Scenario::pairwise_medium`], split by sender for the UDP drivers) |
 //! | [`link`] (core) | per-datagram rules (outage, Bernoulli / Gilbert–Elliott loss, duplication, delay and jitter, corruption), the egress queue, fault schedules |
 //! | [`attack`] (core) | the adversary model of `[[attack]]`: forge, tamper, replay, flood on the air in front of a node, false data from a compromised one; what became of each injected datagram |
-//! | [`node`] | one node's sans-IO state machine: `handle_crash`/`handle_restart`, `handle_step`, `handle_datagram`, `handle_round`, `handle_deadline`, `poll_transmit`, over any [`model::Model`]; simulated or recorded IMU |
+//! | [`node`] | one node's sans-IO state machine: `handle_crash`/`handle_restart`, `handle_step`, `handle_datagram`, `handle_round`, `handle_deadline`, `poll_send`/`send_to` (what it sends, for the medium), over any [`model::Model`]; simulated or recorded IMU |
 //! | [`observe`] | what is measured as a run goes: the [`observe::Probe`]s a node feeds (the scorer, the trace, IMU and LMI recorders, your own), per-filter metrics, the fusion observer, the estimators' agreement and the two fusion centers (centralized, and centralized-net over lossy links) |
 //! | [`sim`] | whole runs in memory: [`Sim`] steps every node in lockstep and returns [`RunResults`], the same as over UDP |
 //! | [`net`] | the only I/O: one UDP socket per node served by one worker per core, virtual and realtime clocks, shutdown; `net::host` runs one node per process (`simnet node`) |
@@ -62,7 +63,7 @@ pub mod scenario;
 pub mod sim;
 
 pub use simnet_core::{
-    attack, checks, estimate, estimators, geom, imu_csv, link, model, motion, rng, sensor, stats, text, wire,
+    attack, checks, estimate, estimators, geom, imu_csv, link, medium, model, motion, rng, sensor, stats, text, wire,
 };
 
 pub use report::summary::Summary;

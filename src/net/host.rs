@@ -26,6 +26,7 @@ use tokio::sync::watch;
 use tokio::time::Instant;
 
 use super::{NetError, Progress};
+use crate::medium::Medium;
 use crate::node::{Node, NodeReport, StepEstimate};
 use crate::scenario::Scenario;
 use crate::wire::MAX_DATAGRAM;
@@ -280,6 +281,8 @@ pub async fn run_node(
     });
     let started = std::time::Instant::now();
     let mut node = Node::new(topo.clone(), index, cfg.record_trace);
+    // The node's out-links: what becomes of what it sends.
+    let mut medium = topo.pairwise_medium([index]);
     node.boot(cfg.boot_epoch);
     node.handshake();
     let mut peers = Peers {
@@ -307,7 +310,7 @@ pub async fn run_node(
     let mut last_hello = Instant::now() - REPLY_GAP;
     let first_step = loop {
         if *stop.borrow() {
-            return Ok(finish(node, Vec::new(), 0, true, started, Default::default()));
+            return Ok(finish(node, &medium, Vec::new(), 0, true, started, Default::default()));
         }
         if let Some(k) = node.max_peer_step() {
             tracing::info!(step = k + 1, "network already running: joining");
@@ -373,7 +376,8 @@ pub async fn run_node(
                     node.handle_round(k, r);
                 }
                 // Sent all the same: the link layer counted them, and the neighbours count them late.
-                while let Some(tx) = node.poll_transmit(f64::INFINITY) {
+                node.send_to(&mut medium);
+                while let Some(tx) = medium.poll_delivery(index, f64::INFINITY) {
                     peers.send(&socket, tx.to, &tx.bytes).await;
                 }
                 node.handle_deadline(k);
@@ -406,7 +410,8 @@ pub async fn run_node(
                 round += 1;
             }
             let sim_now = (now - base).as_secs_f64();
-            while let Some(tx) = node.poll_transmit(sim_now) {
+            node.send_to(&mut medium);
+            while let Some(tx) = medium.poll_delivery(index, sim_now) {
                 peers.send(&socket, tx.to, &tx.bytes).await;
             }
             if now >= next_hello {
@@ -421,8 +426,8 @@ pub async fn run_node(
                 break;
             }
             let next_round = if round + 1 < rounds { round_end(round) } else { close };
-            let wake = node
-                .poll_timeout()
+            let wake = medium
+                .poll_timeout(index)
                 .map(|t| base + Duration::from_secs_f64(t.max(0.0)))
                 .unwrap_or(close)
                 .min(next_round);
@@ -483,11 +488,12 @@ pub async fn run_node(
         deliver(&mut node, &mut peers, from, &buf[..len]);
     }
     super::socket::record_drops(&mut node, &socket);
-    Ok(finish(node, estimates, done, interrupted, started, schedule))
+    Ok(finish(node, &medium, estimates, done, interrupted, started, schedule))
 }
 
 fn finish(
     mut node: Node,
+    medium: &dyn Medium,
     estimates: Vec<StepEstimate>,
     done: u64,
     interrupted: bool,
@@ -497,7 +503,7 @@ fn finish(
     HostOutput {
         heard_a_hello: node.heard_a_hello(),
         run: node.run_id(),
-        report: node.report(),
+        report: node.report(medium),
         estimates,
         steps_done: done,
         interrupted,

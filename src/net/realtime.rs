@@ -16,6 +16,7 @@ use tokio::sync::{mpsc, watch};
 
 use super::collect::{blocks, observe, StepOut};
 use super::{NetError, RunOptions};
+use crate::medium::{Medium, PairwiseMedium};
 use crate::node::{Node, NodeReport};
 use crate::report::summary::Schedule;
 use crate::scenario::Scenario;
@@ -75,6 +76,8 @@ struct WorkerEnd {
 
 struct Slot {
     node: Node,
+    /// The node's out-links: what becomes of what it sends.
+    medium: PairwiseMedium,
     socket: UdpSocket,
 }
 
@@ -117,7 +120,7 @@ fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedS
         Err(e) => {
             tracing::error!(worker = w, "cannot poll the nodes' sockets: {e}");
             return WorkerEnd {
-                reports: slots.iter_mut().map(|s| s.node.report()).collect(),
+                reports: slots.iter_mut().map(|s| s.node.report(&s.medium)).collect(),
                 done,
                 schedule,
             };
@@ -154,13 +157,15 @@ fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedS
                 let now_sim = now.saturating_duration_since(sh.t0).as_secs_f64();
                 let mut next = close;
                 for slot in &mut slots {
-                    while let Some(tx) = slot.node.poll_transmit(now_sim) {
+                    slot.node.send_to(&mut slot.medium);
+                    let i = slot.node.index();
+                    while let Some(tx) = slot.medium.poll_delivery(i, now_sim) {
                         match slot.socket.send_to(&tx.bytes, sh.addrs[tx.to]) {
                             Ok(_) => {}
                             Err(e) => tracing::warn!(node = slot.node.id(), "send_to failed: {e}"),
                         }
                     }
-                    if let Some(t) = slot.node.poll_timeout() {
+                    if let Some(t) = slot.medium.poll_timeout(i) {
                         next = next.min(sh.at(t));
                     }
                 }
@@ -200,7 +205,7 @@ fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedS
         super::socket::record_drops(&mut s.node, &s.socket);
     }
     WorkerEnd {
-        reports: slots.iter_mut().map(|s| s.node.report()).collect(),
+        reports: slots.iter_mut().map(|s| s.node.report(&s.medium)).collect(),
         done,
         schedule,
     }
@@ -260,7 +265,11 @@ pub(super) async fn run(
             let socket = UdpSocket::from_std(socket.into_std().map_err(NetError::Bind)?);
             let mut node = Node::new(topo.clone(), i, record);
             node.boot(epoch);
-            slots.push(Slot { node, socket });
+            slots.push(Slot {
+                node,
+                medium: topo.pairwise_medium([i]),
+                socket,
+            });
         }
         let (sh, out) = (sh.clone(), out_tx.clone());
         handles.push(tokio::task::spawn_blocking(move || worker(w, slots, sh, out)));

@@ -69,7 +69,8 @@ impl Node {
         self.probes.trace.as_mut().map(TraceRecorder::take).unwrap_or_default()
     }
 
-    pub fn report(&mut self) -> NodeReport {
+    /// The node's figures of the run, its out-links' as `medium` carried them.
+    pub fn report(&mut self, medium: &dyn crate::medium::Medium) -> NodeReport {
         let est = self.role.estimates();
         NodeReport {
             index: self.index,
@@ -84,7 +85,7 @@ impl Node {
             },
             traffic: self.schemes.traffic(),
             rounds_late: self.schemes.late,
-            links_out: self.egress.counters(),
+            links_out: medium.counters(self.index),
             rx: self.inbox.rx.clone(),
             counters: NodeCounters {
                 rejected: self.wire.rejected,

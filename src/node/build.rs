@@ -21,25 +21,7 @@ impl Node {
                 dt,
             )
         });
-        let link_on = |l: &crate::scenario::DirectedLink, stream: &str| {
-            Link::new(
-                l.from,
-                l.to,
-                l.config,
-                crate::rng::stream(seed, stream, l.from as u64, l.to as u64),
-            )
-        };
-        let links = topo.out_links(index).map(|l| link_on(l, "link")).collect();
         let in_node = topo.estimators().any_in_node();
-        // One stream per round and link: round r meets the same fates whatever L is.
-        let rounds = if in_node { topo.estimators().rounds } else { 0 };
-        let round_links = (0..rounds)
-            .map(|r| {
-                topo.out_links(index)
-                    .map(|l| link_on(l, &format!("link-round-{r}")))
-                    .collect()
-            })
-            .collect();
         let out_degree = topo.out_links(index).count();
         // The IMU file that replaces the simulated IMU, read at this run's steps.
         let recorded = cfg
@@ -65,7 +47,8 @@ impl Node {
                 P: DMatrix::identity(1, 1),
             },
             last_imu: None,
-            egress: Egress::with_rounds(links, round_links),
+            outs: topo.out_links(index).map(|l| l.to).collect(),
+            outbox: Default::default(),
             wire: Wire::new(topo.nodes()[index].id, topo.security().key.as_ref(), 0),
             up: true,
             restarting: false,

@@ -8,10 +8,13 @@
 //!
 //! 0. [`Node::handle_crash`] / [`Node::handle_restart`] before the step they precede, as the crash timeline
 //!    ([`crate::link::FaultSchedule::node_events`]) says: the node itself never reads the fault schedule.
-//! 1. [`Node::handle_step`]`(k)` at t_k: the node senses, predicts both filters to t_k, and queues this step's
-//!    datagrams on its outgoing links (the link layer decides loss, delay, duplication and corruption).
-//! 2. [`Node::poll_transmit`]`(now)` until it returns `None`: every queued copy whose delivery time is ≤ `now`, in
-//!    delivery order; [`Node::poll_timeout`] says when the next one is due. The shell sends each to `to`.
+//! 1. [`Node::handle_step`]`(k)` at t_k: the node senses, predicts both filters to t_k, and sends this step's
+//!    datagrams to its out-neighbours. It only says what it sends ([`crate::medium::Transmission`]s); it never
+//!    decides what becomes of them.
+//! 2. [`Node::send_to`]`(medium)` hands everything sent to the [`crate::medium::Medium`] (the scenario's links:
+//!    [`crate::Scenario::pairwise_medium`]), which decides loss, delay, duplication and corruption; then
+//!    `medium.poll_delivery(node, now)` until it returns `None` gives every copy due by `now`, in delivery order,
+//!    and `medium.poll_timeout(node)` when the next is due. The shell sends each to `to`.
 //! 3. [`Node::handle_datagram`]`(from, bytes)` for every datagram that arrives, in any order, `from` the sender's
 //!    node index when the shell knows it by address. A measurement for the open step is collected; one for a later
 //!    step is held (bounded); one for a closed step counts as late.
@@ -62,7 +65,8 @@ use nalgebra::{DMatrix, DVector};
 use crate::estimate::{Gaussian, MissingChannels, Observation};
 pub use crate::imu_csv::ImuRow;
 pub use crate::link::Transmit;
-use crate::link::{Egress, Link, NodeEvent, Stream};
+use crate::link::{NodeEvent, Stream};
+use crate::medium::{Medium, Transmission};
 use crate::model::{Measurement, Model, Truth};
 use crate::observe::{
     Filter, ImuRecorder, LmiRecorder, MeasurementRecorder, Probe, Probes, Scorer, TraceRecorder, Update,
@@ -99,8 +103,10 @@ pub struct Node {
     filters: Option<Filters>,
     initial: Gaussian,
     last_imu: Option<ImuSample>,
-    /// The outgoing links and the copies they have yet to deliver.
-    egress: Egress,
+    /// Out-neighbours (node indices), in the order of the scenario's out-links.
+    outs: Vec<usize>,
+    /// What the node has sent and the driver has not yet handed to the medium, in order.
+    outbox: std::collections::VecDeque<Transmission>,
     /// Encoding and sealing what goes out, checking and authenticating what comes in.
     wire: Wire,
     up: bool,
@@ -337,8 +343,7 @@ impl Node {
         }
         let t = self.topo.round_end(k, r);
         for (li, group) in self.per_link(&out).into_iter().enumerate() {
-            self.egress
-                .push_group(li, t, &group, self.topo.faults(), Stream::Round(r + 1));
+            self.queue(li, t, group, Stream::Round(r + 1));
         }
     }
 
@@ -360,8 +365,7 @@ impl Node {
         let Some(own) = own else {
             if !round0.is_empty() {
                 for (li, group) in self.per_link(round0).into_iter().enumerate() {
-                    self.egress
-                        .push_group(li, t, &group, self.topo.faults(), Stream::Round(0));
+                    self.queue(li, t, group, Stream::Round(0));
                 }
             }
             return;
@@ -397,32 +401,42 @@ impl Node {
                     Some(bytes) if first && rides => {
                         let mut group = vec![bytes];
                         group.extend_from_slice(&round0);
-                        self.egress
-                            .push_group(li, t, &group, self.topo.faults(), Stream::Measurement);
+                        self.queue(li, t, group, Stream::Measurement);
                     }
-                    Some(bytes) => self.egress.push(li, t, &bytes, self.topo.faults()),
+                    Some(bytes) => self.queue(li, t, vec![bytes], Stream::Measurement),
                     None => {}
                 }
                 first = false;
             }
             if groups.is_empty() && rides {
-                self.egress
-                    .push_group(li, t, &round0, self.topo.faults(), Stream::Round(0));
+                self.queue(li, t, round0, Stream::Round(0));
             }
         }
         for i in tainted.map(|(_, attacks)| attacks).unwrap_or_default() {
-            self.trust.count_sent(i, (self.egress.len() * groups.len()) as u64);
+            self.trust.count_sent(i, (self.outs.len() * groups.len()) as u64);
         }
     }
 
-    /// The next datagram due at or before `now` (simulated seconds), in delivery order.
-    pub fn poll_transmit(&mut self, now: f64) -> Option<Transmit> {
-        self.egress.poll_transmit(now)
+    /// `group` sent at `t` on out-link `li`, for the driver to hand to the medium.
+    fn queue(&mut self, li: usize, t: f64, group: Vec<bytes::Bytes>, stream: Stream) {
+        if group.is_empty() {
+            return;
+        }
+        let to = self.outs[li];
+        self.outbox.push_back(Transmission { to, t, group, stream });
     }
 
-    /// When the next queued datagram is due.
-    pub fn poll_timeout(&self) -> Option<f64> {
-        self.egress.poll_timeout()
+    /// The next transmission this node has sent, in the order sent: the driver hands it to the medium
+    /// ([`Node::send_to`] does it for every one).
+    pub fn poll_send(&mut self) -> Option<Transmission> {
+        self.outbox.pop_front()
+    }
+
+    /// Hand everything sent so far to `medium` (under the run's fault windows).
+    pub fn send_to(&mut self, medium: &mut dyn Medium) {
+        while let Some(tx) = self.outbox.pop_front() {
+            medium.transmit(self.index, tx, self.topo.faults());
+        }
     }
 
     /// Bytes arrived; `from` is the sender's node index when the shell knows it by address.

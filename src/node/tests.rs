@@ -4,11 +4,11 @@
 use super::*;
 use crate::wire::Datagram;
 
-/// One lockstep step with the scenario's deadline.
-fn step_in_memory(nodes: &mut [Node], k: u64) {
+/// One lockstep step with the scenario's deadline, the scenario's links carrying the datagrams.
+fn step_in_memory(nodes: &mut [Node], medium: &mut crate::medium::PairwiseMedium, k: u64) {
     let sim = &nodes[0].topo.sim();
     let window_end = k as f64 * sim.dt() + sim.deadline_s;
-    crate::sim::lockstep(nodes, k, window_end);
+    crate::sim::lockstep(nodes, medium, k, window_end);
 }
 
 /// Two nodes driven in memory, no sockets: datagrams flow and both filters track the truth.
@@ -16,11 +16,12 @@ fn step_in_memory(nodes: &mut [Node], k: u64) {
 fn pair_in_memory() {
     let topo = Arc::new(Scenario::resolve("pair2-paper").unwrap());
     let mut nodes: Vec<Node> = (0..2).map(|i| Node::new(topo.clone(), i, false)).collect();
+    let mut medium = topo.pairwise_medium(0..2);
     for k in 0..500 {
-        step_in_memory(&mut nodes, k);
+        step_in_memory(&mut nodes, &mut medium, k);
     }
     for n in &mut nodes {
-        let r = n.report();
+        let r = n.report(&medium);
         assert_eq!(r.rx.get(1 - r.index).delivered, 500);
         let s = r.networked.unwrap().summary(true);
         assert!(s.mean_error.unwrap() < 0.2, "{s:?}");
@@ -48,8 +49,9 @@ fn an_added_probe_sees_what_the_trace_records() {
     let mut nodes: Vec<Node> = (0..2).map(|i| Node::new(topo.clone(), i, true)).collect();
     let seen: Seen = Arc::default();
     nodes[1].add_probe(Box::new(Tap(seen.clone())));
+    let mut medium = topo.pairwise_medium(0..2);
     for k in 0..200 {
-        step_in_memory(&mut nodes, k);
+        step_in_memory(&mut nodes, &mut medium, k);
     }
     let rows: Vec<_> = nodes[1]
         .take_trace()
@@ -90,8 +92,9 @@ fn attitude_node_is_the_quaternion_ekf() {
     let mut ekf = AttitudeEkf::new(q0, &node.initial.P, Form::Standard).unwrap();
     let mut worst: f64 = 0.0;
     let mut log = Vec::new();
+    let mut medium = topo.pairwise_medium([0]);
     for k in 0..500 {
-        step_in_memory(std::slice::from_mut(&mut node), k);
+        step_in_memory(std::slice::from_mut(&mut node), &mut medium, k);
         log.extend(node.take_imu());
         let now = log[k as usize];
         if k > 0 {
@@ -231,6 +234,7 @@ fn restarts_never_reuse_a_nonce() {
     let key = topo.security().key.clone().unwrap();
     let topo = Arc::new(topo);
     let mut node = Node::new(topo.clone(), 0, false);
+    let mut medium = topo.pairwise_medium([0]);
     node.boot(7);
     let mut seen: std::collections::HashMap<(usize, (u32, u64, u64)), bytes::Bytes> = Default::default();
     let mut epochs = Vec::new();
@@ -249,7 +253,8 @@ fn restarts_never_reuse_a_nonce() {
             node.handle_round(k, r);
         }
         let _ = node.handle_deadline(k);
-        while let Some(t) = node.poll_transmit((k + 1) as f64 * dt + 1.0) {
+        node.send_to(&mut medium);
+        while let Some(t) = medium.poll_delivery(0, (k + 1) as f64 * dt + 1.0) {
             let n = claimed_nonce(&t.bytes).expect("every datagram is sealed");
             if let Some(before) = seen.insert((t.to, n), t.bytes.clone()) {
                 // The link layer's duplicate: the same bytes again, never another datagram under the nonce.

@@ -163,7 +163,7 @@ impl super::Node {
     /// `ds` as bytes for every out-link: sealed for each receiver when the run is authenticated, else encoded once
     /// and shared.
     pub(super) fn per_link(&mut self, ds: &[Datagram]) -> Vec<Vec<bytes::Bytes>> {
-        let links = self.egress.len();
+        let links = self.outs.len();
         if self.wire.seals() {
             (0..links).map(|li| self.seal_for(li, ds)).collect()
         } else if links == 0 {
@@ -186,7 +186,7 @@ impl super::Node {
 
     /// `ds` as bytes for the receiver of out-link `li`: sealed for it when the run is authenticated.
     pub(super) fn seal_for(&mut self, li: usize, ds: &[Datagram]) -> Vec<bytes::Bytes> {
-        let j = self.egress.to(li);
+        let j = self.outs[li];
         let (to, boot) = (self.topo.nodes()[j].id, self.boot_of(j));
         ds.iter()
             .filter_map(|d| {

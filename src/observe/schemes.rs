@@ -12,7 +12,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::estimate::{Gaussian, Observation};
 use crate::estimators::{Centralized, Context, Estimator, Kind, Message, StepInput};
-use crate::link::{Link, Verdict};
+use crate::link::{Egress, Link, Stream};
+use crate::medium::{Medium, PairwiseMedium, Transmission};
 use crate::model::Measurement;
 use crate::model::{FusionLayout, Model};
 use crate::observe::metrics::FilterMetrics;
@@ -276,11 +277,12 @@ struct Reference {
 
 /// centralized-net's links to the sink. From a node the scenario links to the sink, the measurement is the datagram
 /// the sink itself received by the deadline ([`Feed::heard`]): that slot's verdict is the link layer's one decision.
-/// From any other node a star link with the `[link]` faults and its own seeded stream decides, on the step's
-/// send time, whether the datagram arrives intact by the deadline; it travels no socket.
+/// From any other node a star link with the `[link]` faults and its own seeded stream carries the datagram, sent at
+/// the step's time, in a medium of its own; it counts if a copy arrives intact by the deadline. It travels no socket.
 struct Star {
-    /// By node index: `None` for the sink and for a node with a scenario link to it.
-    links: Vec<Option<Link>>,
+    /// The star links, one sender each: every node but the sink and those with a scenario link to it.
+    medium: PairwiseMedium,
+    sink: usize,
     faults: crate::link::FaultSchedule,
     deadline: f64,
     ids: Vec<u32>,
@@ -301,19 +303,15 @@ impl Star {
     fn new(s: &Scenario, sink: usize) -> Star {
         let e = s.estimators();
         let linked: std::collections::HashSet<usize> = s.in_links(sink).map(|l| l.from).collect();
+        let star = |j: usize| {
+            let rng = crate::rng::stream(s.sim().seed, "star", j as u64, sink as u64);
+            Egress::new(vec![Link::new(j, sink, e.star_link, rng)])
+        };
         Star {
-            links: (0..s.nodes().len())
-                .map(|j| {
-                    (j != sink && !linked.contains(&j) && s.nodes()[j].role.senses()).then(|| {
-                        Link::new(
-                            j,
-                            sink,
-                            e.star_link,
-                            crate::rng::stream(s.sim().seed, "star", j as u64, sink as u64),
-                        )
-                    })
-                })
-                .collect(),
+            medium: (0..s.nodes().len())
+                .filter(|&j| j != sink && !linked.contains(&j) && s.nodes()[j].role.senses())
+                .fold(PairwiseMedium::new(), |m, j| m.with_sender(j, star(j))),
+            sink,
             faults: s.faults().clone(),
             deadline: s.sim().deadline_s,
             ids: s.nodes().iter().map(|n| n.id).collect(),
@@ -337,19 +335,28 @@ impl Star {
             header: Header::new(self.ids[f.node], f.step as u32, f.step),
             payload: Payload::measurement(rows, values),
         };
-        let len = dg.encode().map_or(0, |b| b.len());
+        let bytes = dg.encode().unwrap_or_default();
         self.traffic.messages += 1;
-        self.traffic.bytes += len as u64;
-        let got = match self.links.get_mut(f.node).and_then(Option::as_mut) {
-            Some(link) => match link.verdict(f.step as f64 * dt, len, &self.faults) {
-                // A corrupted copy fails its checksum; a duplicate may still arrive whole.
-                Verdict::Deliver(copies) => copies
-                    .iter()
-                    .any(|c| c.flip_bit.is_none() && c.delay <= self.deadline)
-                    .then(|| m.clone()),
-                Verdict::Drop(_) => None,
-            },
-            None => heard.and_then(|h| h.get(&f.node)).cloned(),
+        self.traffic.bytes += bytes.len() as u64;
+        let got = if self.medium.carries(f.node) {
+            let t = f.step as f64 * dt;
+            let tx = Transmission {
+                to: self.sink,
+                t,
+                group: vec![bytes],
+                stream: Stream::Measurement,
+            };
+            self.medium.transmit(f.node, tx, &self.faults);
+            // A corrupted copy fails its checksum; a duplicate may still arrive whole; a copy after the deadline is
+            // late.
+            let mut intact = false;
+            while let Some(d) = self.medium.poll_delivery(f.node, t + self.deadline) {
+                intact |= Datagram::decode(&d.bytes).is_ok();
+            }
+            while self.medium.poll_delivery(f.node, f64::INFINITY).is_some() {}
+            intact.then(|| m.clone())
+        } else {
+            heard.and_then(|h| h.get(&f.node)).cloned()
         };
         self.traffic.delivered += got.is_some() as u64;
         got

@@ -18,6 +18,7 @@ mod flags;
 pub mod graph;
 mod keys;
 mod load;
+mod medium;
 mod overrides;
 mod resolve;
 pub mod schema;

@@ -18,6 +18,7 @@ mod results;
 
 use std::sync::Arc;
 
+use crate::medium::{Medium, PairwiseMedium};
 use crate::node::{Node, StepEstimate};
 use crate::observe::fusion::Observer;
 use crate::report::trace::TraceWriter;
@@ -52,6 +53,8 @@ pub struct SimOptions {
 pub struct Sim {
     scenario: Arc<Scenario>,
     nodes: Vec<Node>,
+    /// What carries the nodes' datagrams: every directed link of the scenario.
+    medium: PairwiseMedium,
     observer: Option<Observer>,
     trace: Option<TraceWriter>,
     progress: Option<Progress>,
@@ -81,6 +84,7 @@ impl Sim {
             nodes.iter_mut().for_each(Node::record_lmi);
         }
         Ok(Sim {
+            medium: scenario.pairwise_medium(0..nodes.len()),
             observer: (!opts.no_fusion).then(|| observer_for(&scenario, record)),
             scenario,
             nodes,
@@ -132,7 +136,7 @@ impl Sim {
         } else {
             k as f64 * self.scenario.sim().dt() + self.scenario.sim().deadline_s
         };
-        let estimates = lockstep(&mut self.nodes, k, window_end);
+        let estimates = lockstep(&mut self.nodes, &mut self.medium, k, window_end);
         let mut rows = Vec::new();
         let mut measurements = Vec::new();
         let feeds: Vec<_> = self.nodes.iter_mut().filter_map(Node::take_feed).collect();
@@ -191,7 +195,7 @@ impl Sim {
         };
         let steps = self.scenario.sim().steps();
         RunResults {
-            reports: self.nodes.iter_mut().map(Node::report).collect(),
+            reports: self.nodes.iter_mut().map(|n| n.report(&self.medium)).collect(),
             observer: self.observer,
             steps_done: self.next,
             interrupted: self.next < steps,
@@ -221,7 +225,7 @@ pub fn begin_step(node: &mut Node, k: u64) {
 /// Step `k` of nodes wired together in memory; datagrams due by `window_end` (simulated s) reach their receivers
 /// before the step closes.
 /// Round r of L closes at t_k + D(r+1)/L, the last one at `window_end`.
-pub(crate) fn lockstep(nodes: &mut [Node], k: u64, window_end: f64) -> Vec<StepEstimate> {
+pub(crate) fn lockstep(nodes: &mut [Node], medium: &mut dyn Medium, k: u64, window_end: f64) -> Vec<StepEstimate> {
     for n in nodes.iter_mut() {
         begin_step(n, k);
     }
@@ -233,12 +237,13 @@ pub(crate) fn lockstep(nodes: &mut [Node], k: u64, window_end: f64) -> Vec<StepE
         let end = if r + 1 == rounds { window_end } else { s.round_end(k, r) };
         let mut moved = Vec::new();
         for n in nodes.iter_mut() {
-            while let Some(tx) = n.poll_transmit(end) {
-                moved.push((n.index(), tx));
+            n.send_to(medium);
+            while let Some(d) = medium.poll_delivery(n.index(), end) {
+                moved.push(d);
             }
         }
-        for (from, tx) in moved {
-            nodes[tx.to].handle_datagram(Some(from), &tx.bytes);
+        for d in moved {
+            nodes[d.to].handle_datagram(Some(d.from), &d.bytes);
         }
         if r + 1 < rounds {
             nodes.iter_mut().for_each(|n| n.handle_round(k, r));

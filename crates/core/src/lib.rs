@@ -20,6 +20,7 @@
 //! | [`checks`] | the validator's shared checks: each problem keyed, a usable default returned |
 //! | [`model`] | the estimation models behind one [`model::Model`] trait — pose, attitude (quaternion EKF), linear — state, process, observation, sensing, truth, scoring layout |
 //! | [`wire`] | the datagram format: postcard + CRC-32, checked decode; authenticated frames (AES-128-CCM) |
+//! | [`medium`] | what carries a node's transmissions to their receivers: the [`medium::Medium`] trait, and [`medium::PairwiseMedium`] (every directed link deciding alone, split by sender) |
 //! | [`link`] | per-datagram rules (outage, Bernoulli / Gilbert–Elliott loss, duplication, delay and jitter, corruption), the egress queue, fault schedules |
 //! | [`estimators`] | the distributed schemes behind one [`estimators::Estimator`] trait — independent, centralized, KCF, ICF, HCMCI, diffusion, CI — per node, one message per round; the registry by name and the wire form of their messages |
 //! | [`attack`] | the adversary model of `[[attack]]`: forge, tamper, replay, flood on the air in front of a node, false data from a compromised one |
@@ -35,6 +36,7 @@ pub mod estimators;
 pub mod geom;
 pub mod imu_csv;
 pub mod link;
+pub mod medium;
 pub mod model;
 pub mod motion;
 pub mod rng;

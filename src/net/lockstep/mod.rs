@@ -32,6 +32,7 @@ use tokio::time::Instant;
 
 use super::collect::{blocks, observe, StepOut};
 use super::{NetError, RunOptions};
+use crate::medium::Medium;
 use crate::node::{Node, NodeReport};
 use crate::scenario::Scenario;
 use crate::sim::{begin_step, Clock, RunResults};
@@ -178,7 +179,9 @@ async fn worker(
                     begin_step(&mut slot.node, k);
                 }
                 bundles.resize_with(slot.outs.len(), Vec::new);
-                while let Some(tx) = slot.node.poll_transmit(window_end) {
+                slot.node.send_to(&mut slot.medium);
+                let i = slot.node.index();
+                while let Some(tx) = slot.medium.poll_delivery(i, window_end) {
                     if let Ok(j) = slot.outs.binary_search(&tx.to) {
                         bundles[j].push(tx.bytes);
                     }
@@ -281,7 +284,7 @@ async fn worker(
         super::socket::record_drops(&mut slot.node, &*slot.socket);
     }
     WorkerEnd {
-        reports: slots.iter_mut().map(|s| s.node.report()).collect(),
+        reports: slots.iter_mut().map(|s| s.node.report(&s.medium)).collect(),
         done,
         socket_losses,
         resent: slots.iter().map(|s| s.resent).sum(),
@@ -374,6 +377,7 @@ pub(super) async fn run(
                 let mut outs: Vec<usize> = topo.out_links(i).map(|l| l.to).collect();
                 outs.sort_unstable();
                 Some(Slot {
+                    medium: topo.pairwise_medium([i]),
                     got: vec![0; ins.len()],
                     want: vec![None; ins.len()],
                     seen: vec![0; ins.len()],

@@ -77,10 +77,14 @@ impl Egress {
         }
     }
 
-    /// How many outgoing links.
     /// The node out-link `link` goes to.
     pub fn to(&self, link: usize) -> usize {
         self.links[link].to
+    }
+
+    /// The out-link to node `to`, if there is one.
+    pub fn link_to(&self, to: usize) -> Option<usize> {
+        self.links.iter().position(|l| l.to == to)
     }
 
     /// Out-links.

@@ -1,0 +1,154 @@
+//! The medium: what carries the datagrams a node sends to the nodes that receive them. A node only says what it
+//! sends — a [`Transmission`] to a neighbour at a time, on a stream — and never decides a datagram's fate; the
+//! driver hands each transmission to the medium and takes from it what is delivered, when. A medium sees every
+//! transmission of the senders it carries and the run's fault windows.
+//!
+//! [`PairwiseMedium`] is simnet's channel today: each directed link decides alone, from its own rules
+//! ([`crate::link`]) and its own seeded streams, what becomes of each datagram (loss, outage, delay, duplication,
+//! corruption). Because its links are independent it can be split by sender: a UDP worker or a node process carries
+//! only its own senders' part, and every part decides exactly what the whole would.
+//!
+//! A medium of your own implements [`Medium`]; this one delivers everything after a fixed delay:
+//!
+//! ```
+//! use std::collections::VecDeque;
+//! use bytes::Bytes;
+//! use simnet_core::link::{FaultSchedule, LinkCounters, Stream};
+//! use simnet_core::medium::{Delivery, Medium, Transmission};
+//!
+//! #[derive(Debug, Default)]
+//! struct Late {
+//!     queue: VecDeque<(f64, Delivery)>,
+//!     sent: Vec<(usize, usize, u64)>,
+//! }
+//!
+//! impl Medium for Late {
+//!     fn transmit(&mut self, from: usize, tx: Transmission, faults: &FaultSchedule) {
+//!         if !faults.link_up(from, tx.to, tx.t) {
+//!             return;
+//!         }
+//!         match self.sent.iter_mut().find(|(f, t, _)| (*f, *t) == (from, tx.to)) {
+//!             Some(s) => s.2 += 1,
+//!             None => self.sent.push((from, tx.to, 1)),
+//!         }
+//!         for bytes in tx.group {
+//!             self.queue.push_back((tx.t + 0.004, Delivery { from, to: tx.to, bytes }));
+//!         }
+//!     }
+//!     fn poll_delivery(&mut self, from: usize, now: f64) -> Option<Delivery> {
+//!         let i = self.queue.iter().position(|(at, d)| d.from == from && *at <= now)?;
+//!         self.queue.remove(i).map(|(_, d)| d)
+//!     }
+//!     fn poll_timeout(&self, from: usize) -> Option<f64> {
+//!         self.queue.iter().filter(|(_, d)| d.from == from).map(|(at, _)| *at).reduce(f64::min)
+//!     }
+//!     fn counters(&self, from: usize) -> Vec<(usize, LinkCounters)> {
+//!         let sent = self.sent.iter().filter(|(f, _, _)| *f == from);
+//!         sent.map(|&(_, to, n)| (to, LinkCounters { sent: n, ..Default::default() })).collect()
+//!     }
+//! }
+//!
+//! let mut air = Late::default();
+//! let faults = FaultSchedule::default();
+//! let tx = Transmission { to: 1, t: 0.01, group: vec![Bytes::from_static(b"hi")], stream: Stream::Measurement };
+//! air.transmit(0, tx, &faults);
+//! assert!(air.poll_delivery(0, 0.012).is_none());
+//! assert_eq!(air.poll_timeout(0), Some(0.014));
+//! let d = air.poll_delivery(0, 0.014).unwrap();
+//! assert_eq!((d.from, d.to, &d.bytes[..]), (0, 1, &b"hi"[..]));
+//! assert_eq!(air.counters(0)[0].1.sent, 1);
+//! ```
+
+use std::collections::BTreeMap;
+
+use bytes::Bytes;
+
+use crate::link::{Egress, FaultSchedule, LinkCounters, Stream};
+
+/// What a node sends at one time to one neighbour: datagrams that share one fate (a measurement and the round-0
+/// messages that ride with it), drawn from one of the link's streams.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Transmission {
+    /// The receiving node, by index.
+    pub to: usize,
+    /// Simulated send time, s.
+    pub t: f64,
+    /// The datagrams, in order.
+    pub group: Vec<Bytes>,
+    /// Which of the link's seeded streams decides their fate.
+    pub stream: Stream,
+}
+
+/// A datagram the medium delivers.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Delivery {
+    /// The sending node, by index.
+    pub from: usize,
+    /// The receiving node, by index.
+    pub to: usize,
+    /// The datagram as it arrives (a corrupted copy has a bit flipped).
+    pub bytes: Bytes,
+}
+
+/// Carries transmissions from senders to receivers. Deliveries are asked for by sender, in delivery order, so that
+/// a driver that holds the senders' parts apart (one per UDP worker or process) delivers what one whole would.
+pub trait Medium: Send + std::fmt::Debug {
+    /// `from` sends `tx`; the medium decides what becomes of it.
+    fn transmit(&mut self, from: usize, tx: Transmission, faults: &FaultSchedule);
+    /// The next datagram from `from` due at or before `now` (simulated s).
+    fn poll_delivery(&mut self, from: usize, now: f64) -> Option<Delivery>;
+    /// When the next datagram from `from` is due.
+    fn poll_timeout(&self, from: usize) -> Option<f64>;
+    /// What each of `from`'s links carried, by receiver.
+    fn counters(&self, from: usize) -> Vec<(usize, LinkCounters)>;
+}
+
+/// Each directed link deciding alone, from its rules and its seeded streams: one [`Egress`] per sender.
+#[derive(Debug, Default)]
+pub struct PairwiseMedium {
+    senders: BTreeMap<usize, Egress>,
+}
+
+impl PairwiseMedium {
+    /// A medium of no sender.
+    pub fn new() -> PairwiseMedium {
+        PairwiseMedium::default()
+    }
+
+    /// Whether it carries what `from` sends.
+    pub fn carries(&self, from: usize) -> bool {
+        self.senders.contains_key(&from)
+    }
+
+    /// Carry `from`'s out-links as `egress` holds them.
+    pub fn with_sender(mut self, from: usize, egress: Egress) -> PairwiseMedium {
+        self.senders.insert(from, egress);
+        self
+    }
+}
+
+impl Medium for PairwiseMedium {
+    fn transmit(&mut self, from: usize, tx: Transmission, faults: &FaultSchedule) {
+        let Some(e) = self.senders.get_mut(&from) else { return };
+        if let Some(li) = e.link_to(tx.to) {
+            e.push_group(li, tx.t, &tx.group, faults, tx.stream);
+        }
+    }
+
+    fn poll_delivery(&mut self, from: usize, now: f64) -> Option<Delivery> {
+        let t = self.senders.get_mut(&from)?.poll_transmit(now)?;
+        Some(Delivery {
+            from,
+            to: t.to,
+            bytes: t.bytes,
+        })
+    }
+
+    fn poll_timeout(&self, from: usize) -> Option<f64> {
+        self.senders.get(&from)?.poll_timeout()
+    }
+
+    fn counters(&self, from: usize) -> Vec<(usize, LinkCounters)> {
+        self.senders.get(&from).map(Egress::counters).unwrap_or_default()
+    }
+}
