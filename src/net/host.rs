@@ -487,7 +487,7 @@ pub async fn run_node(
         };
         deliver(&mut node, &mut peers, from, &buf[..len]);
     }
-    super::socket::record_drops(&mut node, &socket);
+    super::socket::record_drops([(&mut node, &socket)]);
     Ok(finish(node, &medium, estimates, done, interrupted, started, schedule))
 }
 

@@ -201,9 +201,7 @@ fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedS
         }
         done = k + 1;
     }
-    for s in &mut slots {
-        super::socket::record_drops(&mut s.node, &s.socket);
-    }
+    super::socket::record_drops(slots.iter_mut().map(|s| (&mut s.node, &s.socket)));
     WorkerEnd {
         reports: slots.iter_mut().map(|s| s.node.report(&s.medium)).collect(),
         done,

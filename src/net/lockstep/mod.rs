@@ -280,9 +280,7 @@ async fn worker(
     for slot in &mut slots {
         slot.drain(&mut buf, &sh, end, false, false);
     }
-    for slot in &mut slots {
-        super::socket::record_drops(&mut slot.node, &*slot.socket);
-    }
+    super::socket::record_drops(slots.iter_mut().map(|s| (&mut s.node, &*s.socket)));
     WorkerEnd {
         reports: slots.iter_mut().map(|s| s.node.report(&s.medium)).collect(),
         done,
