@@ -18,7 +18,7 @@ mod results;
 
 use std::sync::Arc;
 
-use crate::medium::{Medium, PairwiseMedium};
+use crate::medium::Medium;
 use crate::node::{Node, StepEstimate};
 use crate::observe::fusion::Observer;
 use crate::report::trace::TraceWriter;
@@ -47,14 +47,61 @@ pub struct SimOptions {
     pub record_lmi: bool,
     /// Do not fuse the nodes' estimates (a search that scores the nodes alone saves the observer's work).
     pub no_fusion: bool,
+    /// What carries the nodes' datagrams instead of the scenario's links ([`Scenario::pairwise_medium`]).
+    ///
+    /// A medium of your own decides every datagram's fate; the `[link]` rules of the file then play no part. This
+    /// one delivers every datagram at once, so a run at 50 % loss loses nothing:
+    ///
+    /// ```
+    /// use simnet::link::{FaultSchedule, LinkCounters};
+    /// use simnet::medium::{Delivery, Medium, Transmission};
+    /// use simnet::sim::SimOptions;
+    /// use simnet::{Overrides, Scenario, Sim};
+    ///
+    /// #[derive(Debug, Default)]
+    /// struct Wire {
+    ///     due: Vec<Delivery>,
+    ///     sent: std::collections::BTreeMap<(usize, usize), u64>,
+    /// }
+    ///
+    /// impl Medium for Wire {
+    ///     fn transmit(&mut self, from: usize, tx: Transmission, _faults: &FaultSchedule) {
+    ///         *self.sent.entry((from, tx.to)).or_default() += 1;
+    ///         let to = tx.to;
+    ///         self.due.extend(tx.group.into_iter().map(|bytes| Delivery { from, to, bytes }));
+    ///     }
+    ///     fn poll_delivery(&mut self, from: usize, _now: f64) -> Option<Delivery> {
+    ///         let i = self.due.iter().position(|d| d.from == from)?;
+    ///         Some(self.due.remove(i))
+    ///     }
+    ///     fn poll_timeout(&self, from: usize) -> Option<f64> {
+    ///         self.due.iter().any(|d| d.from == from).then_some(0.0)
+    ///     }
+    ///     fn counters(&self, from: usize) -> Vec<(usize, LinkCounters)> {
+    ///         let out = self.sent.iter().filter(|((f, _), _)| *f == from);
+    ///         out.map(|(&(_, to), &sent)| (to, LinkCounters { sent, ..Default::default() })).collect()
+    ///     }
+    /// }
+    ///
+    /// let lossy = Overrides { loss: Some(simnet::link::LossModel::Bernoulli { p: 0.5 }), duration_s: Some(2.0), ..Default::default() };
+    /// let scenario = Scenario::resolve("ring3")?.with(&lossy)?;
+    /// let opts = SimOptions { medium: Some(Box::new(Wire::default())), ..Default::default() };
+    /// let summary = Sim::with_options(&scenario, opts)?.run()?.summary();
+    /// assert_eq!(summary.links.len(), 6); // ring3: every node to the other two
+    /// for l in &summary.links {
+    ///     assert_eq!((l.sent, l.delivered, l.lost), (scenario.sim().steps(), l.sent, 0), "{} → {}", l.from, l.to);
+    /// }
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub medium: Option<Box<dyn Medium>>,
 }
 
 /// The lockstep driver: [`Sim::step`] runs one step of every node, [`Sim::run`] the rest of the run.
 pub struct Sim {
     scenario: Arc<Scenario>,
     nodes: Vec<Node>,
-    /// What carries the nodes' datagrams: every directed link of the scenario.
-    medium: PairwiseMedium,
+    /// What carries the nodes' datagrams: every directed link of the scenario, unless a medium was given.
+    medium: Box<dyn Medium>,
     observer: Option<Observer>,
     trace: Option<TraceWriter>,
     progress: Option<Progress>,
@@ -84,7 +131,9 @@ impl Sim {
             nodes.iter_mut().for_each(Node::record_lmi);
         }
         Ok(Sim {
-            medium: scenario.pairwise_medium(0..nodes.len()),
+            medium: opts
+                .medium
+                .unwrap_or_else(|| Box::new(scenario.pairwise_medium(0..nodes.len()))),
             observer: (!opts.no_fusion).then(|| observer_for(&scenario, record)),
             scenario,
             nodes,
@@ -136,7 +185,7 @@ impl Sim {
         } else {
             k as f64 * self.scenario.sim().dt() + self.scenario.sim().deadline_s
         };
-        let estimates = lockstep(&mut self.nodes, &mut self.medium, k, window_end);
+        let estimates = lockstep(&mut self.nodes, &mut *self.medium, k, window_end);
         let mut rows = Vec::new();
         let mut measurements = Vec::new();
         let feeds: Vec<_> = self.nodes.iter_mut().filter_map(Node::take_feed).collect();
@@ -195,7 +244,7 @@ impl Sim {
         };
         let steps = self.scenario.sim().steps();
         RunResults {
-            reports: self.nodes.iter_mut().map(|n| n.report(&self.medium)).collect(),
+            reports: self.nodes.iter_mut().map(|n| n.report(&*self.medium)).collect(),
             observer: self.observer,
             steps_done: self.next,
             interrupted: self.next < steps,
