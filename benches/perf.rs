@@ -14,7 +14,7 @@ use simnet::estimate::attitude::{from_euler, measurement};
 use simnet::estimate::bvp::End;
 use simnet::estimate::{consensus_update, kalman_update, Gaussian, MissingChannels, Observation, Source};
 use simnet::link::{FaultSchedule, Link, LinkConfig, LossModel};
-use simnet::model::{Attitude, Linear, Model, Pose};
+use simnet::model::{Attitude, Dynamics, Linear, Pose, Sensing};
 use simnet::net::{self, RunOptions};
 use simnet::scenario::{Overrides, Scenario};
 use simnet::sensor::{ImuInterval, ImuSample};

@@ -14,7 +14,7 @@
 //! | module | owns |
 //! |---|---|
 //! | [`scenario`] | topology TOML and overrides → a validated [`scenario::Scenario`]; every error names the file and the key; built-ins |
-//! | [`model`] (core) | the estimation models behind one trait: pose, attitude (quaternion EKF), linear — state, process, observation, sensing, scoring |
+//! | [`model`] (core) | the estimation models behind one trait made of five roles (dynamics, sensing, manifold, world, report): pose, attitude (quaternion EKF), linear |
 //! | [`motion`] (core) | analytic ground-truth trajectories shared by every node |
 //! | [`sensor`] (core) | accelerometer/gyro (noise, bias, Wiener drift), magnetometer, pose fixes, linear measurements |
 //! | [`estimate`] (core) | pure maths: Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKF and the multiplicative one, Madgwick and Mahony (VQF through `vqf-rs`), the rigid-pair EKF, the FEM boundary-value solver |

@@ -347,7 +347,7 @@ impl Node {
         }
     }
 
-    /// This step's IMU sample and the node's own measurement ([`Model::sense`]).
+    /// This step's IMU sample and the node's own measurement ([`crate::model::Sensing::sense`]).
     fn sense(&mut self, t: f64) -> (Option<ImuSample>, Option<Measurement>) {
         let Some(sensor) = self.sensor.as_mut() else {
             return (None, None);

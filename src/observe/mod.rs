@@ -58,7 +58,7 @@ pub struct Update<'a> {
 /// What the [`Scorer`] made of an update.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Score {
-    /// [`crate::model::Model::error`]; none where the truth is unknown.
+    /// [`crate::model::Report::error`]; none where the truth is unknown.
     pub error: Option<f64>,
     pub nees: Option<f64>,
     pub trace_p_prior: f64,

@@ -22,7 +22,7 @@ pub struct TraceRow {
     pub received: Vec<u32>,
     pub feasible: bool,
     pub nees: f64,
-    /// The step's error figure ([`crate::model::Model::error`]); NaN where the truth is unknown.
+    /// The step's error figure ([`crate::model::Report::error`]); NaN where the truth is unknown.
     pub error: f64,
     /// The posterior variances of the reported columns (±3σ bands).
     pub var: Vec<f64>,

@@ -13,7 +13,7 @@ static EMPTY: FilterMetrics = FilterMetrics::EMPTY;
 pub struct Scorer {
     model: Arc<dyn Model>,
     angle_states: Vec<bool>,
-    /// The error rows ([`Model::error`] without building the layout each step).
+    /// The error rows ([`crate::model::Report::error`] without building the layout each step).
     layout: crate::model::FusionLayout,
     /// Steps before this one are the burn-in: tracked for divergence only.
     burn_in_steps: u64,

@@ -72,7 +72,7 @@ pub struct TraceWriter {
 pub type ImuOpener = Box<dyn FnMut(u32) -> io::Result<Box<dyn Write + Send>> + Send>;
 
 impl TraceWriter {
-    /// Keep a plot sample of a run of `steps` steps; `columns` as [`crate::model::Model::columns`], `layout` how
+    /// Keep a plot sample of a run of `steps` steps; `columns` as [`crate::model::Report::columns`], `layout` how
     /// the fused rows are laid out.
     pub fn new(columns: Vec<String>, layout: &crate::model::FusionLayout, dt: f64, steps: u64) -> TraceWriter {
         TraceWriter {

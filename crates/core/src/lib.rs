@@ -1,9 +1,10 @@
 #![warn(missing_docs)]
 //! simnet's pure layer: the estimation maths, sensors and motion, seeded random streams, recorded IMU files as text,
-//! the estimation models, the distributed estimators, the per-datagram link rules and the wire format. Nothing here opens a socket or a file, reads a clock or draws from the operating system:
-//! every input is an argument, every random draw comes from a stream named by a seed. The `simnet` crate builds
-//! nodes, runs, drivers and reports on top of it and re-exports every module under its own name
-//! (`simnet::estimate` is [`estimate`]).
+//! the estimation models, the distributed estimators, the medium with its per-datagram link rules, and the wire
+//! format. Nothing here opens a socket or a file, reads a clock or draws from the operating system: every input is
+//! an argument, every random draw comes from a stream named by a seed. The `simnet` crate builds nodes, runs,
+//! drivers and reports on top of it and re-exports every module under its own name (`simnet::estimate` is
+//! [`estimate`]).
 //!
 //! # Layout
 //!
@@ -18,7 +19,7 @@
 //! | [`text`] | untrusted text as a message shows it (clipped) |
 //! | [`imu_csv`] | recorded IMU files from their text: simnet's columns, and makers' layouts through `imu_csv::layout` |
 //! | [`checks`] | the validator's shared checks: each problem keyed, a usable default returned |
-//! | [`model`] | the estimation models behind one [`model::Model`] trait — pose, attitude (quaternion EKF), linear — state, process, observation, sensing, truth, scoring layout |
+//! | [`model`] | the estimation models: [`model::Model`] = [`model::Dynamics`] + [`model::Sensing`] + [`model::Manifold`] + [`model::World`] + [`model::Report`] — pose, attitude (quaternion EKF), linear |
 //! | [`wire`] | the datagram format: postcard + CRC-32, checked decode; authenticated frames (AES-128-CCM) |
 //! | [`medium`] | what carries a node's transmissions to their receivers: the [`medium::Medium`] trait, and [`medium::PairwiseMedium`] (every directed link deciding alone, split by sender) |
 //! | [`link`] | per-datagram rules (outage, Bernoulli / Gilbert–Elliott loss, duplication, delay and jitter, corruption), the egress queue, fault schedules |

@@ -363,7 +363,7 @@ pub struct StepInput<'a> {
 
 impl<'a> StepInput<'a> {
     /// The observation of `m` about the estimate `about`, and `m` in its coordinates: as they are for a linear
-    /// observation; for a non-linear one h(x) ≈ h(x̂) + H (x − x̂) about x̂ = `about` ([`Model::linearize_at`]),
+    /// observation; for a non-linear one h(x) ≈ h(x̂) + H (x − x̂) about x̂ = `about` ([`crate::model::Sensing::linearize_at`]),
     /// so that a linear update sees the innovation z − h(x̂).
     pub fn about<'b>(&'b self, about: &Gaussian, m: &'b Measurement) -> (Cow<'b, Observation>, Cow<'b, Measurement>)
     where

@@ -6,7 +6,9 @@ use std::borrow::Cow;
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector4};
 
-use super::{stacked, FusionLayout, ImuRow, Kind, Measurement, Model, Sensed, Truth};
+use super::{
+    stacked, Dynamics, FusionLayout, ImuRow, Kind, Manifold, Measurement, Report, Sensed, Sensing, Truth, World,
+};
 use crate::estimate::attitude::{from_euler, level, measurement, predict, to_euler};
 use crate::estimate::{Gaussian, Observation};
 use crate::rng::Rng;
@@ -52,25 +54,7 @@ fn quaternion(x: &DVector<f64>) -> Vector4<f64> {
     Vector4::new(x[0], x[1], x[2], x[3])
 }
 
-impl Model for Attitude {
-    fn kind(&self) -> Kind {
-        Kind::Attitude
-    }
-
-    fn angle_states(&self) -> Vec<bool> {
-        vec![false; 4]
-    }
-
-    fn observation(&self) -> Observation {
-        let (a, m) = (self.r_acc, self.r_mag);
-        Observation {
-            H: DMatrix::zeros(6, 4),
-            R: DMatrix::from_diagonal(&DVector::from_vec(vec![a, a, a, m, m, m])),
-            angle_rows: vec![false; 6],
-            channel_of_row: (0..6).map(|i| i / 3).collect(),
-        }
-    }
-
+impl Dynamics for Attitude {
     /// R_g, the gyro noise covariance. Without a gyro the filter assumes no rotation and covers the turn rate with
     /// process noise.
     fn process_noise(&self, imu: Option<&SensorProfile>, dt: f64) -> DMatrix<f64> {
@@ -88,12 +72,16 @@ impl Model for Attitude {
             P,
         }
     }
+}
 
-    /// The slides' EKF normalises the quaternion after each correction.
-    fn normalize(&self, g: &mut Gaussian) {
-        let n = g.x.norm();
-        if n > 0.0 && n.is_finite() {
-            g.x /= n;
+impl Sensing for Attitude {
+    fn observation(&self) -> Observation {
+        let (a, m) = (self.r_acc, self.r_mag);
+        Observation {
+            H: DMatrix::zeros(6, 4),
+            R: DMatrix::from_diagonal(&DVector::from_vec(vec![a, a, a, m, m, m])),
+            angle_rows: vec![false; 6],
+            channel_of_row: (0..6).map(|i| i / 3).collect(),
         }
     }
 
@@ -116,41 +104,6 @@ impl Model for Attitude {
             ..template.clone()
         };
         (Cow::Owned(obs), z.iter().map(|z| Cow::Owned(*z - &offset)).collect())
-    }
-
-    fn kinematic_state(
-        &self,
-        _p: Option<Vector3<f64>>,
-        _v: Option<Vector3<f64>>,
-        e: Option<Vector3<f64>>,
-    ) -> DVector<f64> {
-        let e = e.unwrap_or(Vector3::repeat(f64::NAN));
-        DVector::from_column_slice(from_euler(&e).as_slice())
-    }
-
-    /// The true Euler angles perturbed by N(0, P₀); where a recording has no reference, the attitude levelled from
-    /// the accelerometer and magnetometer.
-    fn initial(
-        &self,
-        truth: &DVector<f64>,
-        first: Option<(&ImuSample, Option<&Vector3<f64>>)>,
-        rng: &mut Rng,
-    ) -> Gaussian {
-        let euler = if truth.iter().all(|v| v.is_finite()) {
-            to_euler(&quaternion(truth))
-        } else {
-            match first {
-                Some((s, mag)) => level(&s.accel, mag, &self.gravity(), &self.field()),
-                None => Vector3::zeros(),
-            }
-        };
-        let noise = Vector3::from_fn(|_, _| rand::Rng::sample(rng, rand_distr::StandardNormal));
-        let q = from_euler(&(euler + noise * self.p0_att.sqrt()));
-        // δq ≈ ½ Ξ(q) δθ: an angle variance σ² is about σ²/4 per quaternion component.
-        Gaussian {
-            x: DVector::from_column_slice(q.as_slice()),
-            P: DMatrix::identity(4, 4) * (self.p0_att / 4.0),
-        }
     }
 
     /// The accelerometer and magnetometer, simulated or recorded (a recording without a magnetometer sends the
@@ -187,6 +140,72 @@ impl Model for Attitude {
             }),
         }
     }
+}
+
+impl Manifold for Attitude {
+    fn angle_states(&self) -> Vec<bool> {
+        vec![false; 4]
+    }
+
+    /// The slides' EKF normalises the quaternion after each correction.
+    fn normalize(&self, g: &mut Gaussian) {
+        let n = g.x.norm();
+        if n > 0.0 && n.is_finite() {
+            g.x /= n;
+        }
+    }
+
+    /// q and −q are the same attitude.
+    fn aligned(&self, truth: &DVector<f64>, est: &DVector<f64>) -> DVector<f64> {
+        if truth.dot(est) < 0.0 {
+            -truth
+        } else {
+            truth.clone()
+        }
+    }
+}
+
+impl World for Attitude {
+    fn kinematic_state(
+        &self,
+        _p: Option<Vector3<f64>>,
+        _v: Option<Vector3<f64>>,
+        e: Option<Vector3<f64>>,
+    ) -> DVector<f64> {
+        let e = e.unwrap_or(Vector3::repeat(f64::NAN));
+        DVector::from_column_slice(from_euler(&e).as_slice())
+    }
+
+    /// The true Euler angles perturbed by N(0, P₀); where a recording has no reference, the attitude levelled from
+    /// the accelerometer and magnetometer.
+    fn initial(
+        &self,
+        truth: &DVector<f64>,
+        first: Option<(&ImuSample, Option<&Vector3<f64>>)>,
+        rng: &mut Rng,
+    ) -> Gaussian {
+        let euler = if truth.iter().all(|v| v.is_finite()) {
+            to_euler(&quaternion(truth))
+        } else {
+            match first {
+                Some((s, mag)) => level(&s.accel, mag, &self.gravity(), &self.field()),
+                None => Vector3::zeros(),
+            }
+        };
+        let noise = Vector3::from_fn(|_, _| rand::Rng::sample(rng, rand_distr::StandardNormal));
+        let q = from_euler(&(euler + noise * self.p0_att.sqrt()));
+        // δq ≈ ½ Ξ(q) δθ: an angle variance σ² is about σ²/4 per quaternion component.
+        Gaussian {
+            x: DVector::from_column_slice(q.as_slice()),
+            P: DMatrix::identity(4, 4) * (self.p0_att / 4.0),
+        }
+    }
+}
+
+impl Report for Attitude {
+    fn kind(&self) -> Kind {
+        Kind::Attitude
+    }
 
     fn columns(&self) -> Vec<String> {
         ["roll", "pitch", "yaw"].iter().map(|s| s.to_string()).collect()
@@ -217,15 +236,6 @@ impl Model for Attitude {
             error_rows: vec![0, 1, 2, 3],
             median: false,
             quaternion: true,
-        }
-    }
-
-    /// q and −q are the same attitude.
-    fn aligned(&self, truth: &DVector<f64>, est: &DVector<f64>) -> DVector<f64> {
-        if truth.dot(est) < 0.0 {
-            -truth
-        } else {
-            truth.clone()
         }
     }
 }

@@ -5,7 +5,7 @@
 
 use nalgebra::{DMatrix, DVector, Vector3};
 
-use super::{FusionLayout, Kind, Measurement, Model, Sensed, Truth};
+use super::{Dynamics, FusionLayout, Kind, Manifold, Measurement, Report, Sensed, Sensing, Truth, World};
 use crate::estimate::{Gaussian, Observation};
 use crate::imu_csv::StepRecording;
 use crate::motion::Trajectory;
@@ -84,26 +84,9 @@ impl Linear {
     }
 }
 
-impl Model for Linear {
-    fn kind(&self) -> Kind {
-        Kind::Linear
-    }
-
+impl Dynamics for Linear {
     fn imu_driven(&self) -> bool {
         false
-    }
-
-    fn angle_states(&self) -> Vec<bool> {
-        vec![false; self.state_dim()]
-    }
-
-    fn observation(&self) -> Observation {
-        Observation {
-            H: self.C.clone(),
-            R: self.R.clone(),
-            angle_rows: vec![false; self.C.nrows()],
-            channel_of_row: vec![0; self.C.nrows()],
-        }
     }
 
     fn process_noise(&self, _imu: Option<&SensorProfile>, _dt: f64) -> DMatrix<f64> {
@@ -113,7 +96,38 @@ impl Model for Linear {
     fn predict(&self, g: &Gaussian, _imu: Option<&ImuInterval>, noise: &DMatrix<f64>, _dt: f64) -> Gaussian {
         crate::estimate::predict(g, &self.A, noise)
     }
+}
 
+impl Sensing for Linear {
+    fn observation(&self) -> Observation {
+        Observation {
+            H: self.C.clone(),
+            R: self.R.clone(),
+            angle_rows: vec![false; self.C.nrows()],
+            channel_of_row: vec![0; self.C.nrows()],
+        }
+    }
+
+    /// y = C x + v.
+    fn sense(&self, sensor: &mut Sensor, truth: &Truth, _t: f64) -> Sensed {
+        let (Some(x), Some(r_chol)) = (truth.linear_state(), self.R_chol.as_ref()) else {
+            return Sensed::default();
+        };
+        Sensed {
+            imu: None,
+            z: Some(Measurement::full(sensor.linear(&self.C, r_chol, x))),
+            row: None,
+        }
+    }
+}
+
+impl Manifold for Linear {
+    fn angle_states(&self) -> Vec<bool> {
+        vec![false; self.state_dim()]
+    }
+}
+
+impl World for Linear {
     fn truth(
         &self,
         _trajectory: Trajectory,
@@ -152,17 +166,11 @@ impl Model for Linear {
             P: self.P0.clone(),
         }
     }
+}
 
-    /// y = C x + v.
-    fn sense(&self, sensor: &mut Sensor, truth: &Truth, _t: f64) -> Sensed {
-        let (Some(x), Some(r_chol)) = (truth.linear_state(), self.R_chol.as_ref()) else {
-            return Sensed::default();
-        };
-        Sensed {
-            imu: None,
-            z: Some(Measurement::full(sensor.linear(&self.C, r_chol, x))),
-            row: None,
-        }
+impl Report for Linear {
+    fn kind(&self) -> Kind {
+        Kind::Linear
     }
 
     fn columns(&self) -> Vec<String> {

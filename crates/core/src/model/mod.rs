@@ -1,5 +1,8 @@
-//! The estimation models, one trait: what a node's filter estimates (its state, process and observation), how a
-//! node senses it, and how an estimate is scored against the truth. [`pose`] (position, velocity and Euler angles
+//! The estimation models: [`Model`] is five traits by role — [`Dynamics`] (process noise, prediction), [`Sensing`]
+//! (observation, its linearisation, a step's IMU sample and measurement), [`Manifold`] (angles, unit quaternions,
+//! a double cover), [`World`] (the truth and the prior) and [`Report`] (kind, columns, fusion layout, error) — and
+//! any type with the five is a model. A caller holding a concrete model imports the role it calls
+//! (`use simnet::model::Dynamics` for `predict`); a `&dyn Model` has them all. [`pose`] (position, velocity and Euler angles
 //! driven by the IMU, §2 of Sequeira (2023)), [`attitude`] (the quaternion EKF of Lesecq's slides) and [`linear`]
 //! (x⁺ = A x + w, y = C x + v, the setting of Sinopoli et al. (2004)).
 //!
@@ -282,22 +285,12 @@ pub struct ErrorText {
     pub legend: &'static str,
 }
 
-/// One estimation model. A node holds it as `&dyn Model`; so do the observer, the recorders and the plots.
-pub trait Model: Send + Sync + std::fmt::Debug {
-    /// Which model it is.
-    fn kind(&self) -> Kind;
-
+/// How the state moves: the process noise a filter uses and one prediction step.
+pub trait Dynamics {
     /// The node's IMU drives the prediction (so a recorded IMU may replace it).
     fn imu_driven(&self) -> bool {
         true
     }
-
-    /// State rows that are angles (wrapped after each step).
-    fn angle_states(&self) -> Vec<bool>;
-
-    /// The observation: H, R and the channel of each row (for the attitude model a template whose H is
-    /// [`Model::linearize_at`]'s).
-    fn observation(&self) -> Observation;
 
     /// The process noise a node's filter uses: from its IMU's noise densities, or, without an IMU, wide enough to
     /// cover the motion it cannot sense.
@@ -305,14 +298,18 @@ pub trait Model: Send + Sync + std::fmt::Debug {
 
     /// One prediction step (eq. (4) of Sequeira (2023)); `imu` holds the samples at both ends of the interval.
     fn predict(&self, g: &Gaussian, imu: Option<&ImuInterval>, noise: &DMatrix<f64>, dt: f64) -> Gaussian;
+}
+
+/// What a node measures: the observation (H, R, channels), its linearisation about a prior, and the sampling of a step's IMU and measurement.
+pub trait Sensing {
+    /// The observation: H, R and the channel of each row (for the attitude model a template whose H is
+    /// [`Sensing::linearize_at`]'s).
+    fn observation(&self) -> Observation;
 
     /// H and R do not depend on the prior (the distributed schemes use them as they are).
     fn fixed_observation(&self) -> bool {
         true
     }
-
-    /// Bring an updated state back onto its manifold.
-    fn normalize(&self, _g: &mut Gaussian) {}
 
     /// The observation about `prior` and the measurements in its coordinates: as they are, unless the model is
     /// non-linear.
@@ -325,6 +322,26 @@ pub trait Model: Send + Sync + std::fmt::Debug {
         (Cow::Borrowed(template), z.iter().map(|z| Cow::Borrowed(*z)).collect())
     }
 
+    /// This step's IMU sample and the node's own measurement.
+    fn sense(&self, sensor: &mut Sensor, truth: &Truth, t: f64) -> Sensed;
+}
+
+/// Where the state lives: rows that are angles, the return to a unit quaternion, the sign of a double cover.
+pub trait Manifold {
+    /// State rows that are angles (wrapped after each step).
+    fn angle_states(&self) -> Vec<bool>;
+
+    /// Bring an updated state back onto its manifold.
+    fn normalize(&self, _g: &mut Gaussian) {}
+
+    /// The truth with the sign of `est` where states have two representations (a NEES needs it).
+    fn aligned(&self, truth: &DVector<f64>, _est: &DVector<f64>) -> DVector<f64> {
+        truth.clone()
+    }
+}
+
+/// The ground truth: the truth a node computes, the true state from kinematics, and the prior a filter starts from.
+pub trait World {
     /// The ground truth a node computes for itself: the trajectory, its recording's reference columns, or the
     /// model's own random system.
     fn truth(&self, trajectory: Trajectory, dt: f64, _seed: u64, recorded: Option<Arc<StepRecording>>) -> Truth {
@@ -350,9 +367,12 @@ pub trait Model: Send + Sync + std::fmt::Debug {
         first: Option<(&ImuSample, Option<&Vector3<f64>>)>,
         rng: &mut Rng,
     ) -> Gaussian;
+}
 
-    /// This step's IMU sample and the node's own measurement.
-    fn sense(&self, sensor: &mut Sensor, truth: &Truth, t: f64) -> Sensed;
+/// What a run reports of the model: its kind, the columns of `trace.csv`, the fusion layout and the error figure.
+pub trait Report {
+    /// Which model it is.
+    fn kind(&self) -> Kind;
 
     /// The names of the columns `trace.csv` reports.
     fn columns(&self) -> Vec<String>;
@@ -366,16 +386,17 @@ pub trait Model: Send + Sync + std::fmt::Debug {
     /// Which state rows the fusion observer fuses, and how.
     fn fusion(&self) -> FusionLayout;
 
-    /// The truth with the sign of `est` where states have two representations (a NEES needs it).
-    fn aligned(&self, truth: &DVector<f64>, _est: &DVector<f64>) -> DVector<f64> {
-        truth.clone()
-    }
-
     /// The error figure of an estimate over the fusion layout's error rows; `None` where the truth is not known.
     fn error(&self, truth: &DVector<f64>, est: &DVector<f64>) -> Option<f64> {
         self.fusion().error(truth, est)
     }
 }
+
+/// One estimation model: its [`Dynamics`], [`Sensing`], [`Manifold`], [`World`] and [`Report`]. A node holds it as
+/// `&dyn Model`; so do the observer, the recorders and the plots. Every type with the five roles is a model.
+pub trait Model: Dynamics + Sensing + Manifold + World + Report + Send + Sync + std::fmt::Debug {}
+
+impl<T: Dynamics + Sensing + Manifold + World + Report + Send + Sync + std::fmt::Debug> Model for T {}
 
 /// Standard normal samples.
 pub fn randn(rng: &mut Rng, n: usize) -> DVector<f64> {

@@ -3,7 +3,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, Vector3};
 
-use super::{FusionLayout, ImuRow, Kind, Measurement, Model, Sensed, Truth};
+use super::{Dynamics, FusionLayout, ImuRow, Kind, Manifold, Measurement, Report, Sensed, Sensing, Truth, World};
 use crate::estimate::{wrap_rows, Gaussian, Observation};
 use crate::geom::{euler_rates, euler_rates_jacobian, rotation, rotation_partials, wrap_angle, GRAVITY};
 use crate::motion::PoseTruth;
@@ -80,15 +80,20 @@ impl Pose {
     }
 }
 
-impl Model for Pose {
-    fn kind(&self) -> Kind {
-        Kind::Pose
+impl Dynamics for Pose {
+    fn process_noise(&self, imu: Option<&SensorProfile>, dt: f64) -> DMatrix<f64> {
+        // Without an IMU the filter predicts with constant velocity and covers unknown acceleration and turn rate
+        // with process noise.
+        let (na, ng) = imu.map_or((2.0, 0.3), |s| (s.accel_noise, s.gyro_noise));
+        Pose::noise(dt, na, ng, self.q_pos, self.q_vel, self.q_att)
     }
 
-    fn angle_states(&self) -> Vec<bool> {
-        (0..9).map(|i| i >= 6).collect()
+    fn predict(&self, g: &Gaussian, imu: Option<&ImuInterval>, noise: &DMatrix<f64>, dt: f64) -> Gaussian {
+        Pose::propagate(g, imu, noise, dt)
     }
+}
 
+impl Sensing for Pose {
     fn observation(&self) -> Observation {
         let mut H = DMatrix::zeros(6, 9);
         for i in 0..3 {
@@ -102,52 +107,6 @@ impl Model for Pose {
             angle_rows: (0..6).map(|i| i >= 3).collect(),
             channel_of_row: (0..6).map(|i| i / 3).collect(),
         }
-    }
-
-    fn process_noise(&self, imu: Option<&SensorProfile>, dt: f64) -> DMatrix<f64> {
-        // Without an IMU the filter predicts with constant velocity and covers unknown acceleration and turn rate
-        // with process noise.
-        let (na, ng) = imu.map_or((2.0, 0.3), |s| (s.accel_noise, s.gyro_noise));
-        Pose::noise(dt, na, ng, self.q_pos, self.q_vel, self.q_att)
-    }
-
-    fn predict(&self, g: &Gaussian, imu: Option<&ImuInterval>, noise: &DMatrix<f64>, dt: f64) -> Gaussian {
-        Pose::propagate(g, imu, noise, dt)
-    }
-
-    fn kinematic_state(
-        &self,
-        p: Option<Vector3<f64>>,
-        v: Option<Vector3<f64>>,
-        e: Option<Vector3<f64>>,
-    ) -> DVector<f64> {
-        let nan = Vector3::repeat(f64::NAN);
-        let (p, v, e) = (p.unwrap_or(nan), v.unwrap_or(nan), e.unwrap_or(nan));
-        DVector::from_iterator(9, p.iter().chain(v.iter()).chain(e.iter()).copied())
-    }
-
-    /// The truth perturbed by N(0, P₀) (the "initial unfiltered estimate" of Sequeira (2023)); a recording without
-    /// reference columns starts at the origin, at rest, level.
-    fn initial(
-        &self,
-        truth: &DVector<f64>,
-        _first: Option<(&ImuSample, Option<&Vector3<f64>>)>,
-        rng: &mut Rng,
-    ) -> Gaussian {
-        let mut P = DMatrix::zeros(9, 9);
-        for i in 0..3 {
-            P[(i, i)] = self.p0_pos;
-            P[(3 + i, 3 + i)] = self.p0_vel;
-            P[(6 + i, 6 + i)] = self.p0_att;
-        }
-        let mut x = truth.clone();
-        for i in 0..9 {
-            let n: f64 = rand::Rng::sample(rng, rand_distr::StandardNormal);
-            x[i] += n * P[(i, i)].sqrt();
-        }
-        wrap_rows(&mut x, &self.angle_states());
-        x.iter_mut().filter(|v| !v.is_finite()).for_each(|v| *v = 0.0);
-        Gaussian { x, P }
     }
 
     /// A simulated IMU and pose fix; or a recorded IMU's row, with pose fixes simulated from its reference columns
@@ -195,6 +154,55 @@ impl Model for Pose {
                 euler: tr.euler,
             }),
         }
+    }
+}
+
+impl Manifold for Pose {
+    fn angle_states(&self) -> Vec<bool> {
+        (0..9).map(|i| i >= 6).collect()
+    }
+}
+
+impl World for Pose {
+    fn kinematic_state(
+        &self,
+        p: Option<Vector3<f64>>,
+        v: Option<Vector3<f64>>,
+        e: Option<Vector3<f64>>,
+    ) -> DVector<f64> {
+        let nan = Vector3::repeat(f64::NAN);
+        let (p, v, e) = (p.unwrap_or(nan), v.unwrap_or(nan), e.unwrap_or(nan));
+        DVector::from_iterator(9, p.iter().chain(v.iter()).chain(e.iter()).copied())
+    }
+
+    /// The truth perturbed by N(0, P₀) (the "initial unfiltered estimate" of Sequeira (2023)); a recording without
+    /// reference columns starts at the origin, at rest, level.
+    fn initial(
+        &self,
+        truth: &DVector<f64>,
+        _first: Option<(&ImuSample, Option<&Vector3<f64>>)>,
+        rng: &mut Rng,
+    ) -> Gaussian {
+        let mut P = DMatrix::zeros(9, 9);
+        for i in 0..3 {
+            P[(i, i)] = self.p0_pos;
+            P[(3 + i, 3 + i)] = self.p0_vel;
+            P[(6 + i, 6 + i)] = self.p0_att;
+        }
+        let mut x = truth.clone();
+        for i in 0..9 {
+            let n: f64 = rand::Rng::sample(rng, rand_distr::StandardNormal);
+            x[i] += n * P[(i, i)].sqrt();
+        }
+        wrap_rows(&mut x, &self.angle_states());
+        x.iter_mut().filter(|v| !v.is_finite()).for_each(|v| *v = 0.0);
+        Gaussian { x, P }
+    }
+}
+
+impl Report for Pose {
+    fn kind(&self) -> Kind {
+        Kind::Pose
     }
 
     fn columns(&self) -> Vec<String> {

@@ -420,7 +420,7 @@ fn information_across_plus_minus_pi_is_averaged_on_one_side() {
 #[test]
 fn a_neighbours_quaternion_counts_by_its_attitude_not_its_sign() {
     use crate::estimate::attitude::{from_euler, measurement};
-    use crate::model::{Attitude, Model};
+    use crate::model::{Attitude, Manifold, Sensing};
     let model = Attitude::default();
     let obs = model.observation();
     let quaternion = |roll: f64, pitch: f64, yaw: f64| {
