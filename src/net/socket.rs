@@ -18,11 +18,7 @@ pub fn size_buffers(socket: &impl std::os::fd::AsFd, bytes: usize) -> Option<usi
 /// Datagrams the kernel dropped on `socket` because its receive buffer was full (Linux: the `drops` column of
 /// /proc/net/udp for the socket's inode); none where that cannot be read.
 pub fn kernel_drops(socket: &impl AsRawFd) -> Option<u64> {
-    let inode = inode_of(socket)?;
-    ["/proc/self/net/udp", "/proc/self/net/udp6"].iter().find_map(|table| {
-        let text = std::fs::read_to_string(table).ok()?;
-        drops_of(&text, &inode)
-    })
+    drops_table().get(&inode_of(socket)?).copied()
 }
 
 /// The socket's inode, as /proc/net/udp names it.
@@ -52,11 +48,6 @@ fn drops_table() -> std::collections::HashMap<String, u64> {
         .collect()
 }
 
-/// The `drops` of the row whose inode is `inode` in a /proc/net/udp table.
-fn drops_of(table: &str, inode: &str) -> Option<u64> {
-    rows(table).find(|(i, _)| *i == inode).map(|(_, d)| d)
-}
-
 /// (inode, drops) of each row of a /proc/net/udp table.
 fn rows(table: &str) -> impl Iterator<Item = (&str, u64)> {
     table.lines().skip(1).filter_map(|l| {
@@ -75,9 +66,7 @@ mod tests {
         let table = "   sl  local_address rem_address   st tx_queue rx_queue tr tm->when retrnsmt   uid  timeout inode ref pointer drops\n\
             \x20 1: 0100007F:1F40 00000000:0000 07 00000000:00000000 00:00000000 00000000     0        0 4242 2 0000000000000000 17\n\
             \x20 2: 0100007F:1F41 00000000:0000 07 00000000:00000000 00:00000000 00000000     0        0 4243 2 0000000000000000 0\n";
-        assert_eq!(drops_of(table, "4242"), Some(17));
-        assert_eq!(drops_of(table, "4243"), Some(0));
-        assert_eq!(drops_of(table, "9"), None);
+        assert_eq!(rows(table).collect::<Vec<_>>(), [("4242", 17), ("4243", 0)]);
     }
 
     /// A socket nobody reads drops what overflows its buffer, and the count says how much: sent = queued + dropped.

@@ -426,12 +426,6 @@ impl Node {
         self.outbox.push_back(Transmission { to, t, group, stream });
     }
 
-    /// The next transmission this node has sent, in the order sent: the driver hands it to the medium
-    /// ([`Node::send_to`] does it for every one).
-    pub fn poll_send(&mut self) -> Option<Transmission> {
-        self.outbox.pop_front()
-    }
-
     /// Hand everything sent so far to `medium` (under the run's fault windows).
     pub fn send_to(&mut self, medium: &mut dyn Medium) {
         while let Some(tx) = self.outbox.pop_front() {

@@ -288,6 +288,24 @@ mod tests {
         }
     }
 
+    /// A value with long runs of quotes (the writer of toml 0.8 counted them in a byte: a panic at 256, a wrong
+    /// file after) is an error naming the key where it is wrong, and round-trips where any text is allowed.
+    #[test]
+    fn values_with_long_runs_of_quotes_are_errors_or_round_trip() {
+        let text = format!("(.,s={}x{}", "'".repeat(300), "\"".repeat(300));
+        let s = Scenario::resolve("line4").unwrap();
+        let e = s
+            .set("loss", toml::Value::String(text.clone()))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("loss") && e.contains("expected a number"), "{e}");
+        let t = s.set("description", toml::Value::String(text.clone())).unwrap();
+        let again = Scenario::from_toml(&t.to_toml(), "line4").unwrap();
+        assert_eq!(again.to_toml(), t.to_toml());
+        assert!(t.to_toml().contains(&"'".repeat(300)) || t.to_toml().contains(&"\\'".repeat(300)));
+        assert_eq!(again.digest(), t.digest());
+    }
+
     /// line4 with the middle edge's own loss and delay: what a `[link]`-only setting used to leave alone.
     fn edges_override() -> Scenario {
         let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/topologies/line4.toml"))

@@ -97,12 +97,6 @@ impl Egress {
         self.links.is_empty()
     }
 
-    /// Send `bytes` at simulated time `now` on outgoing link `link`: the link decides (loss, outage, delay,
-    /// duplication, corruption) and every copy it delivers is queued.
-    pub fn push(&mut self, link: usize, now: f64, bytes: &Bytes, faults: &FaultSchedule) {
-        self.push_group(link, now, std::slice::from_ref(bytes), faults, Stream::Measurement);
-    }
-
     /// Send the datagrams of one slot under one verdict, drawn from `stream` for the first datagram: every copy
     /// the link makes carries all of them with the same delay, and a corrupted copy has a bit flipped in each.
     pub fn push_group(&mut self, link: usize, now: f64, group: &[Bytes], faults: &FaultSchedule, stream: Stream) {
