@@ -5,8 +5,8 @@
 //! # Layout
 //!
 //! The modules follow one step of data. The lowest layer is a crate of its own, `simnet-core` (`crates/core`):
-//! `geom`, `rng`, `stats`, `motion`, `sensor`, `estimate`, `imu_csv`, `checks`, `model`, `estimators`, `wire`, `link`
-//! and `attack`, re-exported here under the same names (marked "core" below). It depends on no tokio and no filesystem crate and, being below this one, cannot name anything above
+//! `geom`, `rng`, `stats`, `motion`, `world`, `sensor`, `estimate`, `imu_csv`, `checks`, `model`, `estimators`, `wire`,
+//! `link` and `attack`, re-exported here under the same names (marked "core" below). It depends on no tokio and no filesystem crate and, being below this one, cannot name anything above
 //! it: the compiler holds that layer. Above it, only `net` touches sockets and clocks; `report`, `campaign` and
 //! `cli` write files, `input` reads them (bounded, never trusted); `fresh` draws from the operating system. The rest
 //! is pure: randomness from seeded streams.
@@ -16,6 +16,7 @@
 //! | [`scenario`] | topology TOML and overrides → a validated [`scenario::Scenario`]; every error names the file and the key; built-ins |
 //! | [`model`] (core) | the estimation models behind one trait made of five roles (dynamics, sensing, manifold, world, report): pose, attitude (quaternion EKF), linear |
 //! | [`motion`] (core) | analytic ground-truth trajectories shared by every node |
+//! | [`world`] (core) | where every node is at every time (fixed, or mounted on a moving body): [`Scenario::world`] |
 //! | [`sensor`] (core) | accelerometer/gyro (noise, bias, Wiener drift), magnetometer, pose fixes, linear measurements |
 //! | [`estimate`] (core) | pure maths: Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKF and the multiplicative one, Madgwick and Mahony (VQF through `vqf-rs`), the rigid-pair EKF, the FEM boundary-value solver |
 //! | [`estimators`] (core) | the distributed schemes behind one [`estimators::Estimator`] trait — independent, centralized, KCF, ICF, HCMCI, diffusion, CI — pure, per node, one message per round; the node runs them over L consensus rounds |
@@ -64,6 +65,7 @@ pub mod sim;
 
 pub use simnet_core::{
     attack, checks, estimate, estimators, geom, imu_csv, link, medium, model, motion, rng, sensor, stats, text, wire,
+    world,
 };
 
 pub use report::summary::Summary;

@@ -21,7 +21,7 @@ use simnet::estimate::bounds::FixedPoint;
 use simnet::estimators::Kind;
 use simnet::net::{self, RunOptions};
 use simnet::report::trace::TraceWriter;
-use simnet::scenario::{builtin, FlagError, Flags, LossKind, Scenario, ScenarioError as Invalid};
+use simnet::scenario::{builtin, FlagError, Flags, Scenario, ScenarioError as Invalid};
 
 create_exception!(
     _simnet,
@@ -78,9 +78,13 @@ fn to_toml(py: Python<'_>, key: &str, v: &Bound<'_, PyAny>) -> PyResult<toml::Va
         return Ok(toml::Value::Boolean(v.extract()?));
     }
     if v.is_instance_of::<PyInt>() {
+        if let Ok(i) = v.extract::<i64>() {
+            return Ok(toml::Value::Integer(i));
+        }
+        // TOML's integers stop at 2^63 − 1: a larger seed goes as its digits (RUN_OPTIONS reads them).
         return v
-            .extract::<i64>()
-            .map(toml::Value::Integer)
+            .extract::<u64>()
+            .map(|u| toml::Value::String(u.to_string()))
             .map_err(|_| option_error(py, key, format!("`{key}`: integer out of range")));
     }
     if v.is_instance_of::<PyFloat>() {
@@ -107,15 +111,21 @@ fn to_toml(py: Python<'_>, key: &str, v: &Bound<'_, PyAny>) -> PyResult<toml::Va
             .collect::<PyResult<Vec<_>>>()
             .map(toml::Value::Array);
     }
+    // NumPy's scalars: an integer has __index__, a float __float__.
+    if v.hasattr("__index__")? {
+        if let Ok(i) = v.extract::<i64>() {
+            return Ok(toml::Value::Integer(i));
+        }
+    }
+    if v.hasattr("__float__")? {
+        if let Ok(x) = v.extract::<f64>() {
+            return Ok(toml::Value::Float(x));
+        }
+    }
     Err(PyTypeError::new_err(format!(
         "`{key}`: a {} is not a scenario value (give a bool, number, string, list or dict)",
         v.get_type().name()?
     )))
-}
-
-fn number<T: for<'a> FromPyObject<'a, 'a>>(py: Python<'_>, key: &str, v: &Bound<'_, PyAny>, what: &str) -> PyResult<T> {
-    v.extract::<T>()
-        .map_err(|_| option_error(py, key, format!("--{}: expected {what}", key.replace('_', "-"))))
 }
 
 /// The options of `simnet run` by their Python names; any other name is a scenario key (`__` for `.`).
@@ -126,44 +136,22 @@ fn flags_of(py: Python<'_>, opts: &Bound<'_, PyDict>) -> PyResult<Flags> {
         if v.is_none() {
             continue;
         }
-        let float = |slot: &mut Option<f64>| -> PyResult<()> {
-            *slot = Some(number(py, &key, &v, "a number")?);
-            Ok(())
-        };
-        match key.as_str() {
-            "loss" => float(&mut f.loss)?,
-            "burst" => float(&mut f.burst)?,
-            "delay" => float(&mut f.delay)?,
-            "jitter" => float(&mut f.jitter)?,
-            "duplicate" => float(&mut f.duplicate)?,
-            "corrupt" => float(&mut f.corrupt)?,
-            "duration" => float(&mut f.duration)?,
-            "rate" => float(&mut f.rate)?,
-            "seed" => f.seed = Some(number(py, &key, &v, "a seed, an integer from 0 to 2^64 − 1")?),
-            "rounds" => f.rounds = Some(number(py, &key, &v, "a whole number of rounds")?),
-            "loss_model" => {
-                let s: String = number(py, &key, &v, "a string")?;
-                f.loss_model =
-                    Some(LossKind::parse(&s).map_err(|e| option_error(py, &key, format!("--loss-model: {e}")))?);
-            }
-            "estimators" => f.estimators = Some(kinds(py, &v)?),
-            "key_file" => f.key_file = Some(number(py, &key, &v, "a path")?),
-            "auth" => f.auth = number(py, &key, &v, "True or False")?,
-            "set" => {
-                let d = v
-                    .cast::<PyDict>()
-                    .map_err(|_| PyTypeError::new_err("`set`: expected a dict of scenario keys and values"))?;
-                for (k, x) in d.iter() {
-                    let k: String = k.extract()?;
-                    let value = to_toml(py, &k, &x)?;
-                    f.set.push((k, value));
-                }
-            }
-            _ => {
-                let k = key.replace("__", ".");
-                let value = to_toml(py, &k, &v)?;
+        if key == "set" {
+            let d = v
+                .cast::<PyDict>()
+                .map_err(|_| PyTypeError::new_err("`set`: expected a dict of scenario keys and values"))?;
+            for (k, x) in d.iter() {
+                let k: String = k.extract()?;
+                let value = to_toml(py, &k, &x)?;
                 f.set.push((k, value));
             }
+            continue;
+        }
+        // An option of `simnet run` by its name (simnet::scenario::RUN_OPTIONS), read as the command line reads it.
+        let value = to_toml(py, &key, &v)?;
+        match f.set_option(&key, &value) {
+            Some(r) => r.map_err(|e| flag_error(py, e))?,
+            None => f.set.push((key.replace("__", "."), value)),
         }
     }
     Ok(f)
@@ -171,17 +159,13 @@ fn flags_of(py: Python<'_>, opts: &Bound<'_, PyDict>) -> PyResult<Flags> {
 
 /// `"all"`, `"kcf,icf"` or `["kcf", "icf"]` as estimator kinds.
 fn kinds(py: Python<'_>, v: &Bound<'_, PyAny>) -> PyResult<Vec<Kind>> {
-    let names: Vec<String> = match v.extract::<String>() {
-        Ok(s) => s.split(',').map(str::to_string).collect(),
-        Err(_) => v.extract().map_err(|_| {
-            option_error(
-                py,
-                "estimators",
-                "--estimators: expected a name, `all` or a list of names".into(),
-            )
-        })?,
-    };
-    Kind::parse_list(&names).map_err(|e| option_error(py, "estimators", format!("--estimators: {e}")))
+    let mut f = Flags::default();
+    let value = to_toml(py, "estimators", v)?;
+    match f.set_option("estimators", &value) {
+        Some(Ok(())) => Ok(f.estimators.unwrap_or_default()),
+        Some(Err(e)) => Err(flag_error(py, e)),
+        None => unreachable!("estimators is an option"),
+    }
 }
 
 /// A validated scenario: every run of it is reproducible from its seed.

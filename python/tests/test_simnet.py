@@ -153,9 +153,20 @@ def test_a_value_out_of_range_names_its_key(cli):
         simnet.Scenario.builtin("ring3").with_(link__loss__p=1.5)
     assert e.value.key == "link.loss.p"
     assert str(e.value) == cli_error(cli, "-t", "ring3", "--set", "link.loss.p=1.5")
-    with pytest.raises(simnet.ScenarioError) as e:
-        simnet.run("ring3", delay=-1)
-    assert e.value.key == "overrides.delay_ms" and e.value.problems[0][0] == "overrides.delay_ms"
+    # An option's value out of its range: the option named, in the command line's words.
+    for kwargs, argv, says in [
+        (dict(delay=-1), ["--delay", "-1"], "must be a non-negative number, got -1"),
+        (dict(loss=1.5), ["--loss", "1.5"], "must be a probability in [0, 1], got 1.5"),
+        (dict(rounds=101), ["--rounds", "101"], "must be 1 to 100, got 101"),
+        (dict(loss=0.2, loss_model="gilbert-elliott", burst=0.5), ["--loss", "0.2", "--loss-model",
+                                                                  "gilbert-elliott", "--burst", "0.5"],
+         "a mean loss run is at least 1 packet, got 0.5"),
+    ]:
+        with pytest.raises(simnet.ScenarioError) as e:
+            simnet.run("ring3", **kwargs)
+        name = argv[-2].removeprefix("--").replace("-", "_")
+        assert e.value.key == name and e.value.problems[0][0] == name, (kwargs, e.value.key)
+        assert says in str(e.value) and says in cli_error(cli, "-t", "ring3", *argv), (kwargs, str(e.value))
 
 
 def test_options_that_do_not_go_together_name_the_option(cli):

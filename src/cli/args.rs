@@ -49,7 +49,7 @@ pub struct RunArgs {
     #[arg(long, env = "SIMNET_ESTIMATORS", value_delimiter = ',', value_parser = estimator)]
     pub estimators: Option<Vec<EstimatorChoice>>,
     /// Consensus rounds per step (1 to 100), each with its sub-deadline inside the step.
-    #[arg(long, env = "SIMNET_ROUNDS", value_parser = clap::value_parser!(u64).range(1..=crate::scenario::MAX_ROUNDS as u64))]
+    #[arg(long, env = "SIMNET_ROUNDS", value_parser = rounds)]
     pub rounds: Option<u64>,
     /// Pace steps by the wall clock instead of the virtual lockstep clock.
     #[arg(long)]
@@ -137,22 +137,16 @@ pub(super) fn parse_f64(s: &str) -> Result<f64, String> {
     s.parse::<f64>().map_err(|_| format!("`{s}` is not a number"))
 }
 
+// The ranges of [`crate::scenario::RUN_OPTIONS`]: the command line refuses what `--set`, a sweep and Python refuse,
+// in the same words.
+use crate::scenario::options::check;
+
 pub(super) fn probability(s: &str) -> Result<f64, String> {
-    let v = parse_f64(s)?;
-    if (0.0..=1.0).contains(&v) {
-        Ok(v)
-    } else {
-        Err(format!("must be a probability in [0, 1], got {v}"))
-    }
+    check::probability(parse_f64(s)?)
 }
 
 pub(super) fn positive(s: &str) -> Result<f64, String> {
-    let v = parse_f64(s)?;
-    if v > 0.0 && v.is_finite() {
-        Ok(v)
-    } else {
-        Err(format!("must be a positive number, got {v}"))
-    }
+    check::positive(parse_f64(s)?)
 }
 
 /// A wait in seconds: positive, at most a day.
@@ -166,21 +160,18 @@ pub(super) fn seconds_in_a_day(s: &str) -> Result<f64, String> {
 }
 
 pub(super) fn non_negative(s: &str) -> Result<f64, String> {
-    let v = parse_f64(s)?;
-    if v >= 0.0 && v.is_finite() {
-        Ok(v)
-    } else {
-        Err(format!("must be a non-negative number, got {v}"))
-    }
+    check::non_negative(parse_f64(s)?)
+}
+
+pub(super) fn rounds(s: &str) -> Result<u64, String> {
+    check::rounds(
+        s.parse()
+            .map_err(|_| format!("`{s}` is not a whole number of rounds"))?,
+    )
 }
 
 pub(super) fn at_least_one(s: &str) -> Result<f64, String> {
-    let v = parse_f64(s)?;
-    if v >= 1.0 && v.is_finite() {
-        Ok(v)
-    } else {
-        Err(format!("a mean loss run is at least 1 packet, got {v}"))
-    }
+    check::at_least_one(parse_f64(s)?)
 }
 
 impl RunArgs {
@@ -247,6 +238,102 @@ impl ReadFlags {
             columns: self.columns.clone().unwrap_or_default(),
             units: self.units.clone().unwrap_or_default(),
             rate_hz: self.rate,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::{CommandFactory, Parser};
+
+    use super::super::Cli;
+    use crate::scenario::{parse_value, Flags, RunOption, RUN_OPTIONS};
+
+    /// `simnet run`'s arguments that make the scenario are exactly the table's options; the rest say where the
+    /// scenario comes from and what is written.
+    #[test]
+    fn the_run_options_are_the_tables() {
+        let cmd = Cli::command();
+        let run = cmd.find_subcommand("run").unwrap();
+        let mut rest: Vec<&str> = run
+            .get_arguments()
+            .filter_map(|a| a.get_long())
+            .filter(|l| RunOption::named(l).is_none() && !["help", "version"].contains(l))
+            .collect();
+        rest.sort();
+        assert_eq!(rest, ["format", "json", "out", "realtime", "set", "topology"]);
+        for o in RUN_OPTIONS {
+            assert!(
+                run.get_arguments().any(|a| a.get_long() == Some(o.name)),
+                "--{}",
+                o.name
+            );
+        }
+    }
+
+    /// Each option's value on the command line and through the table (`--set`, a sweep, Python): the same
+    /// values accepted with the same result, the same ones refused with the same words.
+    #[test]
+    fn the_command_line_and_the_table_agree_on_every_value() {
+        let samples = [
+            "0",
+            "1",
+            "0.5",
+            "1.5",
+            "-1",
+            "3",
+            "nan",
+            "inf",
+            "1e-3",
+            "2.5",
+            "101",
+            "100",
+            "kcf",
+            "kcf,icf",
+            "all",
+            "nope",
+            "bernoulli",
+            "gilbert-elliott",
+            "x",
+        ];
+        for o in RUN_OPTIONS.iter().filter(|o| o.name != "auth" && o.name != "key-file") {
+            for v in samples {
+                let mut argv: Vec<String> = ["simnet", "run", "-t", "ring3", "--loss", "0.1"]
+                    .map(String::from)
+                    .into();
+                if o.name == "loss" {
+                    argv.truncate(4);
+                }
+                argv.extend([format!("--{}", o.name), v.to_string()]);
+                let cli = Cli::try_parse_from(&argv);
+                let mut by_table = Flags::default();
+                let table = o.read(&mut by_table, &parse_value(v));
+                match (cli, table) {
+                    (Ok(c), Ok(())) => {
+                        let Some(super::super::Command::Run(args)) = c.command else {
+                            panic!("{argv:?}: not a run")
+                        };
+                        let f = args.flags().unwrap();
+                        let mut want = Flags::default();
+                        o.read(&mut want, &parse_value(v)).unwrap();
+                        if o.name != "loss" {
+                            want.loss = Some(0.1);
+                        }
+                        assert_eq!(f, want, "{argv:?}");
+                    }
+                    (Err(c), Err(t)) => {
+                        // A value out of range: clap's "invalid value" message ends with the table's words.
+                        if t.starts_with("must be") || t.starts_with("a mean loss run") {
+                            assert!(c.to_string().contains(&t), "--{} {v}: {c} / {t}", o.name);
+                        }
+                    }
+                    (c, t) => panic!(
+                        "--{} {v}: the command line says {:?}, the table {t:?}",
+                        o.name,
+                        c.map(|_| ())
+                    ),
+                }
+            }
         }
     }
 }

@@ -17,8 +17,7 @@ pub struct CompareArgs {
     #[arg(long, value_delimiter = ',', value_parser = probability, default_values_t = [0.0, 0.1, 0.3])]
     pub loss: Vec<f64>,
     /// Consensus rounds, comma-separated.
-    #[arg(long, value_delimiter = ',', default_values_t = [1u64, 3, 10],
-          value_parser = clap::value_parser!(u64).range(1..=crate::scenario::MAX_ROUNDS as u64))]
+    #[arg(long, value_delimiter = ',', default_values_t = [1u64, 3, 10], value_parser = rounds)]
     pub rounds: Vec<u64>,
     /// Seeds per cell (1, 2, … N).
     #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=10_000))]

@@ -26,7 +26,7 @@ pub struct SweepArgs {
     #[arg(long, value_delimiter = ',', value_parser = super::args::estimator)]
     pub estimators: Option<Vec<super::args::EstimatorChoice>>,
     /// Consensus rounds per step (1 to 100).
-    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=crate::scenario::MAX_ROUNDS as u64))]
+    #[arg(long, value_parser = super::args::rounds)]
     pub rounds: Option<u64>,
     /// Simulated duration of every run, s.
     #[arg(long, allow_hyphen_values = true, value_parser = super::args::positive)]

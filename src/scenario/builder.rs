@@ -112,6 +112,8 @@ impl ScenarioBuilder {
             addr: None,
             sensor: None,
             imu_csv: None,
+            position_m: None,
+            lever_arm_m: None,
         });
         self
     }
@@ -150,8 +152,32 @@ impl ScenarioBuilder {
 
     /// Undirected edges of a random geometric graph over the nodes given so far
     /// ([`super::graph::random_geometric`]: the connectivity threshold from `seed`, grown until connected).
-    pub fn random_geometric(self, seed: u64) -> ScenarioBuilder {
+    /// A linear system's nodes stand where the graph was drawn (`position_m`); an IMU network's ride its package.
+    pub fn random_geometric(mut self, seed: u64) -> ScenarioBuilder {
+        let (at, _) = super::graph::random_geometric_placed(self.raw.node.len(), seed);
+        let linear = self.raw.model.as_ref().and_then(|m| m.kind.as_deref()) == Some("linear");
+        if linear {
+            for (n, [x, y]) in self.raw.node.iter_mut().zip(at) {
+                n.position_m = Some(vec![x, y, 0.0]);
+            }
+        }
         self.joined(|n| super::graph::random_geometric(n, seed))
+    }
+
+    /// Node `id` stands still at `position` (m): for a linear system (an IMU network's nodes ride its package).
+    pub fn position(mut self, id: u32, position: [f64; 3]) -> ScenarioBuilder {
+        if let Some(n) = self.raw.node.iter_mut().find(|n| n.id == Some(id as i64)) {
+            n.position_m = Some(position.to_vec());
+        }
+        self
+    }
+
+    /// Node `id` rides the package at `lever` (m, body frame) from its origin: for an IMU network.
+    pub fn lever_arm(mut self, id: u32, lever: [f64; 3]) -> ScenarioBuilder {
+        if let Some(n) = self.raw.node.iter_mut().find(|n| n.id == Some(id as i64)) {
+            n.lever_arm_m = Some(lever.to_vec());
+        }
+        self
     }
 
     /// The edges `graph` gives over the nodes given so far, by position.
@@ -291,6 +317,9 @@ mod tests {
                 n.id.unwrap(),
                 n.role.as_deref().unwrap()
             );
+            if let Some(p) = &n.position_m {
+                t += &format!("position_m = {p:?}\n");
+            }
         }
         for e in &b.raw.edge {
             t += &format!("\n[[edge]]\nnodes = [{}, {}]\n", e.nodes[0], e.nodes[1]);
@@ -335,6 +364,35 @@ mod tests {
             n,
             &file.links().iter().map(|l| (l.from, l.to)).collect::<Vec<_>>()
         ));
+        // Its nodes stand where the graph was drawn: every edge is shorter than every pair left unjoined (the
+        // graph is the pairs closer than one radius), and a [generate] table of the same seed places them alike.
+        let world = file.world();
+        let (mut longest_edge, mut nearest_apart) = (0.0f64, f64::INFINITY);
+        for a in 0..n {
+            for b in (a + 1)..n {
+                let d = world.distance(a, b, 0.0);
+                if linked.contains(&(a, b)) {
+                    longest_edge = longest_edge.max(d);
+                } else {
+                    nearest_apart = nearest_apart.min(d);
+                }
+            }
+        }
+        assert!(longest_edge < nearest_apart, "{longest_edge} {nearest_apart}");
+        assert!(
+            longest_edge > 10.0 && longest_edge < super::super::graph::RGG_SIDE_M / 2.0,
+            "{longest_edge}"
+        );
+        let generated = Scenario::from_toml(
+            &text[..text.find("[[node]]").unwrap()].replace(
+                "[consensus]",
+                "[generate]\ngraph = \"random-geometric\"\nnodes = 50\nseed = 1\nnaive_every = 3\n\n[consensus]",
+            ),
+            "gen",
+        )
+        .unwrap()
+        .world();
+        assert_eq!(generated, world);
     }
 
     /// `weights` names its rule and excludes the other ways of giving β; an unknown rule is named.

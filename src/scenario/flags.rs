@@ -116,6 +116,18 @@ impl Flags {
     }
 }
 
+impl Flags {
+    /// Option `name` (`loss-model` or `loss_model`, [`super::RUN_OPTIONS`]) set from `value`; `None` when no option
+    /// has that name (it is a scenario key).
+    pub fn set_option(&mut self, name: &str, value: &toml::Value) -> Option<Result<(), FlagError>> {
+        let o = super::RunOption::named(name)?;
+        Some(o.read(self, value).map_err(|message| FlagError::Option {
+            option: o.name,
+            message,
+        }))
+    }
+}
+
 /// `KEY=VALUE` of `--set`, the value read as TOML (a bare word as a string).
 pub fn parse_set(kv: &str) -> Result<(String, toml::Value), FlagError> {
     let (k, v) = kv.split_once('=').ok_or_else(|| FlagError::Option {

@@ -42,20 +42,30 @@ pub fn complete(n: usize) -> Vec<(usize, usize)> {
     (0..n).flat_map(|a| ((a + 1)..n).map(move |b| (a, b))).collect()
 }
 
+/// The side of the square a random geometric graph's nodes are drawn in, m: its connectivity radius is then some
+/// 30 m at 50 nodes, about an IEEE 802.15.4 radio's range at 0 dBm indoors.
+pub const RGG_SIDE_M: f64 = 100.0;
+
 /// Positions uniform in the unit square from `seed`, an edge between two nodes closer than r = c √(ln n / n) — the
 /// connectivity threshold (Penrose 2003) — with c = 1 grown by 10 % until the graph is connected.
 pub fn random_geometric(n: usize, seed: u64) -> Vec<(usize, usize)> {
-    if n < 2 {
-        return Vec::new();
-    }
+    random_geometric_placed(n, seed).1
+}
+
+/// [`random_geometric`] with the positions its graph was drawn from, scaled to a square of [`RGG_SIDE_M`] (m).
+pub fn random_geometric_placed(n: usize, seed: u64) -> (Vec<[f64; 2]>, Vec<(usize, usize)>) {
     let mut rng = crate::rng::stream(seed, "random-geometric", n as u64, 0);
     let at: Vec<(f64, f64)> = (0..n).map(|_| (rng.gen::<f64>(), rng.gen::<f64>())).collect();
+    let placed = at.iter().map(|(x, y)| [x * RGG_SIDE_M, y * RGG_SIDE_M]).collect();
+    if n < 2 {
+        return (placed, Vec::new());
+    }
     let d = |a: usize, b: usize| ((at[a].0 - at[b].0).powi(2) + (at[a].1 - at[b].1).powi(2)).sqrt();
     let mut r = ((n as f64).ln() / n as f64).sqrt();
     loop {
         let edges: Vec<(usize, usize)> = complete(n).into_iter().filter(|&(a, b)| d(a, b) < r).collect();
         if connected(n, &edges) {
-            return edges;
+            return (placed, edges);
         }
         r *= 1.1;
     }
@@ -81,9 +91,16 @@ pub(super) fn connected(n: usize, edges: &[(usize, usize)]) -> bool {
 }
 
 impl Validator {
-    /// The file's `[generate]` table written out as `[[node]]` and `[[edge]]` lists; the raw file unchanged
-    /// without one. Problems are recorded under `generate.*`.
-    pub(super) fn generated(&mut self, mut raw: RawTopology) -> RawTopology {
+    /// The file's `[generate]` table written out as `[[node]]` and `[[edge]]` lists, with the positions a
+    /// random geometric graph was drawn from; the raw file unchanged without one. Problems are recorded under
+    /// `generate.*`.
+    pub(super) fn generated(&mut self, raw: RawTopology) -> (RawTopology, Option<Vec<[f64; 2]>>) {
+        let mut drawn = None;
+        let raw = self.generated_lists(raw, &mut drawn);
+        (raw, drawn)
+    }
+
+    fn generated_lists(&mut self, mut raw: RawTopology, drawn: &mut Option<Vec<[f64; 2]>>) -> RawTopology {
         let Some(g) = raw.generate.clone() else {
             return raw;
         };
@@ -140,7 +157,11 @@ impl Validator {
                 grid(n, columns)
             }
             "complete" => complete(n),
-            "random-geometric" => random_geometric(n, g.seed.unwrap_or(1)),
+            "random-geometric" => {
+                let (at, edges) = random_geometric_placed(n, g.seed.unwrap_or(1));
+                *drawn = Some(at);
+                edges
+            }
             other => {
                 self.bad(
                     "generate.graph",
@@ -181,6 +202,8 @@ impl Validator {
                 addr: None,
                 sensor: None,
                 imu_csv: None,
+                position_m: None,
+                lever_arm_m: None,
             })
             .collect();
         raw.edge = edges

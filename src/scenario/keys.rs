@@ -79,58 +79,6 @@ pub(super) fn put(doc: &mut toml::Value, key: &str, value: toml::Value) -> Resul
     Ok(())
 }
 
-/// `simnet run`'s options that set a scenario value, each with the key of the file it sets. Given to `--set` (or a
-/// sweep axis, or Python's `set`) by its option name, a value means exactly what the option means — the same
-/// overrides, applied the same way (a new duration keeps the burn-in the file had, a new rate keeps a deadline of one
-/// period) — and by its key, what the key means in the file. Either way a `link.*` value is every link's: the
-/// `[link]` defaults and every `[[edge]]` that gives its own.
-pub const OPTION_KEYS: [(&str, &str); 9] = [
-    ("loss", "link.loss.p"),
-    ("delay", "link.delay_ms"),
-    ("jitter", "link.jitter_ms"),
-    ("duplicate", "link.duplicate"),
-    ("corrupt", "link.corrupt"),
-    ("duration", "sim.duration_s"),
-    ("rate", "sim.rate_hz"),
-    ("rounds", "estimators.rounds"),
-    ("estimators", "estimators.run"),
-];
-
-/// The overrides an option given by name as a key sets (`loss = 0.2` is `--loss 0.2`).
-fn option_override(o: &mut super::Overrides, name: &str, v: &toml::Value) -> Result<(), String> {
-    let number = || {
-        v.as_float()
-            .or(v.as_integer().map(|i| i as f64))
-            .ok_or_else(|| format!("expected a number, got {v}"))
-    };
-    match name {
-        "loss" => o.loss = Some(crate::link::LossModel::Bernoulli { p: number()? }),
-        "delay" => o.delay_ms = Some(number()?),
-        "jitter" => o.jitter_ms = Some(number()?),
-        "duplicate" => o.duplicate = Some(number()?),
-        "corrupt" => o.corrupt = Some(number()?),
-        "duration" => o.duration_s = Some(number()?),
-        "rate" => o.rate_hz = Some(number()?),
-        "rounds" => {
-            let r = v
-                .as_integer()
-                .filter(|r| (1..=super::MAX_ROUNDS as i64).contains(r))
-                .ok_or_else(|| format!("must be an integer 1 to {}, got {v}", super::MAX_ROUNDS))?;
-            o.rounds = Some(r as u64);
-        }
-        "estimators" => {
-            let names: Vec<String> = match v {
-                toml::Value::Array(a) => a.iter().map(|x| x.as_str().unwrap_or_default().to_string()).collect(),
-                toml::Value::String(s) => s.split(',').map(|x| x.trim().to_string()).collect(),
-                _ => return Err(format!("expected estimator names, got {v}")),
-            };
-            o.estimators = Some(crate::estimators::Kind::parse_list(&names)?);
-        }
-        _ => unreachable!("only names of OPTION_KEYS reach here"),
-    }
-    Ok(())
-}
-
 /// `link.REST` also set on every `[[edge]]` that gives its own value of REST's first part (an edge that gives none
 /// takes `[link]`'s).
 fn on_edges(doc: &mut toml::Value, key: &str, value: &toml::Value) -> Result<(), String> {
@@ -149,6 +97,14 @@ fn on_edges(doc: &mut toml::Value, key: &str, value: &toml::Value) -> Result<(),
         }
     }
     Ok(())
+}
+
+/// An option's problem as a problem of the key it was given as.
+fn flag_problem(key: &str, e: super::FlagError, invalid: &dyn Fn(&str, String) -> ScenarioError) -> ScenarioError {
+    match e {
+        super::FlagError::Option { message, .. } => invalid(key, message),
+        super::FlagError::Scenario(e) => e,
+    }
 }
 
 impl Scenario {
@@ -176,21 +132,18 @@ impl Scenario {
                 message,
             }],
         };
-        // Options given by name first, as the command line applies them before `--set`.
-        let mut o = super::Overrides::default();
-        let mut options = false;
-        for (key, value) in keys {
-            if OPTION_KEYS.iter().any(|(name, _)| name == key) {
-                option_override(&mut o, key, value).map_err(|m| invalid(key, m))?;
-                options = true;
+        // Options given by name first, as the command line applies them before `--set`: only those that stand for
+        // a key of the file (`loss`, not `seed`).
+        let by_name = |key: &str| super::RunOption::named(key).filter(|o| o.key.is_some());
+        let (options, rest): (Vec<_>, Vec<_>) = keys.iter().cloned().partition(|(k, _)| by_name(k).is_some());
+        if !options.is_empty() {
+            let mut flags = super::Flags::default();
+            for (key, value) in &options {
+                if let Some(Err(e)) = flags.set_option(key, value) {
+                    return Err(flag_problem(key, e, &invalid));
+                }
             }
-        }
-        if options {
-            let rest: Vec<(&str, toml::Value)> = keys
-                .iter()
-                .filter(|(k, _)| !OPTION_KEYS.iter().any(|(name, _)| name == k))
-                .cloned()
-                .collect();
+            let o = flags.overrides().map_err(|e| flag_problem(options[0].0, e, &invalid))?;
             let t = self.with(&o)?;
             return if rest.is_empty() { Ok(t) } else { t.set_all(&rest) };
         }
@@ -334,15 +287,14 @@ mod tests {
             ("rounds", "3"),
             ("estimators", "[\"icf\", \"kcf\"]"),
         ];
-        assert_eq!(
-            OPTION_KEYS
-                .iter()
-                .filter(|(n, _)| values.iter().any(|(v, _)| v == n))
-                .count(),
-            values.len()
-        );
+        for (name, _) in values {
+            assert!(
+                crate::scenario::RunOption::named(name).and_then(|o| o.key).is_some(),
+                "{name}"
+            );
+        }
         for (name, text) in values {
-            let key = OPTION_KEYS.iter().find(|(n, _)| *n == name).unwrap().1;
+            let key = crate::scenario::RunOption::named(name).and_then(|o| o.key).unwrap();
             let v = parse_value(text);
             let flags = crate::scenario::Flags {
                 loss: (name == "loss").then(|| v.as_float().unwrap()),

@@ -19,6 +19,7 @@ pub mod graph;
 mod keys;
 mod load;
 mod medium;
+pub mod options;
 mod overrides;
 mod resolve;
 pub mod schema;
@@ -56,7 +57,8 @@ impl std::ops::DerefMut for Validator {
 }
 pub use builder::{LinkSpec, ScenarioBuilder};
 pub use flags::{parse_set, FlagError, Flags, LossKind, MAX_STEPS};
-pub use keys::{parse_value, OPTION_KEYS};
+pub use keys::parse_value;
+pub use options::{RunOption, RUN_OPTIONS};
 pub use overrides::Overrides;
 
 /// "1 node", "3 nodes".
@@ -265,6 +267,8 @@ pub struct NodeConfig {
     pub sensor: SensorProfile,
     /// A recorded IMU that replaces the simulated one (`imu_csv`).
     pub recording: Option<RecordedImu>,
+    /// Where it is in the world ([`Scenario::world`]).
+    pub place: crate::world::Place,
 }
 
 /// A node's IMU file: the path as written, as resolved, and its rows.
@@ -338,6 +342,19 @@ impl Scenario {
         &self.security
     }
     /// The nodes in file order; a node's index is its position here.
+    /// Where every node is at every time: an IMU network's nodes on one body following `sim.trajectory`, each at
+    /// its lever arm; a linear system's nodes still at their positions.
+    pub fn world(&self) -> crate::world::World {
+        let mut w = crate::world::World::new();
+        if self.model().get().imu_driven() {
+            w.add_body(self.sim().trajectory);
+        }
+        for n in &self.nodes {
+            w.place(n.place);
+        }
+        w
+    }
+
     pub fn nodes(&self) -> &[NodeConfig] {
         &self.nodes
     }

@@ -142,6 +142,8 @@ pub const KEYS: &[KeyDoc] = &[
     k("node[].role", "peer | sensor | estimator", "", "\"peer\"", "the words listed", "peer: senses and estimates; sensor: senses and sends; estimator: estimates only.", Some("\"boss\"")),
     k("node[].addr", STR, "host:port", "node<ID>:7000", "host:port, port 1 to 65535", "Where the node listens in a multi-host run (`simnet node`).", Some("\"nohost\"")),
     k("node[].sensor", "table", "", "[sensor]", "the keys of [sensor]", "This node's sensor, over the [sensor] defaults.", None),
+    k("node[].position_m", "[x, y] or [x, y, z]", "m", "where a random-geometric graph was drawn (a square of 100 m), else the origin", "finite, within ±10⁶ m; linear models only", "Where the node stands (the world the medium sees); an IMU network's nodes ride the package instead.", Some("[1e9, 0]")),
+    k("node[].lever_arm_m", "[x, y] or [x, y, z]", "m", "[0, 0, 0]", "finite, within ±10⁶ m; pose and attitude only", "Where the node's antenna is on the package, in the body frame (its IMU senses the package's origin).", Some("[1, 2, 3, 4]")),
     k("node[].imu_csv", STR, "path", "none (simulated)", "a recorded IMU file, relative to the topology file; pose and attitude only", "A recorded IMU instead of the simulated one.", Some("\"no-such.csv\"")),
     // [[edge]]
     k("edge[].nodes", "[id, id]", "", "required", "two different node ids", "The link's ends: both directions unless directed.", Some("[0, 0]")),

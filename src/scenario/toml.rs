@@ -153,6 +153,8 @@ pub struct RawNode {
     pub addr: Option<String>,
     pub sensor: Option<RawSensor>,
     pub imu_csv: Option<String>,
+    pub position_m: Option<Vec<f64>>,
+    pub lever_arm_m: Option<Vec<f64>>,
 }
 
 #[derive(Debug, Serialize, Deserialize, Clone)]

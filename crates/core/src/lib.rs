@@ -14,6 +14,7 @@
 //! | [`rng`] | seeded streams, one per (seed, stream, from, to) |
 //! | [`stats`] | quantiles for tests and reports (normal, chi-square, Student's t) |
 //! | [`motion`] | analytic ground-truth trajectories shared by every node |
+//! | [`world`] | where every node is at every time: fixed in place, or mounted on a body that follows a trajectory |
 //! | [`sensor`] | accelerometer/gyro (noise, bias, Wiener drift), magnetometer, pose fixes, linear measurements |
 //! | [`estimate`] | Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKFs, Madgwick and Mahony, the rigid-pair EKF, the FEM boundary-value solver |
 //! | [`text`] | untrusted text as a message shows it (clipped) |
@@ -45,3 +46,4 @@ pub mod sensor;
 pub mod stats;
 pub mod text;
 pub mod wire;
+pub mod world;

@@ -4,6 +4,7 @@
 mod attack;
 mod consensus;
 mod link;
+mod place;
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -63,7 +64,7 @@ impl Validator {
     fn topology(&mut self, raw: RawTopology, file: &str) -> Option<Scenario> {
         // The file as written (a `[generate]` table stays one) is what a change validates again.
         let kept = raw.clone();
-        let raw = self.generated(raw);
+        let (raw, drawn) = self.generated(raw);
         let name = raw.name.clone().unwrap_or_else(|| {
             Path::new(file)
                 .file_stem()
@@ -136,12 +137,21 @@ impl Validator {
                     self.bad(format!("{key}.addr"), m);
                 }
             }
+            let drawn_at = drawn.as_ref().and_then(|d| d.get(i)).map(|[x, y]| vec![*x, *y, 0.0]);
+            let place = self.place(
+                &key,
+                n,
+                drawn_at,
+                model.get().imu_driven(),
+                &model.get().kind().to_string(),
+            );
             nodes.push(NodeConfig {
                 id: id.clamp(0, u32::MAX as i64) as u32,
                 role,
                 addr: n.addr.clone(),
                 sensor,
                 recording,
+                place,
             });
         }
         let n = nodes.len();

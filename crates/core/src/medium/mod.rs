@@ -8,28 +8,32 @@
 //! corruption). Because its links are independent it can be split by sender: a UDP worker or a node process carries
 //! only its own senders' part, and every part decides exactly what the whole would.
 //!
-//! A medium of your own implements [`Medium`]; this one delivers everything after a fixed delay:
+//! A medium of your own implements [`Medium`]. This one sees the [`crate::world::World`]: it carries a datagram only
+//! to a receiver within 30 m of its sender at the time of sending, 4 ms later:
 //!
 //! ```
 //! use std::collections::VecDeque;
 //! use bytes::Bytes;
+//! use nalgebra::Vector3;
 //! use simnet_core::link::{FaultSchedule, LinkCounters, Stream};
 //! use simnet_core::medium::{Delivery, Medium, Transmission};
+//! use simnet_core::world::{Place, World};
 //!
-//! #[derive(Debug, Default)]
-//! struct Late {
+//! #[derive(Debug)]
+//! struct InRange {
+//!     world: World,
 //!     queue: VecDeque<(f64, Delivery)>,
 //!     sent: Vec<(usize, usize, u64)>,
 //! }
 //!
-//! impl Medium for Late {
+//! impl Medium for InRange {
 //!     fn transmit(&mut self, from: usize, tx: Transmission, faults: &FaultSchedule) {
-//!         if !faults.link_up(from, tx.to, tx.t) {
-//!             return;
-//!         }
 //!         match self.sent.iter_mut().find(|(f, t, _)| (*f, *t) == (from, tx.to)) {
 //!             Some(s) => s.2 += 1,
 //!             None => self.sent.push((from, tx.to, 1)),
+//!         }
+//!         if !faults.link_up(from, tx.to, tx.t) || self.world.distance(from, tx.to, tx.t) > 30.0 {
+//!             return;
 //!         }
 //!         for bytes in tx.group {
 //!             self.queue.push_back((tx.t + 0.004, Delivery { from, to: tx.to, bytes }));
@@ -48,15 +52,22 @@
 //!     }
 //! }
 //!
-//! let mut air = Late::default();
+//! let mut world = World::new();
+//! for x in [0.0, 20.0, 50.0] {
+//!     world.place(Place::Fixed(Vector3::new(x, 0.0, 0.0)));
+//! }
+//! let mut air = InRange { world, queue: VecDeque::new(), sent: Vec::new() };
 //! let faults = FaultSchedule::default();
-//! let tx = Transmission { to: 1, t: 0.01, group: vec![Bytes::from_static(b"hi")], stream: Stream::Measurement };
-//! air.transmit(0, tx, &faults);
+//! for to in [1, 2] {
+//!     let tx = Transmission { to, t: 0.01, group: vec![Bytes::from_static(b"hi")], stream: Stream::Measurement };
+//!     air.transmit(0, tx, &faults);
+//! }
 //! assert!(air.poll_delivery(0, 0.012).is_none());
 //! assert_eq!(air.poll_timeout(0), Some(0.014));
 //! let d = air.poll_delivery(0, 0.014).unwrap();
 //! assert_eq!((d.from, d.to, &d.bytes[..]), (0, 1, &b"hi"[..]));
-//! assert_eq!(air.counters(0)[0].1.sent, 1);
+//! assert!(air.poll_delivery(0, 1.0).is_none(), "node 2 is 50 m away");
+//! assert_eq!(air.counters(0).len(), 2);
 //! ```
 
 use bytes::Bytes;
