@@ -138,6 +138,12 @@ class Scenario:
         """What ``simnet validate`` would warn about."""
         return list(self._native.warnings())
 
+    def positions(self, t: float = 0.0) -> List[Tuple[int, float, float, float]]:
+        """Every node's position at time ``t`` (s), in metres, as ``(id, x, y, z)`` in node order: an IMU
+        network's nodes ride the package along ``sim.trajectory``; a linear system's stand where the scenario puts
+        them (``node[].position_m``; rgg50 where its graph was drawn)."""
+        return [tuple(p) for p in self._native.positions(t)]
+
     name = property(lambda self: self._native.name, doc="The topology's name.")
     description = property(lambda self: self._native.description, doc="Its description.")
     source = property(lambda self: self._native.source, doc="Where it was read from.")

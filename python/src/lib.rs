@@ -286,6 +286,22 @@ impl PyScenario {
             .map(|k| k.name().to_string())
             .collect()
     }
+    /// Every node's position at time `t` (s), in metres, as (id, x, y, z) in node order: an IMU network's nodes
+    /// ride the package along `sim.trajectory`, a linear system's stand where the scenario puts them.
+    #[pyo3(signature = (t = 0.0))]
+    fn positions(&self, t: f64) -> Vec<(u32, f64, f64, f64)> {
+        let world = self.inner.world();
+        self.inner
+            .nodes()
+            .iter()
+            .enumerate()
+            .map(|(i, n)| {
+                let p = world.position(i, t);
+                (n.id, p.x, p.y, p.z)
+            })
+            .collect()
+    }
+
     /// The SHA-256 of the resolved scenario: two scenarios with one digest make the same runs.
     #[getter]
     fn digest(&self) -> String {

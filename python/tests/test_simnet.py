@@ -348,6 +348,19 @@ def test_a_refused_sweep_leaves_no_temporary_directory(tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_positions_come_from_the_world():
+    rgg = simnet.Scenario.builtin("rgg50").positions()
+    assert len(rgg) == 50 and [p[0] for p in rgg] == list(range(50))
+    assert all(0 <= x <= 100 and 0 <= y <= 100 and z == 0 for _, x, y, z in rgg)
+    # The rgg50 file lists node 1 at (87.89…, 67.78…): the positions its graph was drawn from.
+    assert math.isclose(rgg[1][1], 87.89333408223794) and math.isclose(rgg[1][2], 67.78068805708205)
+    # ring3's nodes ride the package along the spiral: together at its origin, moving with it.
+    ring = simnet.Scenario.builtin("ring3")
+    start, later = ring.positions(), ring.positions(t=2.5)
+    assert len({p[1:] for p in start}) == 1
+    assert math.dist(start[0][1:], later[0][1:]) > 1.0
+
+
 def test_a_ragged_matrix_is_a_scenario_error_naming_it():
     with pytest.raises(simnet.ScenarioError) as e:
         simnet.bounds([[1, 2], [3]], 1, 1, 1)

@@ -40,7 +40,7 @@ fn check_dir(dir: &Path) -> Result<PathBuf, UsageError> {
 
 /// The files a whole run (`simnet run`, `simnet collect`) writes, whatever its options: with `imu-ID.csv` and the
 /// Parquet copies of the CSVs, the only names a run ever removes (and only when `.simnet-outputs` lists them).
-const RUN_FILES: [&str; 10] = [
+const RUN_FILES: [&str; 11] = [
     "summary.json",
     "trace.csv",
     "links.csv",
@@ -48,6 +48,7 @@ const RUN_FILES: [&str; 10] = [
     "error.svg",
     "trace_p.svg",
     "estimators.svg",
+    "map.svg",
     "report.html",
     MEASUREMENTS,
     ESTIMATORS,

@@ -93,6 +93,24 @@ fn write_run(
             plot::estimators(rows, topo.sim().dt(), s.model, &title)?,
         ));
     }
+    let world = topo.world();
+    let at: Vec<(u32, f64, f64)> = topo
+        .nodes()
+        .iter()
+        .enumerate()
+        .map(|(i, n)| {
+            let p = world.position(i, 0.0);
+            (n.id, p.x, p.y)
+        })
+        .collect();
+    let title = format!("{} — where the nodes stand ({})", s.topology, super::out::conditions(s));
+    if let Some(svg) = plot::map(&at, &s.links, &title)? {
+        extra.push((
+            "map.svg",
+            "where the nodes stand, each link coloured by the datagrams it delivered".to_string(),
+            svg,
+        ));
+    }
     let mut wrote = write_files(&d.stage, s, topo.sim().dt(), &rows, &fused, extra)?;
     wrote.extend(imu.into_iter().map(|id| format!("imu-{id}.csv")));
     wrote.push(MEASUREMENTS.into());

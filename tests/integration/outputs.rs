@@ -753,7 +753,7 @@ fn header_is(header: &[&str], columns: &[simnet::report::outputs::Field]) -> Res
 
 /// The book's "Output files" chapter is generated from `simnet::report::outputs`; this holds that table to what simnet
 /// writes. Runs that between them write every kind of file and field (estimators, attacks, authentication, faults, a
-/// wall-clock run, the attitude model, a sweep): every file written is in the table with its columns in order, every
+/// wall-clock run, the attitude model, nodes standing apart, a sweep): every file written is in the table with its columns in order, every
 /// field of every summary.json is named by a pattern, and everything in the table is written by one of the runs —
 /// except what only a multi-host run writes (its parts), and the Parquet copies.
 #[test]
@@ -771,7 +771,7 @@ fn every_file_column_and_field_written_is_documented() {
         ),
     )
     .unwrap();
-    let runs: [(&str, Vec<&str>); 5] = [
+    let runs: [(&str, Vec<&str>); 6] = [
         (
             "attacked",
             vec![
@@ -786,6 +786,8 @@ fn every_file_column_and_field_written_is_documented() {
         ),
         ("faults", vec!["-t", faults.to_str().unwrap(), "--duration", "2"]),
         ("attitude", vec!["-t", "attitude3", "--duration", "2"]),
+        // Nodes that stand apart: the map.
+        ("rgg50", vec!["-t", "rgg50", "--duration", "0.5"]),
         ("realtime", vec!["-t", "ring3", "--duration", "0.5", "--realtime"]),
         (
             "sweep",
