@@ -2,6 +2,8 @@
 //! make and the scenario they select.
 
 use super::*;
+// The ranges of `RUN_OPTIONS`: the command line refuses what `--set`, a sweep and Python refuse, in the same words.
+use crate::scenario::options::check;
 use crate::scenario::{parse_set, Flags};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -136,10 +138,6 @@ pub(super) fn estimator(s: &str) -> Result<EstimatorChoice, String> {
 pub(super) fn parse_f64(s: &str) -> Result<f64, String> {
     s.parse::<f64>().map_err(|_| format!("`{s}` is not a number"))
 }
-
-// The ranges of [`crate::scenario::RUN_OPTIONS`]: the command line refuses what `--set`, a sweep and Python refuse,
-// in the same words.
-use crate::scenario::options::check;
 
 pub(super) fn probability(s: &str) -> Result<f64, String> {
     check::probability(parse_f64(s)?)

@@ -114,9 +114,7 @@ impl Flags {
         }
         Ok(t)
     }
-}
 
-impl Flags {
     /// Option `name` (`loss-model` or `loss_model`, [`super::RUN_OPTIONS`]) set from `value`; `None` when no option
     /// has that name (it is a scenario key).
     pub fn set_option(&mut self, name: &str, value: &toml::Value) -> Option<Result<(), FlagError>> {

@@ -341,7 +341,6 @@ impl Scenario {
     pub fn security(&self) -> &SecurityConfig {
         &self.security
     }
-    /// The nodes in file order; a node's index is its position here.
     /// Where every node is at every time: an IMU network's nodes on one body following `sim.trajectory`, each at
     /// its lever arm; a linear system's nodes still at their positions.
     pub fn world(&self) -> crate::world::World {
@@ -355,6 +354,7 @@ impl Scenario {
         w
     }
 
+    /// The nodes in file order; a node's index is its position here.
     pub fn nodes(&self) -> &[NodeConfig] {
         &self.nodes
     }
