@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 
 use plotters::prelude::*;
 
-use super::{axis, err, font, tick, PlotError, SIZE};
+use super::{axis, equal_scale, err, font, tick, PlotError, SIZE};
 use crate::report::summary::LinkSummary;
 
 /// Width of the key column at the right.
@@ -57,18 +57,9 @@ pub fn map(nodes: &[(u32, f64, f64)], links: &[LinkSummary], title: &str) -> Res
         e.0 += l.sent;
         e.1 += l.delivered;
     }
-    let (mut x0, mut x1) = axis(nodes.iter().map(|n| n.1), false);
-    let (mut y0, mut y1) = axis(nodes.iter().map(|n| n.2), false);
-    // Equal scale: widen the narrower range to the plotting area's aspect ratio.
-    let (w, h) = (SIZE.0 as f64 - 70.0 - 24.0, SIZE.1 as f64 - 40.0 - 24.0 - 30.0);
-    let (sx, sy) = ((x1 - x0) / w, (y1 - y0) / h);
-    if sx > sy {
-        let c = 0.5 * (y0 + y1);
-        (y0, y1) = (c - 0.5 * sx * h, c + 0.5 * sx * h);
-    } else {
-        let c = 0.5 * (x0 + x1);
-        (x0, x1) = (c - 0.5 * sy * w, c + 0.5 * sy * w);
-    }
+    let (x0, x1) = axis(nodes.iter().map(|n| n.1), false);
+    let (y0, y1) = axis(nodes.iter().map(|n| n.2), false);
+    let ((x0, x1), (y0, y1)) = equal_scale((x0, x1), (y0, y1), 70.0);
     let mut out = String::new();
     {
         let whole = SVGBackend::with_string(&mut out, (SIZE.0 + KEY, SIZE.1)).into_drawing_area();

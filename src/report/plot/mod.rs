@@ -93,6 +93,20 @@ fn axis(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     }
 }
 
+/// x and y ranges at equal scale on a chart of [`SIZE`] with a y label area `y_labels` px wide: the narrower range
+/// widened about its centre to the plotting area's aspect ratio (a plane drawn undistorted).
+fn equal_scale((x0, x1): (f64, f64), (y0, y1): (f64, f64), y_labels: f64) -> ((f64, f64), (f64, f64)) {
+    let (w, h) = (SIZE.0 as f64 - y_labels - 24.0, SIZE.1 as f64 - 40.0 - 24.0 - 30.0);
+    let (sx, sy) = ((x1 - x0) / w, (y1 - y0) / h);
+    if sx > sy {
+        let c = 0.5 * (y0 + y1);
+        ((x0, x1), (c - 0.5 * sx * h, c + 0.5 * sx * h))
+    } else {
+        let c = 0.5 * (x0 + x1);
+        ((c - 0.5 * sy * w, c + 0.5 * sy * w), (y0, y1))
+    }
+}
+
 /// A log axis over [lo, hi] with its ticks at 1, 2 and 5 times each power of ten (at the powers alone past four
 /// decades, at every k-th power past twelve) and its fine grid at 1–9 times them (at the powers past twelve): plotters' own log ticks repeat the power of ten that ends one
 /// decade and starts the next (a label drawn twice, a band of fine lines about it).

@@ -41,16 +41,7 @@ pub fn trajectory(
         let (mut x0, mut x1) = axis(scaled.iter().map(|p| p.0), false);
         let (mut y0, mut y1) = axis(scaled.iter().map(|p| p.1), false);
         if pose {
-            // Equal scale on both axes: widen the narrower range to the plotting area's aspect ratio.
-            let (w, h) = (SIZE.0 as f64 - 60.0 - 24.0, SIZE.1 as f64 - 40.0 - 24.0 - 30.0);
-            let (sx, sy) = ((x1 - x0) / w, (y1 - y0) / h);
-            if sx > sy {
-                let c = 0.5 * (y0 + y1);
-                (y0, y1) = (c - 0.5 * sx * h, c + 0.5 * sx * h);
-            } else {
-                let c = 0.5 * (x0 + x1);
-                (x0, x1) = (c - 0.5 * sy * w, c + 0.5 * sy * w);
-            }
+            ((x0, x1), (y0, y1)) = equal_scale((x0, x1), (y0, y1), 60.0);
         }
         let mut chart = ChartBuilder::on(&root)
             .caption(title, ("sans-serif", 22))
