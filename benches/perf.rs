@@ -638,7 +638,7 @@ fn realtime() {
 fn auth_ratios() {
     use simnet::wire::secure::{Key, Opener, Sealer};
     let d = Datagram {
-        header: Header::new(3, 17, 12345),
+        header: Header::new(3, 4, 17, simnet::time::Time::at_step(12345, 0.01)),
         payload: Payload::measurement(0b111111, vec![0.11, 0.09, 0.1, 0.1, 0.1, 0.12]),
     };
     let key = Key::from_bytes([7; 16]);
@@ -856,7 +856,7 @@ fn main() {
         t
     );
     let d = Datagram {
-        header: Header::new(3, 17, 12345),
+        header: Header::new(3, 9, 17, simnet::time::Time::at_step(12345, 0.01)),
         payload: Payload::measurement(0b111111, step.z.iter().copied().collect()),
     };
     let bytes = d.encode().unwrap();

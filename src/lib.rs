@@ -5,8 +5,8 @@
 //! # Layout
 //!
 //! The modules follow one step of data. The lowest layer is a crate of its own, `simnet-core` (`crates/core`):
-//! `geom`, `rng`, `stats`, `motion`, `world`, `sensor`, `estimate`, `imu_csv`, `checks`, `model`, `estimators`, `wire`,
-//! `link` and `attack`, re-exported here under the same names (marked "core" below). It depends on no tokio and no filesystem crate and, being below this one, cannot name anything above
+//! `geom`, `rng`, `stats`, `motion`, `world`, `sensor`, `estimate`, `imu_csv`, `checks`, `model`, `estimators`, `time`,
+//! `wire`, `link` and `attack`, re-exported here under the same names (marked "core" below). It depends on no tokio and no filesystem crate and, being below this one, cannot name anything above
 //! it: the compiler holds that layer. Above it, only `net` touches sockets and clocks; `report`, `campaign` and
 //! `cli` write files, `input` reads them (bounded, never trusted); `fresh` draws from the operating system. The rest
 //! is pure: randomness from seeded streams.
@@ -20,7 +20,8 @@
 //! | [`sensor`] (core) | accelerometer/gyro (noise, bias, Wiener drift), magnetometer, pose fixes, linear measurements |
 //! | [`estimate`] (core) | pure maths: Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKF and the multiplicative one, Madgwick and Mahony (VQF through `vqf-rs`), the rigid-pair EKF, the FEM boundary-value solver |
 //! | [`estimators`] (core) | the distributed schemes behind one [`estimators::Estimator`] trait — independent, centralized, KCF, ICF, HCMCI, diffusion, CI — pure, per node, one message per round; the node runs them over L consensus rounds |
-//! | [`wire`] (core) | the datagram format: postcard + CRC-32, checked decode |
+//! | [`time`] (core) | simulated time in whole nanoseconds: what every datagram's header stamps (the time it pertains to, the time it was sent) |
+//! | [`wire`] (core) | the datagram format: a header that says who sent what to whom, when, for which scheme; postcard + CRC-32, checked decode |
 //! | [`medium`] (core) | what carries the nodes' datagrams: the [`medium::Medium`] trait a driver hands every transmission to, and [`medium::PairwiseMedium`], the scenario's directed links (built by [`Scenario::pairwise_medium`], split by sender for the UDP drivers) |
 //! | [`link`] (core) | per-datagram rules (outage, Bernoulli / Gilbert–Elliott loss, duplication, delay and jitter, corruption), the egress queue, fault schedules |
 //! | [`attack`] (core) | the adversary model of `[[attack]]`: forge, tamper, replay, flood on the air in front of a node, false data from a compromised one; what became of each injected datagram |
@@ -64,8 +65,8 @@ pub mod scenario;
 pub mod sim;
 
 pub use simnet_core::{
-    attack, checks, estimate, estimators, geom, imu_csv, link, medium, model, motion, rng, sensor, stats, text, wire,
-    world,
+    attack, checks, estimate, estimators, geom, imu_csv, link, medium, model, motion, rng, sensor, stats, text, time,
+    wire, world,
 };
 
 pub use report::summary::Summary;

@@ -22,7 +22,6 @@ impl Node {
             )
         });
         let in_node = topo.estimators().any_in_node();
-        let out_degree = topo.out_links(index).count();
         // The IMU file that replaces the simulated IMU, read at this run's steps.
         let recorded = cfg
             .recording
@@ -69,7 +68,7 @@ impl Node {
                 .map(|l| l.from)
                 .filter(|&j| topo.nodes()[j].role.senses())
                 .collect(),
-            schemes: Schemes::new(Vec::new(), 1, 0),
+            schemes: Schemes::new(Vec::new(), 1),
             feed: None,
             star_sink: topo.estimators().sink == Some(index)
                 && topo.estimators().run.contains(&crate::estimators::Kind::CentralizedNet),
@@ -98,7 +97,7 @@ impl Node {
                         .map(|est| (k, est))
                 })
                 .collect();
-            node.schemes = Schemes::new(slots, e.rounds, out_degree);
+            node.schemes = Schemes::new(slots, e.rounds);
         }
         node
     }

@@ -4,7 +4,8 @@
 //! from; and sealed datagrams of a neighbour's earlier boot, refused unopened.
 
 use super::{Node, Transmit};
-use crate::wire::{Header, Payload};
+use crate::time::Time;
+use crate::wire::{Datagram, Header, Payload};
 
 impl Node {
     /// Hello datagrams for every neighbour (control traffic of the start handshake: not subject to the link layer).
@@ -37,9 +38,13 @@ impl Node {
             probe,
             answer,
         };
-        let id = self.id;
-        let d = self.wire.datagram(|seq| Header::hello(id, seq), payload);
-        let bytes = self.wire.encode(&d, self.topo.nodes()[to].id, echo).ok()?;
+        let sent = running.map_or(Time::ZERO, |k| Time::at_step(k, self.topo.sim().dt()));
+        let (id, to_id) = (self.id, self.topo.nodes()[to].id);
+        let d = Datagram {
+            header: Header::hello(id, to_id, 0, sent),
+            payload,
+        };
+        let bytes = self.wire.encode(&d, to_id, echo).ok()?;
         Some(Transmit { to, bytes })
     }
 

@@ -73,7 +73,8 @@ use crate::observe::{
 };
 use crate::scenario::{Role, Scenario};
 use crate::sensor::{ImuInterval, ImuSample, Sensor};
-use crate::wire::{Datagram, Header, Payload};
+use crate::time::Time;
+use crate::wire::{Datagram, Header, Payload, BROADCAST};
 use filters::Filters;
 use inbox::{Inbox, Received};
 use schemes::Schemes;
@@ -321,8 +322,9 @@ impl Node {
         } else {
             self.schemes.begin(
                 k,
+                Time::at_step(k, dt),
                 &schemes::input(&*self.model, &self.obs, own.as_ref()),
-                &mut self.wire,
+                &self.wire,
             )
         };
         self.send(k, t, own.as_ref(), &round0);
@@ -336,12 +338,12 @@ impl Node {
         if self.schemes.is_empty() || !self.up {
             return;
         }
+        let t = self.topo.round_end(k, r);
         let input = schemes::input(&*self.model, &self.obs, self.inbox.own());
-        let out = self.schemes.close_round(k, r, &input, &mut self.wire);
+        let out = self.schemes.close_round(k, r, Time::from_secs(t), &input, &self.wire);
         if out.is_empty() {
             return;
         }
-        let t = self.topo.round_end(k, r);
         for (li, group) in self.per_link(&out).into_iter().enumerate() {
             self.queue(li, t, group, Stream::Round(r + 1));
         }
@@ -389,15 +391,18 @@ impl Node {
             vec![have]
         };
         let rides = !round0.is_empty();
+        let at = Time::at_step(k, self.topo.sim().dt());
+        let datagrams: Vec<Datagram> = groups
+            .iter()
+            .map(|rows| Datagram {
+                header: Header::new(self.id, BROADCAST, 0, at),
+                payload: Payload::measurement(*rows, (0..m).filter(|r| rows & (1 << r) != 0).map(|r| z[r]).collect()),
+            })
+            .collect();
         for (li, round0) in self.per_link(round0).into_iter().enumerate() {
             let mut first = true;
-            for rows in &groups {
-                let values: Vec<f64> = (0..m).filter(|r| rows & (1 << r) != 0).map(|r| z[r]).collect();
-                let id = self.id;
-                let d = self
-                    .wire
-                    .datagram(|seq| Header::new(id, seq, k), Payload::measurement(*rows, values));
-                match self.seal_for(li, std::slice::from_ref(&d)).pop() {
+            for d in &datagrams {
+                match self.seal_for(li, std::slice::from_ref(d)).pop() {
                     Some(bytes) if first && rides => {
                         let mut group = vec![bytes];
                         group.extend_from_slice(&round0);

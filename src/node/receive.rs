@@ -46,16 +46,17 @@ impl Node {
             self.counters.malformed += 1;
             return None;
         };
-        if from.is_some_and(|f| f != src) || src == self.index {
-            // The header names a different node than the socket it came from.
+        if from.is_some_and(|f| f != src) || src == self.index || !dg.header.is_for(self.id) {
+            // The header names a different node than the socket it came from, or is addressed to another node.
             self.counters.malformed += 1;
             return None;
         }
+        let step = dg.header.pertains.step(self.topo.sim().dt());
         let peer_step = match &dg.payload {
             Payload::Hello { running, .. } => *running,
-            Payload::Measurement { .. } | Payload::Round { .. } => Some(dg.header.step),
+            Payload::Measurement { .. } | Payload::Round { .. } => Some(step),
         };
-        if [Some(dg.header.step), peer_step]
+        if [Some(step), peer_step]
             .into_iter()
             .flatten()
             .any(|s| !self.plausible_step(s))
@@ -75,18 +76,18 @@ impl Node {
         self.session.heard_from(src, peer_step);
         let arrival = Arrival {
             src,
-            step: dg.header.step,
+            step,
             measurement: matches!(dg.payload, Payload::Measurement { .. }),
             answer,
         };
-        if let Payload::Round { round, scheme, body } = &dg.payload {
+        if let Payload::Round { round, body } = &dg.payload {
             if !self.up {
                 return None;
             }
             let (states, rows) = (self.initial.x.len(), self.obs.dim());
             if self
                 .schemes
-                .receive(src, dg.header.step, *round, *scheme, body, states, rows)
+                .receive(src, step, *round, dg.header.scheme, body, states, rows)
                 .is_err()
             {
                 // A round this run does not hold, a scheme it does not run, or a message of the wrong size.
@@ -107,7 +108,7 @@ impl Node {
             self.counters.malformed += 1;
             return None;
         }
-        if self.inbox.receive(src, dg.header.step, rows, values) == Received::Held {
+        if self.inbox.receive(src, step, rows, values) == Received::Held {
             self.counters.early += 1;
         }
         Some(arrival)

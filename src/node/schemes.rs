@@ -11,7 +11,8 @@ use crate::estimators::{from_body, to_body, Estimator, Kind, Message, StepInput}
 use crate::model::{Measurement, Model};
 use crate::observe::{Filter, Update};
 use crate::scenario::Scenario;
-use crate::wire::{Body, Datagram, Header, Payload};
+use crate::time::Time;
+use crate::wire::{Body, Datagram, Header, Payload, BROADCAST};
 
 use super::wire::Wire;
 
@@ -40,18 +41,18 @@ pub(super) struct Schemes {
     rounds: usize,
     /// The open step and the round whose sub-deadline comes next.
     open: Option<(u64, usize)>,
+    /// The open step's time: what its rounds' messages pertain to.
+    open_at: Time,
     /// This step's messages by slot and round: (source, message), the first copy of each.
     arrived: Vec<Vec<Vec<(usize, Message)>>>,
     /// (step, round, slot, source, message) for a later round or step.
     held: Vec<(u64, usize, usize, usize, Message)>,
     /// Round messages that came after their round closed.
     pub late: u64,
-    /// Out-links: each message is sent on every one.
-    links: usize,
 }
 
 impl Schemes {
-    pub fn new(slots: Vec<(Kind, Box<dyn Estimator>)>, rounds: usize, links: usize) -> Schemes {
+    pub fn new(slots: Vec<(Kind, Box<dyn Estimator>)>, rounds: usize) -> Schemes {
         let n = slots.len();
         Schemes {
             slots: slots
@@ -66,10 +67,10 @@ impl Schemes {
                 .collect(),
             rounds,
             open: None,
+            open_at: Time::ZERO,
             arrived: vec![vec![Vec::new(); rounds]; n],
             held: Vec::new(),
             late: 0,
-            links,
         }
     }
 
@@ -100,10 +101,11 @@ impl Schemes {
         self.open = None;
     }
 
-    /// Open step `k` with the node's own measurement; the datagrams of round 0 (one per scheme that sends), sealed
-    /// per link by the node.
-    pub fn begin(&mut self, k: u64, input: &StepInput<'_>, wire: &mut Wire) -> Vec<Datagram> {
+    /// Open step `k` (at time `at`) with the node's own measurement; the datagrams of round 0 (one per scheme that
+    /// sends, sent at `at`), addressed and sealed per link by the node.
+    pub fn begin(&mut self, k: u64, at: Time, input: &StepInput<'_>, wire: &Wire) -> Vec<Datagram> {
         self.open = Some((k, 0));
+        self.open_at = at;
         for (i, s) in self.slots.iter_mut().enumerate() {
             s.prior = s.est.state().cloned();
             s.failed = false;
@@ -119,11 +121,11 @@ impl Schemes {
                 std::cmp::Ordering::Less => self.late += 1,
             }
         }
-        self.messages(k, 0, wire)
+        self.messages(0, at, wire)
     }
 
-    /// The datagrams of round `r` of step `k`.
-    fn messages(&mut self, k: u64, r: usize, wire: &mut Wire) -> Vec<Datagram> {
+    /// The datagrams of round `r` of the open step, sent at `sent`: one per scheme, for every receiver.
+    fn messages(&mut self, r: usize, sent: Time, wire: &Wire) -> Vec<Datagram> {
         let mut out = Vec::new();
         for s in &mut self.slots {
             if s.failed {
@@ -137,19 +139,12 @@ impl Schemes {
                     continue;
                 }
             };
-            let id = wire.id();
-            let payload = Payload::Round {
-                round: r as u8,
-                scheme: s.kind as u8,
-                body,
+            let d = Datagram {
+                header: Header::round(wire.id(), BROADCAST, 0, s.kind as u8, self.open_at, sent),
+                payload: Payload::Round { round: r as u8, body },
             };
-            let d = wire.datagram(|seq| Header::round(id, seq, k), payload);
-            match wire.wire_len(&d) {
-                Ok(len) => {
-                    s.traffic.messages += self.links as u64;
-                    s.traffic.bytes += (len * self.links) as u64;
-                    out.push(d)
-                }
+            match wire.fits(&d) {
+                Ok(()) => out.push(d),
                 Err(e) => tracing::error!(scheme = s.kind.name(), "cannot encode a round's message: {e}"),
             }
         }
@@ -185,9 +180,10 @@ impl Schemes {
         Ok(())
     }
 
-    /// Close round `r` of step `k` (its sub-deadline): every scheme combines what arrived; the datagrams of round
-    /// r + 1, if there is one. Nothing when `(k, r)` is not the round that comes next.
-    pub fn close_round(&mut self, k: u64, r: usize, input: &StepInput<'_>, wire: &mut Wire) -> Vec<Datagram> {
+    /// Close round `r` of step `k` (its sub-deadline, at time `at`): every scheme combines what arrived; the
+    /// datagrams of round r + 1, if there is one, sent at `at`. Nothing when `(k, r)` is not the round that comes
+    /// next.
+    pub fn close_round(&mut self, k: u64, r: usize, at: Time, input: &StepInput<'_>, wire: &Wire) -> Vec<Datagram> {
         if self.open != Some((k, r)) {
             return Vec::new();
         }
@@ -203,7 +199,7 @@ impl Schemes {
         }
         self.open = Some((k, r + 1));
         if r + 1 < self.rounds {
-            self.messages(k, r + 1, wire)
+            self.messages(r + 1, at, wire)
         } else {
             Vec::new()
         }
@@ -211,19 +207,15 @@ impl Schemes {
 
     /// The deadline of step `k`: the last round closes and every scheme finishes. Each scheme's (prior,
     /// posterior, failed), by slot; none when step `k` is not open.
-    pub fn finish(
-        &mut self,
-        k: u64,
-        input: &StepInput<'_>,
-        wire: &mut Wire,
-    ) -> Option<Vec<(Gaussian, Gaussian, bool)>> {
+    pub fn finish(&mut self, k: u64, input: &StepInput<'_>, wire: &Wire) -> Option<Vec<(Gaussian, Gaussian, bool)>> {
         let (open, _) = self.open?;
         if open != k {
             return None;
         }
         if let Some((_, r)) = self.open.filter(|(_, r)| *r < self.rounds) {
+            // What a round closed here would send goes nowhere: the step ends.
             for r in r..self.rounds {
-                self.close_round(k, r, input, wire);
+                self.close_round(k, r, self.open_at, input, wire);
             }
         }
         self.open = None;
@@ -257,6 +249,14 @@ impl Schemes {
         Some(out)
     }
 
+    /// A round's message of scheme `scheme` (its wire byte) went out on a link as `bytes` bytes.
+    pub fn count_sent(&mut self, scheme: u8, bytes: usize) {
+        if let Some(s) = self.slots.iter_mut().find(|s| s.kind as u8 == scheme) {
+            s.traffic.messages += 1;
+            s.traffic.bytes += bytes as u64;
+        }
+    }
+
     pub fn traffic(&self) -> Vec<(Kind, Traffic)> {
         self.slots.iter().map(|s| (s.kind, s.traffic)).collect()
     }
@@ -287,7 +287,7 @@ impl super::Node {
             return Vec::new();
         }
         let input = input(&*self.model, &self.obs, self.inbox.own());
-        let Some(posts) = self.schemes.finish(k, &input, &mut self.wire) else {
+        let Some(posts) = self.schemes.finish(k, &input, &self.wire) else {
             return Vec::new();
         };
         if !self.role.estimates() {

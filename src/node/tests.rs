@@ -132,22 +132,21 @@ fn forged_round_messages_are_counted_not_used() {
         sym: vec![1.0; (n as usize) * (n as usize + 1) / 2],
         vec: vec![0.0; n as usize],
     };
-    let dg = |src: u32, round: u8, scheme: Kind, body: Body| {
+    let to = |dst: u32, src: u32, round: u8, scheme: Kind, body: Body| {
         Datagram {
-            header: Header::round(src, 0, 0),
-            payload: Payload::Round {
-                round,
-                scheme: scheme as u8,
-                body,
-            },
+            header: Header::round(src, dst, 0, scheme as u8, Time::ZERO, Time::ZERO),
+            payload: Payload::Round { round, body },
         }
         .encode()
         .unwrap()
     };
+    let dg = |src: u32, round: u8, scheme: Kind, body: Body| to(0, src, round, scheme, body);
     let forged = [
         dg(1, 0, Kind::Kcf, info(9)),
         dg(1, 2, Kind::Icf, info(9)),
         dg(1, 0, Kind::Icf, info(3)),
+        // Addressed to node 2.
+        to(2, 1, 0, Kind::Icf, info(9)),
     ];
     for (i, bytes) in forged.iter().enumerate() {
         assert!(node.handle_datagram(Some(1), bytes).is_none(), "forgery {i} was taken");
@@ -155,9 +154,13 @@ fn forged_round_messages_are_counted_not_used() {
     }
     // From a socket that is not the header's source.
     assert!(node.handle_datagram(Some(2), &dg(1, 0, Kind::Icf, info(9))).is_none());
-    assert_eq!(node.counters.malformed, 4);
+    assert_eq!(node.counters.malformed, 5);
     assert!(node.handle_datagram(Some(1), &dg(1, 0, Kind::Icf, info(9))).is_some());
-    assert_eq!(node.counters.malformed, 4);
+    // A broadcast is for every node that hears it.
+    assert!(node
+        .handle_datagram(Some(1), &to(BROADCAST, 1, 0, Kind::Icf, info(9)))
+        .is_some());
+    assert_eq!(node.counters.malformed, 5);
 }
 
 /// A step is believed only inside the run and no further ahead of the node's own than two seconds of steps: a
@@ -171,7 +174,7 @@ fn implausible_steps_are_counted_not_used() {
     let mut node = Node::new(topo, 0, false);
     let measurement = |step: u64| {
         Datagram {
-            header: Header::new(1, 0, step),
+            header: Header::new(1, 0, 0, Time::at_step(step, 1.0 / rate)),
             payload: Payload::measurement(0b111, vec![0.0; 3]),
         }
         .encode()
@@ -179,7 +182,7 @@ fn implausible_steps_are_counted_not_used() {
     };
     let hello = |running: u64| {
         Datagram {
-            header: Header::hello(1, 0),
+            header: Header::hello(1, 0, 0, Time::ZERO),
             payload: Payload::Hello {
                 running: Some(running),
                 run: 1,

@@ -1,12 +1,12 @@
-//! A node's two ends of the wire: what it sends (numbered; sealed for each receiver under its link's key when the run
-//! is authenticated) and what it accepts (checked, and authenticated against each source's replay window), with the
-//! rejections counted by cause.
+//! A node's two ends of the wire: what it sends (addressed to each receiver and numbered on its link; sealed for it
+//! under the link's key when the run is authenticated) and what it accepts (checked, and authenticated against each
+//! source's replay window), with the rejections counted by cause.
 
 use bytes::Bytes;
 use serde::{Deserialize, Serialize};
 
 use crate::wire::secure::{Key, Opener, Rejected, Sealer, OVERHEAD};
-use crate::wire::{Datagram, Header, Payload, WireError};
+use crate::wire::{Datagram, Header, WireError, BROADCAST};
 
 /// Datagrams refused by authentication, by cause (zero in an unauthenticated run).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -47,8 +47,8 @@ pub(super) enum Refused {
 /// The node's sending and receiving ends.
 pub(super) struct Wire {
     id: u32,
-    /// Per-sender sequence number of the header (duplicates share it).
-    seq: u32,
+    /// By receiver id, the sequence number the next datagram to it takes (duplicates share one).
+    seqs: Vec<(u32, u32)>,
     key: Option<Key>,
     /// This boot's epoch: each restart takes the next.
     epoch: u64,
@@ -62,7 +62,7 @@ impl Wire {
     pub fn new(id: u32, key: Option<&Key>, epoch: u64) -> Wire {
         Wire {
             id,
-            seq: 0,
+            seqs: Vec::new(),
             key: key.cloned(),
             epoch,
             sealer: key.map(|k| Sealer::new(k, id, epoch)),
@@ -94,42 +94,55 @@ impl Wire {
         self.id
     }
 
-    /// Whether what this node sends is sealed (then per receiver).
-    pub fn seals(&self) -> bool {
-        self.sealer.is_some()
-    }
-
     /// The epoch this boot seals under; none unauthenticated.
     pub fn sealing_epoch(&self) -> Option<u64> {
         self.sealer.as_ref().map(Sealer::epoch)
     }
 
-    /// `payload` with the header `header` makes of the next sequence number.
-    pub fn datagram(&mut self, header: impl FnOnce(u32) -> Header, payload: Payload) -> Datagram {
-        let d = Datagram {
-            header: header(self.seq),
-            payload,
+    /// The sequence number of the next datagram to node `to` (then counted taken).
+    fn next_seq(&mut self, to: u32) -> u32 {
+        let i = match self.seqs.iter().position(|(id, _)| *id == to) {
+            Some(i) => i,
+            None => {
+                self.seqs.push((to, 0));
+                self.seqs.len() - 1
+            }
         };
-        self.seq = self.seq.wrapping_add(1);
-        d
+        let seq = self.seqs[i].1;
+        self.seqs[i].1 = seq.wrapping_add(1);
+        seq
     }
 
-    /// `d` as bytes on the wire for node `to`, whose boot this node knows as `to_boot`: sealed for that node and
+    /// `d` (its header's destination and sequence number left to this end) as bytes on the wire for node `to`,
+    /// whose boot this node knows as `to_boot`: addressed to it, numbered on its link, and sealed for that node and
     /// boot when the run is authenticated.
     pub fn encode(&mut self, d: &Datagram, to: u32, to_boot: u64) -> Result<Bytes, WireError> {
+        let header = Header {
+            dst: to,
+            seq: self.next_seq(to),
+            ..d.header
+        };
         match &mut self.sealer {
-            Some(s) => s.seal(d, to, to_boot),
-            None => d.encode(),
+            Some(s) => s.seal_parts(&header, &d.payload, to, to_boot),
+            None => Datagram::encode_parts(&header, &d.payload),
         }
     }
 
-    /// How many bytes `d` takes on the wire (on any link).
-    pub fn wire_len(&self, d: &Datagram) -> Result<usize, WireError> {
-        let len = d.encode()?.len() + if self.sealer.is_some() { OVERHEAD } else { 0 };
+    /// Whether `d` fits a datagram on every link, whatever its receiver and sequence number.
+    pub fn fits(&self, d: &Datagram) -> Result<(), WireError> {
+        let longest = Datagram {
+            header: Header {
+                dst: BROADCAST,
+                seq: u32::MAX,
+                ..d.header
+            },
+            payload: d.payload.clone(),
+        };
+        let len = longest.encode()?.len() + if self.sealer.is_some() { OVERHEAD } else { 0 };
         if len > crate::wire::MAX_DATAGRAM {
             return Err(WireError::TooLong(len));
         }
-        Ok(len)
+        Ok(())
     }
 
     /// Checked (and, when authenticated, opened) bytes from a source `known(src)` accepts, with the epoch the
@@ -158,19 +171,11 @@ impl Wire {
     }
 }
 
-/// Sending: one out-link's bytes, sealed for its receiver when the run is authenticated.
+/// Sending: one out-link's bytes, addressed to its receiver (and sealed for it when the run is authenticated).
 impl super::Node {
-    /// `ds` as bytes for every out-link: sealed for each receiver when the run is authenticated, else encoded once
-    /// and shared.
+    /// `ds` as bytes for every out-link.
     pub(super) fn per_link(&mut self, ds: &[Datagram]) -> Vec<Vec<bytes::Bytes>> {
-        let links = self.outs.len();
-        if self.wire.seals() {
-            (0..links).map(|li| self.seal_for(li, ds)).collect()
-        } else if links == 0 {
-            Vec::new()
-        } else {
-            vec![self.seal_for(0, ds); links]
-        }
+        (0..self.outs.len()).map(|li| self.seal_for(li, ds)).collect()
     }
 
     /// The boot node `j` is bound to in what this node seals for it: its boot as its hellos give it (one node per
@@ -184,17 +189,23 @@ impl super::Node {
         }
     }
 
-    /// `ds` as bytes for the receiver of out-link `li`: sealed for it when the run is authenticated.
+    /// `ds` as bytes for the receiver of out-link `li`: addressed to it, numbered on the link, sealed for it when
+    /// the run is authenticated. A round's message counts towards its scheme's traffic.
     pub(super) fn seal_for(&mut self, li: usize, ds: &[Datagram]) -> Vec<bytes::Bytes> {
         let j = self.outs[li];
         let (to, boot) = (self.topo.nodes()[j].id, self.boot_of(j));
-        ds.iter()
-            .filter_map(|d| {
-                self.wire
-                    .encode(d, to, boot)
-                    .inspect_err(|e| tracing::error!(node = self.id, "cannot encode a datagram: {e}"))
-                    .ok()
-            })
-            .collect()
+        let mut out = Vec::with_capacity(ds.len());
+        for d in ds {
+            match self.wire.encode(d, to, boot) {
+                Ok(b) => {
+                    if d.header.kind == crate::wire::KIND_ROUND {
+                        self.schemes.count_sent(d.header.scheme, b.len());
+                    }
+                    out.push(b);
+                }
+                Err(e) => tracing::error!(node = self.id, "cannot encode a datagram: {e}"),
+            }
+        }
+        out
     }
 }

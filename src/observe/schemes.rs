@@ -332,7 +332,12 @@ impl Star {
             .fold(0u64, |acc, r| acc | 1 << r);
         let values = (0..m.z.len()).filter(|&r| m.present[r]).map(|r| m.z[r]).collect();
         let dg = Datagram {
-            header: Header::new(self.ids[f.node], f.step as u32, f.step),
+            header: Header::new(
+                self.ids[f.node],
+                self.ids[self.sink],
+                f.step as u32,
+                crate::time::Time::at_step(f.step, dt),
+            ),
             payload: Payload::measurement(rows, values),
         };
         let bytes = dg.encode().unwrap_or_default();

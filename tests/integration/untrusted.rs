@@ -5,6 +5,11 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+/// Step `k`'s time at the built-ins' 100 Hz.
+fn at(k: u64) -> simnet::time::Time {
+    simnet::time::Time::at_step(k, 0.01)
+}
+
 fn simnet() -> Command {
     Command::new(env!("CARGO_BIN_EXE_simnet"))
 }
@@ -373,6 +378,7 @@ fn insecure_node_0(d: &std::path::Path) -> (std::process::Command, std::net::Udp
 /// The same node's datagrams from another address are counted as from an unknown address.
 #[test]
 fn a_step_jump_or_a_huge_handshake_cannot_end_a_multi_host_run() {
+    use simnet::time::Time;
     use simnet::wire::{Datagram, Header, Payload};
     let d = tmp("step-jump");
     let (mut node, fake, p0) = insecure_node_0(&d);
@@ -383,10 +389,16 @@ fn a_step_jump_or_a_huge_handshake_cannot_end_a_multi_host_run() {
     let mut sent = 0;
     for i in 0..20u32 {
         for (header, payload) in [
-            (Header::new(1, i, steps - 1), Payload::measurement(0b111, vec![0.0; 3])),
-            (Header::new(1, i, 2990), Payload::measurement(0b111, vec![0.0; 3])),
             (
-                Header::hello(1, i),
+                Header::new(1, 0, i, at(steps - 1)),
+                Payload::measurement(0b111, vec![0.0; 3]),
+            ),
+            (
+                Header::new(1, 0, i, at(2990)),
+                Payload::measurement(0b111, vec![0.0; 3]),
+            ),
+            (
+                Header::hello(1, 0, i, Time::ZERO),
                 Payload::Hello {
                     run: 0,
                     running: Some(u64::MAX - 1),
@@ -406,7 +418,7 @@ fn a_step_jump_or_a_huge_handshake_cannot_end_a_multi_host_run() {
     let stranger = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     for i in 0..10u32 {
         let bytes = Datagram {
-            header: Header::new(1, 100 + i, 1),
+            header: Header::new(1, 0, 100 + i, at(1)),
             payload: Payload::measurement(0b111, vec![0.0; 3]),
         }
         .encode()
@@ -433,6 +445,7 @@ fn a_step_jump_or_a_huge_handshake_cannot_end_a_multi_host_run() {
 /// the rest of its length in real time — a lower bound that load only lengthens.
 #[test]
 fn a_walk_of_plausible_steps_cannot_end_a_run_early() {
+    use simnet::time::Time;
     use simnet::wire::{Datagram, Header, Payload};
     let d = tmp("step-walk");
     let (mut node, fake, p0) = insecure_node_0(&d);
@@ -445,11 +458,11 @@ fn a_walk_of_plausible_steps_cannot_end_a_run_early() {
     while child.try_wait().unwrap().is_none() && spoofed < 60 {
         let Ok((n, _)) = fake.recv_from(&mut buf) else { continue };
         let Ok(dg) = Datagram::decode(&buf[..n]) else { continue };
-        let step = dg.header.step;
+        let step = dg.header.pertains.step(0.01);
         // Without a key the attacker answers node 0's hello as node 1 would (echoing its boot): then its steps count.
         if let Payload::Hello { boot, .. } = dg.payload {
             let hello = Datagram {
-                header: Header::hello(1, 900),
+                header: Header::hello(1, 0, 900, Time::ZERO),
                 payload: Payload::Hello {
                     running: None,
                     run: u64::MAX,
@@ -466,7 +479,7 @@ fn a_walk_of_plausible_steps_cannot_end_a_run_early() {
             last = step;
             let claim = (step + 190).min(499);
             let bytes = Datagram {
-                header: Header::new(1, 1000 + spoofed, claim),
+                header: Header::new(1, 0, 1000 + spoofed, at(claim)),
                 payload: Payload::measurement(0b111, vec![0.0; 3]),
             }
             .encode()

@@ -11,6 +11,7 @@ use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+use simnet::time::Time;
 use simnet::wire::secure::{claimed, Key, Opener, Sealer};
 use simnet::wire::{peek_header, Datagram, Header, Payload, KIND_MEASUREMENT};
 
@@ -110,7 +111,7 @@ impl Insider {
         let (e0, b1) = (self.epoch0?, self.boot1?);
         let mut s = Sealer::new(&self.key, 0, e0 + 1);
         let hello = Datagram {
-            header: Header::hello(0, 1 << 30),
+            header: Header::hello(0, 1, 1 << 30, Time::ZERO),
             payload: Payload::Hello {
                 running: None,
                 run: u64::MAX,
@@ -237,7 +238,7 @@ fn run(dir: &Path, key: &Path, mode: Mode, attack: Attack, earlier: &[Vec<u8>]) 
             }
             let header = peek_header(&b).ok();
             let measurement = header.is_some_and(|h| h.kind == KIND_MEASUREMENT);
-            let step = header.map_or(0, |h| h.step);
+            let step = header.map_or(0, |h| h.pertains.step(DURATION_S / STEPS as f64));
             if let (None, Ok((_, e, _))) = (&outsider, claimed(&b)) {
                 outsider = Some(Sealer::new(&wrong, 0, e));
             }
@@ -247,7 +248,7 @@ fn run(dir: &Path, key: &Path, mode: Mode, attack: Attack, earlier: &[Vec<u8>]) 
                 Mode::Outsider => outsider.as_mut()?.seal(&d, 1, 0).ok().map(|b| b.to_vec()),
             };
             let fake = |step: u64| Datagram {
-                header: Header::new(0, 1 << 30, step),
+                header: Header::new(0, 1, 1 << 30, Time::at_step(step, DURATION_S / STEPS as f64)),
                 payload: Payload::measurement(0b111, vec![20.0, 0.0, 0.0]),
             };
             let mut forward = true;

@@ -18,6 +18,7 @@
 //! | [`sensor`] | accelerometer/gyro (noise, bias, Wiener drift), magnetometer, pose fixes, linear measurements |
 //! | [`estimate`] | Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKFs, Madgwick and Mahony, the rigid-pair EKF, the FEM boundary-value solver |
 //! | [`text`] | untrusted text as a message shows it (clipped) |
+//! | [`time`] | simulated time: whole nanoseconds since the run began, a step's time and back |
 //! | [`imu_csv`] | recorded IMU files from their text: simnet's columns, and makers' layouts through `imu_csv::layout` |
 //! | [`checks`] | the validator's shared checks: each problem keyed, a usable default returned |
 //! | [`model`] | the estimation models: [`model::Model`] = [`model::Dynamics`] + [`model::Sensing`] + [`model::Manifold`] + [`model::World`] + [`model::Report`] — pose, attitude (quaternion EKF), linear |
@@ -45,5 +46,6 @@ pub mod rng;
 pub mod sensor;
 pub mod stats;
 pub mod text;
+pub mod time;
 pub mod wire;
 pub mod world;

@@ -322,8 +322,12 @@ impl Air {
                             (rows, moved(a, rows, &vec![0.0; m], t))
                         }
                     };
+                    // Addressed and timed as the datagram it overheard, numbered by the forger.
                     let d = Datagram {
-                        header: Header::new(*claim_id, self.seq, header.step),
+                        header: Header {
+                            sent: header.sent,
+                            ..Header::new(*claim_id, header.dst, self.seq, header.pertains)
+                        },
                         payload: Payload::measurement(rows, values),
                     };
                     self.seq = self.seq.wrapping_add(1);

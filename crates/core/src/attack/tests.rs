@@ -20,10 +20,15 @@ fn air(a: Attack) -> Air {
     Air::new(&[a], 0, |j| 10 + j as u32, 7)
 }
 
-/// Node 1 (id 11)'s measurement of step `step`, unsealed.
+/// Step `k`'s time at 100 Hz.
+fn at(k: u64) -> crate::time::Time {
+    crate::time::Time::at_step(k, 0.01)
+}
+
+/// Node 1 (id 11)'s measurement of step `step` for node 0 (id 10), unsealed.
 fn genuine(step: u64) -> Bytes {
     Datagram {
-        header: Header::new(11, 3, step),
+        header: Header::new(11, 10, 3, at(step)),
         payload: Payload::measurement(0b111, vec![1.0, 2.0, 3.0]),
     }
     .encode()
@@ -39,7 +44,7 @@ fn a_forger_claims_the_source_with_its_values_moved_inside_its_window_only() {
     assert_eq!(out.len(), 1);
     assert_eq!((out[0].attack, out[0].from), (0, Some(1)));
     let d = Datagram::decode(&out[0].bytes).unwrap();
-    assert_eq!((d.header.src, d.header.step), (11, 150));
+    assert_eq!((d.header.src, d.header.dst, d.header.pertains), (11, 10, at(150)));
     assert_eq!(d.payload, Payload::measurement(0b111, vec![6.0, 2.0, 2.0]));
     assert!(
         air.on_arrival(2.0, Some(1), &genuine(200)).is_empty(),
@@ -51,7 +56,7 @@ fn a_forger_claims_the_source_with_its_values_moved_inside_its_window_only() {
 fn a_tampered_sealed_datagram_keeps_its_checksum_and_fails_its_tag() {
     let key = Key::from_bytes([9; 16]);
     let d = Datagram {
-        header: Header::new(11, 0, 150),
+        header: Header::new(11, 12, 0, at(150)),
         payload: Payload::measurement(0b111, vec![1.0, 2.0, 3.0]),
     };
     let sealed = Sealer::new(&key, 11, 1).seal(&d, 12, 3).unwrap();
@@ -66,7 +71,7 @@ fn a_tampered_sealed_datagram_keeps_its_checksum_and_fails_its_tag() {
     // Unsealed, the values are moved and the datagram is well-formed.
     let out = air(attack(AttackKind::Tamper)).on_arrival(1.5, Some(1), &genuine(150));
     let t = Datagram::decode(&out[0].bytes).unwrap();
-    assert_eq!(t.header, Header::new(11, 3, 150));
+    assert_eq!(t.header, Header::new(11, 10, 3, at(150)));
     assert_eq!(t.payload, Payload::measurement(0b111, vec![6.0, 2.0, 2.0]));
 }
 

@@ -1,11 +1,17 @@
 //! Datagram format: a postcard-encoded header and payload followed by a CRC-32 of everything before it.
 //!
 //! ```text
-//! | header: magic u16 | version u8 | kind u8 | flags u8 | src u32 | seq u32 | step u64 |   (postcard varints)
+//! | header: magic u16 | version u8 | kind u8 | flags u8 | scheme u8 | src u32 | dst u32 | seq u32 |
+//! |         pertains u64 ns | sent u64 ns |                                     (postcard varints)
 //! | payload: rows u64 (bit i = row i present) | values: [f64] (one per present row)     |
-//! |       or round u8 | scheme u8 | body: a measurement, information pair(s) or estimate |
+//! |       or round u8 | body: a measurement, information pair(s) or estimate           |
 //! | crc32 (4 bytes, little endian) of all bytes above                                   |
 //! ```
+//! The header says who sent a datagram to whom ([`BROADCAST`]: every node that hears it), its place in the
+//! sender's sequence to that receiver (a gap is a datagram lost, not one never sent), the simulated time its
+//! content pertains to (a measurement's sampling time; a round's step) and the time it was sent
+//! ([`crate::time::Time`], nanoseconds since the run began), and, for a round's message, which scheme it belongs
+//! to (its index in `simnet estimators`), so that the receiver hands the body to that scheme.
 //! A [`Payload::Round`] carries one distributed estimator's message of one consensus round; matrices travel as
 //! their upper triangle, row by row (they are symmetric), so that a 9-state hybrid message fits one datagram.
 //! At most [`MAX_DATAGRAM`] bytes. `flags` bit 0 marks a sealed datagram ([`secure`]: AES-128-CCM, the header as
@@ -13,14 +19,19 @@
 //! Decoding untrusted bytes never panics: every failure is a [`WireError`].
 //!
 //! ```
+//! use simnet_core::time::Time;
 //! use simnet_core::wire::{Datagram, Header, Payload};
-//! let d = Datagram { header: Header::new(3, 7, 42), payload: Payload::measurement(0b11, vec![1.0, 2.0]) };
+//! let at = Time::from_secs(0.42);
+//! let d = Datagram { header: Header::new(3, 5, 7, at), payload: Payload::measurement(0b11, vec![1.0, 2.0]) };
 //! let bytes = d.encode().unwrap();
 //! assert_eq!(Datagram::decode(&bytes).unwrap(), d);
+//! assert_eq!((d.header.dst, d.header.pertains, d.header.sent), (5, at, at));
 //! ```
 
 use bytes::Bytes;
 use serde::{Deserialize, Serialize};
+
+use crate::time::Time;
 
 mod frame;
 pub mod secure;
@@ -29,7 +40,7 @@ pub use frame::{Frame, FrameView, FrameWriter, Nack, MAX_FRAME};
 /// The first two bytes of every datagram: "SN".
 pub const MAGIC: u16 = 0x534E; // "SN"
 /// The datagram format's version; a datagram of another version is refused.
-pub const VERSION: u8 = 3;
+pub const VERSION: u8 = 4;
 /// Fits any MTU.
 pub const MAX_DATAGRAM: usize = 1200;
 /// Rows of one measurement (the `rows` bitmask is 64 bits wide).
@@ -80,42 +91,62 @@ pub struct Header {
     pub kind: u8,
     /// Bit 0: sealed ([`secure::SEALED`]); every other bit must be 0.
     pub flags: u8,
+    /// A round's message: its scheme's index in `simnet estimators`; 0 for a measurement or a hello.
+    pub scheme: u8,
     /// Sending node (its id in the topology).
     pub src: u32,
-    /// Per-sender sequence number; duplicates share it.
+    /// Receiving node (its id in the topology), or [`BROADCAST`].
+    pub dst: u32,
+    /// The sender's sequence number towards `dst` (a broadcast has a sequence of its own); duplicates share it.
     pub seq: u32,
-    /// The step whose measurement this is.
-    pub step: u64,
+    /// The simulated time the content pertains to: a measurement's sampling time, a round's step.
+    pub pertains: Time,
+    /// The simulated time the sender sent it.
+    pub sent: Time,
 }
 
+/// `Header::dst` of a datagram for every node that hears it.
+pub const BROADCAST: u32 = u32::MAX;
+
 impl Header {
-    /// A measurement's header.
-    pub fn new(src: u32, seq: u32, step: u64) -> Header {
+    /// A measurement's header: from `src` to `dst`, number `seq` on that link, sampled and sent at `at`.
+    pub fn new(src: u32, dst: u32, seq: u32, at: Time) -> Header {
         Header {
             magic: MAGIC,
             version: VERSION,
             kind: KIND_MEASUREMENT,
             flags: 0,
+            scheme: 0,
             src,
+            dst,
             seq,
-            step,
+            pertains: at,
+            sent: at,
         }
     }
 
-    /// A consensus round's message of step `step`.
-    pub fn round(src: u32, seq: u32, step: u64) -> Header {
+    /// The header of scheme `scheme`'s message of a round of the step at `step`, sent at `sent`.
+    pub fn round(src: u32, dst: u32, seq: u32, scheme: u8, step: Time, sent: Time) -> Header {
         Header {
             kind: KIND_ROUND,
-            ..Header::new(src, seq, step)
+            scheme,
+            sent,
+            ..Header::new(src, dst, seq, step)
         }
     }
 
-    /// A handshake hello's header (step 0).
-    pub fn hello(src: u32, seq: u32) -> Header {
+    /// A handshake hello's header (it pertains to no step: time 0), sent at `sent`.
+    pub fn hello(src: u32, dst: u32, seq: u32, sent: Time) -> Header {
         Header {
             kind: KIND_HELLO,
-            ..Header::new(src, seq, 0)
+            sent,
+            ..Header::new(src, dst, seq, Time::ZERO)
         }
+    }
+
+    /// Whether node `id` is a receiver this datagram is meant for.
+    pub fn is_for(&self, id: u32) -> bool {
+        self.dst == id || self.dst == BROADCAST
     }
 }
 
@@ -138,13 +169,14 @@ pub enum Payload {
         /// The present rows' values, in row order.
         values: Vec<f64>,
     },
-    /// Start handshake of separate processes: "I am here", the step I am running, if any (`header.step` is 0), the
-    /// run I take part in (the smallest boot epoch heard: every node of one run ends on the same one), `boot`: this
-    /// process's boot epoch, and `echo`: the boot epoch of the node the hello is sent to, as last heard from it (0:
-    /// none yet). A hello that echoes a node's own boot was sealed after that boot began: nothing recorded in an
-    /// earlier run carries it, so only such a hello may start or join a run. `probe`: a random challenge sent to an
-    /// address the receiver's datagrams newly came from (0: none); `answer`: the last probe heard from the node the
-    /// hello is sent to. A neighbour's address moves only to where a hello answering the probe sent there came from.
+    /// Start handshake of separate processes: "I am here", the step I am running, if any (the header pertains to
+    /// time 0), the run I take part in (the smallest boot epoch heard: every node of one run ends on the same one),
+    /// `boot`: this process's boot epoch, and `echo`: the boot epoch of the node the hello is sent to, as last heard
+    /// from it (0: none yet). A hello that echoes a node's own boot was sealed after that boot began: nothing
+    /// recorded in an earlier run carries it, so only such a hello may start or join a run. `probe`: a random
+    /// challenge sent to an address the receiver's datagrams newly came from (0: none); `answer`: the last probe
+    /// heard from the node the hello is sent to. A neighbour's address moves only to where a hello answering the
+    /// probe sent there came from.
     Hello {
         /// The step the sender is running, if it has started.
         running: Option<u64>,
@@ -159,13 +191,11 @@ pub enum Payload {
         /// The last probe heard from the receiver.
         answer: u64,
     },
-    /// One estimator's message of consensus round `round` of `header.step`; `scheme` is its index in
-    /// `simnet estimators`.
+    /// One estimator's message of consensus round `round` of the step `header.pertains`; `header.scheme` says
+    /// which estimator's.
     Round {
         /// The consensus round, 0-based.
         round: u8,
-        /// The scheme's index in `simnet estimators`.
-        scheme: u8,
         /// The scheme's message.
         body: Body,
     },
@@ -280,9 +310,15 @@ pub struct Datagram {
 impl Datagram {
     /// The bytes on the wire, checksum included; an invalid payload or one over [`MAX_DATAGRAM`] is an error.
     pub fn encode(&self) -> Result<Bytes, WireError> {
-        self.validate()?;
-        let mut buf =
-            postcard::to_allocvec(&(&self.header, &self.payload)).map_err(|e| WireError::Malformed(e.to_string()))?;
+        Datagram::encode_parts(&self.header, &self.payload)
+    }
+
+    /// [`Datagram::encode`] of `payload` under `header`, with no datagram made to hold them: one payload goes out
+    /// under each receiver's header.
+    pub fn encode_parts(header: &Header, payload: &Payload) -> Result<Bytes, WireError> {
+        header.validate(0)?;
+        validate_payload(header, payload)?;
+        let mut buf = postcard::to_allocvec(&(header, payload)).map_err(|e| WireError::Malformed(e.to_string()))?;
         let crc = crc32fast::hash(&buf);
         buf.extend_from_slice(&crc.to_le_bytes());
         if buf.len() > MAX_DATAGRAM {
@@ -306,21 +342,27 @@ impl Datagram {
 
     fn validate(&self) -> Result<(), WireError> {
         self.header.validate(0)?;
-        self.validate_payload()
+        validate_payload(&self.header, &self.payload)
     }
+}
 
-    /// The payload is of the header's kind and within its limits.
-    fn validate_payload(&self) -> Result<(), WireError> {
-        if self.header.kind != self.payload.kind() {
-            return Err(WireError::Invalid("kind does not match the payload"));
-        }
-        match &self.payload {
-            Payload::Hello { .. } => {}
-            Payload::Measurement { rows, values } => check_measurement(*rows, values)?,
-            Payload::Round { body, .. } => body.validate()?,
-        }
-        Ok(())
+/// The payload is of the header's kind and within its limits, and the header's scheme and times fit it.
+fn validate_payload(header: &Header, payload: &Payload) -> Result<(), WireError> {
+    if header.kind != payload.kind() {
+        return Err(WireError::Invalid("kind does not match the payload"));
     }
+    if header.kind != KIND_ROUND && header.scheme != 0 {
+        return Err(WireError::Invalid("a scheme named outside a round's message"));
+    }
+    if header.sent < header.pertains && header.kind != KIND_HELLO {
+        return Err(WireError::Invalid("sent before the time it pertains to"));
+    }
+    match payload {
+        Payload::Hello { .. } => {}
+        Payload::Measurement { rows, values } => check_measurement(*rows, values)?,
+        Payload::Round { body, .. } => body.validate()?,
+    }
+    Ok(())
 }
 
 impl Header {

@@ -174,13 +174,27 @@ impl Sealer {
     /// `d` sealed for node `dst`, bound to `dst`'s boot `dst_boot` as this node knows it: its header must name
     /// this sender.
     pub fn seal(&mut self, d: &Datagram, dst: u32, dst_boot: u64) -> Result<Bytes, WireError> {
-        if d.header.src != self.src {
+        self.seal_parts(&d.header, &d.payload, dst, dst_boot)
+    }
+
+    /// [`Sealer::seal`] of `payload` under `header`, with no datagram made to hold them.
+    pub fn seal_parts(
+        &mut self,
+        header: &Header,
+        payload: &Payload,
+        dst: u32,
+        dst_boot: u64,
+    ) -> Result<Bytes, WireError> {
+        if header.src != self.src {
             return Err(WireError::Invalid("a sealer seals its own node's datagrams"));
         }
-        d.validate_payload()?;
+        if !header.is_for(dst) {
+            return Err(WireError::Invalid("sealed for a node the header does not address"));
+        }
+        super::validate_payload(header, payload)?;
         let header = Header {
             flags: SEALED,
-            ..d.header
+            ..*header
         };
         let (src, epoch) = (self.src, self.epoch);
         let key = &self.key;
@@ -189,7 +203,7 @@ impl Sealer {
         buf.extend_from_slice(&epoch.to_le_bytes());
         buf.extend_from_slice(&counter.to_le_bytes());
         let aad = associated(&buf, header.kind, dst_boot);
-        let mut body = postcard::to_allocvec(&d.payload).map_err(|e| WireError::Malformed(e.to_string()))?;
+        let mut body = postcard::to_allocvec(payload).map_err(|e| WireError::Malformed(e.to_string()))?;
         let tag = cipher
             .encrypt_in_place_detached(&nonce(src, *counter).into(), &aad, &mut body)
             .map_err(|_| WireError::Invalid("payload too long to seal"))?;
@@ -366,7 +380,7 @@ impl Opener {
             header: Header { flags: 0, ..header },
             payload,
         };
-        d.validate_payload().map_err(Rejected::Malformed)?;
+        super::validate_payload(&d.header, &d.payload).map_err(Rejected::Malformed)?;
         // Authentic and new: remember it.
         if self.boots.get(&header.src).is_none_or(|(ep, _)| *ep != epoch) {
             self.boots
@@ -414,7 +428,7 @@ mod tests {
 
     fn sample(src: u32, step: u64) -> Datagram {
         Datagram {
-            header: Header::new(src, 9, step),
+            header: Header::new(src, 9, step as u32, crate::time::Time::at_step(step, 0.01)),
             payload: Payload::measurement(0b101, vec![1.5, -2.0]),
         }
     }
@@ -460,7 +474,13 @@ mod tests {
         let mut s = Sealer::new(&key(), 3, 11);
         let d = sample(3, 40);
         let to9 = s.seal(&d, 9, 500).unwrap();
-        let to4 = s.seal(&d, 4, 500).unwrap();
+        let mut d4 = d.clone();
+        d4.header.dst = 4;
+        assert!(
+            s.seal(&d4, 9, 500).is_err(),
+            "sealed for a node its header does not address"
+        );
+        let to4 = s.seal(&d4, 4, 500).unwrap();
         assert_eq!(claimed_nonce(&to9).unwrap(), (3, 11, 0));
         assert_eq!(claimed_nonce(&to4).unwrap(), (3, 11, 0), "each link counts from 0");
         assert_ne!(to9, to4, "under different keys");
@@ -474,7 +494,7 @@ mod tests {
         assert_eq!(opener().open(&old, |_| true), Err(Rejected::BadTag));
         // A hello is bound to no boot: it opens whatever boot its sender believed.
         let hello = Datagram {
-            header: Header::hello(3, 1),
+            header: Header::hello(3, 9, 1, crate::time::Time::ZERO),
             payload: Payload::Hello {
                 running: None,
                 run: 11,

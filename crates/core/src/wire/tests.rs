@@ -1,11 +1,19 @@
-/// A consensus round's message carrying a 2-state information pair (node 2, step 9).
+use core::time::Duration;
+
+use crate::time::Time;
+
+/// Step `k`'s time at 100 Hz.
+fn at(k: u64) -> Time {
+    Time::at_step(k, 0.01)
+}
+
+/// A consensus round's message carrying a 2-state information pair (node 2 to node 9, step 9).
 pub(crate) fn information_round() -> super::Datagram {
     use super::*;
     Datagram {
-        header: Header::round(2, 5, 9),
+        header: Header::round(2, 9, 0, 4, at(9), at(9) + Duration::from_millis(3)),
         payload: Payload::Round {
             round: 1,
-            scheme: 4,
             body: Body::Information {
                 n: 2,
                 sym: vec![1.0, 0.5, 2.0],
@@ -21,13 +29,13 @@ pub(crate) fn information_round() -> super::Datagram {
 fn fuzz_seeds_are_current_datagrams() {
     use super::secure::{Key, Sealer};
     let measurement = Datagram {
-        header: Header::new(3, 17, 12345),
+        header: Header::new(3, 9, 17, at(12345)),
         payload: Payload::measurement(0b101101, vec![0.1, -0.2, 9.8, 0.25]),
     };
     let datagrams = [
         measurement.clone(),
         Datagram {
-            header: Header::hello(1, 2),
+            header: Header::hello(1, 4, 2, at(3)),
             payload: Payload::Hello {
                 running: Some(40),
                 run: 7,
@@ -39,10 +47,9 @@ fn fuzz_seeds_are_current_datagrams() {
         },
         information_round(),
         Datagram {
-            header: Header::round(2, 6, 9),
+            header: Header::round(2, BROADCAST, 6, 6, at(9), at(9)),
             payload: Payload::Round {
                 round: 0,
-                scheme: 6,
                 body: Body::Estimate {
                     n: 2,
                     x: vec![1.0, 2.0],
@@ -91,7 +98,7 @@ use super::*;
 
 fn sample() -> Datagram {
     Datagram {
-        header: Header::new(2, 99, 1234),
+        header: Header::new(2, 7, 99, at(1234)),
         payload: Payload::measurement(0b111000, vec![0.1, -0.2, 3.0]),
     }
 }
@@ -137,7 +144,7 @@ fn bad_lengths_and_impossible_values() {
 #[test]
 fn hello_round_trips_and_kind_must_match() {
     let h = Datagram {
-        header: Header::hello(4, 1),
+        header: Header::hello(4, 2, 1, at(80)),
         payload: Payload::Hello {
             running: Some(77),
             run: 5,
@@ -149,7 +156,7 @@ fn hello_round_trips_and_kind_must_match() {
     };
     assert_eq!(Datagram::decode(&h.encode().unwrap()).unwrap(), h);
     let bad = Datagram {
-        header: Header::new(4, 1, 0),
+        header: Header::new(4, 2, 1, Time::ZERO),
         payload: Payload::Hello {
             running: None,
             run: 5,
@@ -162,15 +169,41 @@ fn hello_round_trips_and_kind_must_match() {
     assert!(bad.encode().is_err());
 }
 
+/// A scheme byte outside a round's message, or a time sent before the time it pertains to, is refused; a
+/// broadcast is for everyone, a unicast for its receiver only.
+#[test]
+fn header_fields_are_checked() {
+    let mut d = sample();
+    d.header.scheme = 3;
+    assert_eq!(
+        d.encode(),
+        Err(WireError::Invalid("a scheme named outside a round's message"))
+    );
+    let mut d = sample();
+    d.header.sent = at(1233);
+    assert_eq!(
+        d.encode(),
+        Err(WireError::Invalid("sent before the time it pertains to"))
+    );
+    let h = sample().header;
+    assert!(h.is_for(7) && !h.is_for(2) && !h.is_for(8));
+    let b = Header { dst: BROADCAST, ..h };
+    assert!(b.is_for(7) && b.is_for(8));
+    // Times survive the wire to the nanosecond, up to the largest.
+    let mut d = information_round();
+    d.header.pertains = Time::from_nanos(u64::MAX - 1);
+    d.header.sent = Time::from_nanos(u64::MAX);
+    assert_eq!(Datagram::decode(&d.encode().unwrap()).unwrap(), d);
+}
+
 #[test]
 fn round_messages_round_trip_and_are_checked() {
     let n = 9;
     let tri = |v: f64| vec![v; n * (n + 1) / 2];
     let d = Datagram {
-        header: Header::round(1, 5, 77),
+        header: Header::round(1, 2, 5, 5, at(77), at(77)),
         payload: Payload::Round {
             round: 2,
-            scheme: 5,
             body: Body::Hybrid {
                 n: n as u8,
                 prior: (tri(0.5), vec![1.0; n]),
@@ -180,7 +213,7 @@ fn round_messages_round_trip_and_are_checked() {
     };
     let bytes = d.encode().unwrap();
     // A 9-state hybrid message (the pose model's HCMCI) fits one datagram.
-    assert_eq!(bytes.len(), 886);
+    assert_eq!(bytes.len(), 896);
     assert_eq!(Datagram::decode(&bytes).unwrap(), d);
     for bad in [
         Body::Estimate {
@@ -204,12 +237,8 @@ fn round_messages_round_trip_and_are_checked() {
         },
     ] {
         let d = Datagram {
-            header: Header::round(1, 5, 77),
-            payload: Payload::Round {
-                round: 0,
-                scheme: 3,
-                body: bad,
-            },
+            header: Header::round(1, 2, 5, 3, at(77), at(77)),
+            payload: Payload::Round { round: 0, body: bad },
         };
         assert!(matches!(d.encode(), Err(WireError::Invalid(_))), "{d:?}");
     }
@@ -218,12 +247,12 @@ fn round_messages_round_trip_and_are_checked() {
 #[test]
 fn oversized_measurement_is_refused() {
     let d = Datagram {
-        header: Header::new(0, 0, 0),
+        header: Header::new(0, 1, 0, Time::ZERO),
         payload: Payload::measurement(u64::MAX, vec![1.0; 64]),
     };
     assert!(d.encode().is_ok());
     let big = Datagram {
-        header: Header::new(0, 0, 0),
+        header: Header::new(0, 1, 0, Time::ZERO),
         payload: Payload::Measurement {
             rows: u64::MAX,
             values: vec![1.0; 200],
