@@ -66,7 +66,7 @@ use crate::estimate::{Gaussian, MissingChannels, Observation};
 pub use crate::imu_csv::ImuRow;
 pub use crate::link::Transmit;
 use crate::link::{NodeEvent, Stream};
-use crate::medium::{Medium, Transmission};
+use crate::medium::{Dest, Medium, Transmission};
 use crate::model::{Measurement, Model, Truth};
 use crate::observe::{
     Filter, ImuRecorder, LmiRecorder, MeasurementRecorder, Probe, Probes, Scorer, TraceRecorder, Update,
@@ -344,8 +344,8 @@ impl Node {
         if out.is_empty() {
             return;
         }
-        for (li, group) in self.per_link(&out).into_iter().enumerate() {
-            self.queue(li, t, group, Stream::Round(r + 1));
+        for (to, group) in self.addressed(&out) {
+            self.queue(to, t, group, Stream::Round(r + 1));
         }
     }
 
@@ -361,14 +361,13 @@ impl Node {
         (sensed.imu, sensed.z)
     }
 
-    /// The step's measurement datagrams on every out-link, and `round0` (the estimators' round-0 messages) under
-    /// the verdict of the first of them, or under their own from the round stream when there is no measurement.
+    /// The step's measurement datagrams to every out-neighbour, and `round0` (the estimators' round-0 messages)
+    /// under the verdict of the first of them, or under their own from the round stream when there is no
+    /// measurement.
     fn send(&mut self, k: u64, t: f64, own: Option<&Measurement>, round0: &[Datagram]) {
         let Some(own) = own else {
-            if !round0.is_empty() {
-                for (li, group) in self.per_link(round0).into_iter().enumerate() {
-                    self.queue(li, t, group, Stream::Round(0));
-                }
+            for (to, group) in self.addressed(round0) {
+                self.queue(to, t, group, Stream::Round(0));
             }
             return;
         };
@@ -399,22 +398,18 @@ impl Node {
                 payload: Payload::measurement(*rows, (0..m).filter(|r| rows & (1 << r) != 0).map(|r| z[r]).collect()),
             })
             .collect();
-        for (li, round0) in self.per_link(round0).into_iter().enumerate() {
-            let mut first = true;
-            for d in &datagrams {
-                match self.seal_for(li, std::slice::from_ref(d)).pop() {
-                    Some(bytes) if first && rides => {
-                        let mut group = vec![bytes];
-                        group.extend_from_slice(&round0);
-                        self.queue(li, t, group, Stream::Measurement);
-                    }
-                    Some(bytes) => self.queue(li, t, vec![bytes], Stream::Measurement),
-                    None => {}
-                }
-                first = false;
+        let measurements = self.addressed(&datagrams);
+        for ((to, round0), (_, measurements)) in self.addressed(round0).into_iter().zip(measurements) {
+            if measurements.is_empty() {
+                self.queue(to, t, round0, Stream::Round(0));
+                continue;
             }
-            if groups.is_empty() && rides {
-                self.queue(li, t, round0, Stream::Round(0));
+            for (i, bytes) in measurements.into_iter().enumerate() {
+                let mut group = vec![bytes];
+                if i == 0 && rides {
+                    group.extend_from_slice(&round0);
+                }
+                self.queue(to, t, group, Stream::Measurement);
             }
         }
         for i in tainted.map(|(_, attacks)| attacks).unwrap_or_default() {
@@ -422,13 +417,11 @@ impl Node {
         }
     }
 
-    /// `group` sent at `t` on out-link `li`, for the driver to hand to the medium.
-    fn queue(&mut self, li: usize, t: f64, group: Vec<bytes::Bytes>, stream: Stream) {
-        if group.is_empty() {
-            return;
+    /// `group` sent at `t` to `to`, for the driver to hand to the medium.
+    fn queue(&mut self, to: Dest, t: f64, group: Vec<bytes::Bytes>, stream: Stream) {
+        if !group.is_empty() {
+            self.outbox.push_back(Transmission { to, t, group, stream });
         }
-        let to = self.outs[li];
-        self.outbox.push_back(Transmission { to, t, group, stream });
     }
 
     /// Hand everything sent so far to `medium` (under the run's fault windows).

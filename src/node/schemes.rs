@@ -249,11 +249,11 @@ impl Schemes {
         Some(out)
     }
 
-    /// A round's message of scheme `scheme` (its wire byte) went out on a link as `bytes` bytes.
-    pub fn count_sent(&mut self, scheme: u8, bytes: usize) {
+    /// A round's message of scheme `scheme` (its wire byte) went out as `bytes` bytes, reaching `links` out-links.
+    pub fn count_sent(&mut self, scheme: u8, bytes: usize, links: usize) {
         if let Some(s) = self.slots.iter_mut().find(|s| s.kind as u8 == scheme) {
-            s.traffic.messages += 1;
-            s.traffic.bytes += bytes as u64;
+            s.traffic.messages += links as u64;
+            s.traffic.bytes += (bytes * links) as u64;
         }
     }
 

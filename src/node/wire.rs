@@ -5,6 +5,7 @@
 use bytes::Bytes;
 use serde::{Deserialize, Serialize};
 
+use crate::medium::Dest;
 use crate::wire::secure::{Key, Opener, Rejected, Sealer, OVERHEAD};
 use crate::wire::{Datagram, Header, WireError, BROADCAST};
 
@@ -171,11 +172,27 @@ impl Wire {
     }
 }
 
-/// Sending: one out-link's bytes, addressed to its receiver (and sealed for it when the run is authenticated).
+/// Sending: one broadcast to every out-neighbour, or (when the run is authenticated: each link has its own key) one
+/// transmission to each, addressed to it and sealed for it.
 impl super::Node {
-    /// `ds` as bytes for every out-link.
-    pub(super) fn per_link(&mut self, ds: &[Datagram]) -> Vec<Vec<bytes::Bytes>> {
-        (0..self.outs.len()).map(|li| self.seal_for(li, ds)).collect()
+    /// `ds` as bytes, with whom they are for: one broadcast unsealed, else one unicast per out-link (every
+    /// destination listed, its bytes empty when `ds` is). A round's message counts towards its scheme's traffic once
+    /// per out-link either way.
+    pub(super) fn addressed(&mut self, ds: &[Datagram]) -> Vec<(Dest, Vec<Bytes>)> {
+        if self.outs.is_empty() {
+            return Vec::new();
+        }
+        if self.wire.sealing_epoch().is_none() {
+            let bytes = self.encode_for(BROADCAST, 0, self.outs.len(), ds);
+            return vec![(Dest::Broadcast, bytes)];
+        }
+        (0..self.outs.len())
+            .map(|li| {
+                let j = self.outs[li];
+                let (to, boot) = (self.topo.nodes()[j].id, self.boot_of(j));
+                (Dest::Node(j), self.encode_for(to, boot, 1, ds))
+            })
+            .collect()
     }
 
     /// The boot node `j` is bound to in what this node seals for it: its boot as its hellos give it (one node per
@@ -189,17 +206,14 @@ impl super::Node {
         }
     }
 
-    /// `ds` as bytes for the receiver of out-link `li`: addressed to it, numbered on the link, sealed for it when
-    /// the run is authenticated. A round's message counts towards its scheme's traffic.
-    pub(super) fn seal_for(&mut self, li: usize, ds: &[Datagram]) -> Vec<bytes::Bytes> {
-        let j = self.outs[li];
-        let (to, boot) = (self.topo.nodes()[j].id, self.boot_of(j));
+    /// `ds` as bytes for node id `to` (or [`BROADCAST`]) of boot `boot`, reaching `links` out-links.
+    fn encode_for(&mut self, to: u32, boot: u64, links: usize, ds: &[Datagram]) -> Vec<Bytes> {
         let mut out = Vec::with_capacity(ds.len());
         for d in ds {
             match self.wire.encode(d, to, boot) {
                 Ok(b) => {
                     if d.header.kind == crate::wire::KIND_ROUND {
-                        self.schemes.count_sent(d.header.scheme, b.len());
+                        self.schemes.count_sent(d.header.scheme, b.len(), links);
                     }
                     out.push(b);
                 }

@@ -346,7 +346,7 @@ impl Star {
         let got = if self.medium.carries(f.node) {
             let t = f.step as f64 * dt;
             let tx = Transmission {
-                to: self.sink,
+                to: crate::medium::Dest::Node(self.sink),
                 t,
                 group: vec![bytes],
                 stream: Stream::Measurement,

@@ -50,25 +50,31 @@ pub struct SimOptions {
     /// What carries the nodes' datagrams instead of the scenario's links ([`Scenario::pairwise_medium`]).
     ///
     /// A medium of your own decides every datagram's fate; the `[link]` rules of the file then play no part. This
-    /// one delivers every datagram at once, so a run at 50 % loss loses nothing:
+    /// one delivers every datagram at once (a broadcast to every other node), so a run at 50 % loss loses nothing:
     ///
     /// ```
     /// use simnet::link::{FaultSchedule, LinkCounters};
-    /// use simnet::medium::{Delivery, Medium, Transmission};
+    /// use simnet::medium::{Delivery, Dest, Medium, Transmission};
     /// use simnet::sim::SimOptions;
     /// use simnet::{Overrides, Scenario, Sim};
     ///
-    /// #[derive(Debug, Default)]
+    /// #[derive(Debug)]
     /// struct Wire {
+    ///     nodes: usize,
     ///     due: Vec<Delivery>,
     ///     sent: std::collections::BTreeMap<(usize, usize), u64>,
     /// }
     ///
     /// impl Medium for Wire {
     ///     fn transmit(&mut self, from: usize, tx: Transmission, _faults: &FaultSchedule) {
-    ///         *self.sent.entry((from, tx.to)).or_default() += 1;
-    ///         let to = tx.to;
-    ///         self.due.extend(tx.group.into_iter().map(|bytes| Delivery { from, to, bytes }));
+    ///         let to: Vec<usize> = match tx.to {
+    ///             Dest::Node(j) => vec![j],
+    ///             Dest::Broadcast => (0..self.nodes).filter(|&j| j != from).collect(),
+    ///         };
+    ///         for to in to {
+    ///             *self.sent.entry((from, to)).or_default() += 1;
+    ///             self.due.extend(tx.group.iter().map(|bytes| Delivery { from, to, bytes: bytes.clone() }));
+    ///         }
     ///     }
     ///     fn poll_delivery(&mut self, from: usize, _now: f64) -> Option<Delivery> {
     ///         let i = self.due.iter().position(|d| d.from == from)?;
@@ -85,7 +91,8 @@ pub struct SimOptions {
     ///
     /// let lossy = Overrides { loss: Some(simnet::link::LossModel::Bernoulli { p: 0.5 }), duration_s: Some(2.0), ..Default::default() };
     /// let scenario = Scenario::resolve("ring3")?.with(&lossy)?;
-    /// let opts = SimOptions { medium: Some(Box::new(Wire::default())), ..Default::default() };
+    /// let wire = Wire { nodes: scenario.nodes().len(), due: Vec::new(), sent: Default::default() };
+    /// let opts = SimOptions { medium: Some(Box::new(wire)), ..Default::default() };
     /// let summary = Sim::with_options(&scenario, opts)?.run()?.summary();
     /// assert_eq!(summary.links.len(), 6); // ring3: every node to the other two
     /// for l in &summary.links {

@@ -1,22 +1,25 @@
 //! The medium: what carries the datagrams a node sends to the nodes that receive them. A node only says what it
-//! sends — a [`Transmission`] to a neighbour at a time, on a stream — and never decides a datagram's fate; the
-//! driver hands each transmission to the medium and takes from it what is delivered, when. A medium sees every
-//! transmission of the senders it carries and the run's fault windows.
+//! sends — a [`Transmission`] to one neighbour or to every node that hears it ([`Dest::Broadcast`]) at a time, on a
+//! stream — and never decides a datagram's fate; the driver hands each transmission to the medium and takes from it
+//! what is delivered, when. A medium sees every transmission of the senders it carries and the run's fault windows;
+//! a broadcast is one transmission, and the medium decides who hears it.
 //!
 //! [`PairwiseMedium`] is simnet's channel today: each directed link decides alone, from its own rules
 //! ([`crate::link`]) and its own seeded streams, what becomes of each datagram (loss, outage, delay, duplication,
 //! corruption). Because its links are independent it can be split by sender: a UDP worker or a node process carries
-//! only its own senders' part, and every part decides exactly what the whole would.
+//! only its own senders' part, and every part decides exactly what the whole would. A broadcast goes out on each of
+//! the sender's links, each deciding alone, as that many unicasts would.
 //!
 //! A medium of your own implements [`Medium`]. This one sees the [`crate::world::World`]: it carries a datagram only
-//! to a receiver within 30 m of its sender at the time of sending, 4 ms later:
+//! to a receiver within 30 m of its sender at the time of sending, 4 ms later; a broadcast reaches every node in
+//! range:
 //!
 //! ```
 //! use std::collections::VecDeque;
 //! use bytes::Bytes;
 //! use nalgebra::Vector3;
 //! use simnet_core::link::{FaultSchedule, LinkCounters, Stream};
-//! use simnet_core::medium::{Delivery, Medium, Transmission};
+//! use simnet_core::medium::{Delivery, Dest, Medium, Transmission};
 //! use simnet_core::world::{Place, World};
 //!
 //! #[derive(Debug)]
@@ -28,15 +31,21 @@
 //!
 //! impl Medium for InRange {
 //!     fn transmit(&mut self, from: usize, tx: Transmission, faults: &FaultSchedule) {
-//!         match self.sent.iter_mut().find(|(f, t, _)| (*f, *t) == (from, tx.to)) {
-//!             Some(s) => s.2 += 1,
-//!             None => self.sent.push((from, tx.to, 1)),
-//!         }
-//!         if !faults.link_up(from, tx.to, tx.t) || self.world.distance(from, tx.to, tx.t) > 30.0 {
-//!             return;
-//!         }
-//!         for bytes in tx.group {
-//!             self.queue.push_back((tx.t + 0.004, Delivery { from, to: tx.to, bytes }));
+//!         let to: Vec<usize> = match tx.to {
+//!             Dest::Node(to) => vec![to],
+//!             Dest::Broadcast => (0..self.world.len()).filter(|&j| j != from).collect(),
+//!         };
+//!         for to in to {
+//!             match self.sent.iter_mut().find(|(f, t, _)| (*f, *t) == (from, to)) {
+//!                 Some(s) => s.2 += 1,
+//!                 None => self.sent.push((from, to, 1)),
+//!             }
+//!             if !faults.link_up(from, to, tx.t) || self.world.distance(from, to, tx.t) > 30.0 {
+//!                 continue;
+//!             }
+//!             for bytes in &tx.group {
+//!                 self.queue.push_back((tx.t + 0.004, Delivery { from, to, bytes: bytes.clone() }));
+//!             }
 //!         }
 //!     }
 //!     fn poll_delivery(&mut self, from: usize, now: f64) -> Option<Delivery> {
@@ -58,28 +67,39 @@
 //! }
 //! let mut air = InRange { world, queue: VecDeque::new(), sent: Vec::new() };
 //! let faults = FaultSchedule::default();
-//! for to in [1, 2] {
-//!     let tx = Transmission { to, t: 0.01, group: vec![Bytes::from_static(b"hi")], stream: Stream::Measurement };
-//!     air.transmit(0, tx, &faults);
-//! }
+//! let tx = Transmission { to: Dest::Broadcast, t: 0.01, group: vec![Bytes::from_static(b"hi")], stream: Stream::Measurement };
+//! air.transmit(0, tx, &faults);
 //! assert!(air.poll_delivery(0, 0.012).is_none());
 //! assert_eq!(air.poll_timeout(0), Some(0.014));
 //! let d = air.poll_delivery(0, 0.014).unwrap();
 //! assert_eq!((d.from, d.to, &d.bytes[..]), (0, 1, &b"hi"[..]));
 //! assert!(air.poll_delivery(0, 1.0).is_none(), "node 2 is 50 m away");
 //! assert_eq!(air.counters(0).len(), 2);
+//! // Node 1 to node 2 alone, 30 m apart.
+//! let tx = Transmission { to: Dest::Node(2), t: 0.02, group: vec![Bytes::from_static(b"yo")], stream: Stream::Measurement };
+//! air.transmit(1, tx, &faults);
+//! assert_eq!(air.poll_delivery(1, 0.03).map(|d| d.to), Some(2));
 //! ```
 
 use bytes::Bytes;
 
 use crate::link::{Egress, FaultSchedule, LinkCounters, Stream};
 
-/// What a node sends at one time to one neighbour: datagrams that share one fate (a measurement and the round-0
-/// messages that ride with it), drawn from one of the link's streams.
+/// Who a transmission is for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Dest {
+    /// One node, by index.
+    Node(usize),
+    /// Every node that hears it (the medium decides who does).
+    Broadcast,
+}
+
+/// What a node sends at one time to one neighbour or to all: datagrams that share one fate on each link (a
+/// measurement and the round-0 messages that ride with it), drawn from one of the link's streams.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Transmission {
-    /// The receiving node, by index.
-    pub to: usize,
+    /// Who it is for.
+    pub to: Dest,
     /// Simulated send time, s.
     pub t: f64,
     /// The datagrams, in order.
@@ -160,8 +180,14 @@ impl PairwiseMedium {
 impl Medium for PairwiseMedium {
     fn transmit(&mut self, from: usize, tx: Transmission, faults: &FaultSchedule) {
         let Some(e) = self.sender_mut(from) else { return };
-        if let Some(li) = e.link_to(tx.to) {
-            e.push_group(li, tx.t, &tx.group, faults, tx.stream);
+        match tx.to {
+            Dest::Node(to) => {
+                if let Some(li) = e.link_to(to) {
+                    e.push_group(li, tx.t, &tx.group, faults, tx.stream);
+                }
+            }
+            // Each out-link decides alone, in link order: the draws of as many unicasts.
+            Dest::Broadcast => (0..e.len()).for_each(|li| e.push_group(li, tx.t, &tx.group, faults, tx.stream)),
         }
     }
 
@@ -221,7 +247,7 @@ mod tests {
             .with_sender(3, egress(3, 4))
             .with_sender(1, egress(1, 4));
         let tx = Transmission {
-            to: 4,
+            to: Dest::Node(4),
             t: 0.5,
             group: vec![Bytes::from_static(b"a"), Bytes::from_static(b"b")],
             stream: Stream::Measurement,
@@ -236,5 +262,51 @@ mod tests {
             vec![(3, 4, Bytes::from_static(b"a")), (3, 4, Bytes::from_static(b"b"))]
         );
         assert_eq!(m.counters(3)[0].1.sent, 1);
+    }
+
+    /// A broadcast is decided on each of the sender's links as that many unicasts are: the same fates, draw for
+    /// draw, at 50 % loss with duplication and jitter.
+    #[test]
+    fn a_broadcast_is_each_link_deciding_alone() {
+        let lossy = || {
+            let c = LinkConfig {
+                loss: crate::link::LossModel::Bernoulli { p: 0.5 },
+                duplicate: 0.2,
+                delay_ms: 5.0,
+                jitter_ms: 4.0,
+                ..LinkConfig::default()
+            };
+            let links = (1..4)
+                .map(|to| Link::new(0, to, c, crate::rng::Rng::seed_from_u64(to as u64)))
+                .collect();
+            PairwiseMedium::new().with_sender(0, Egress::new(links))
+        };
+        let (mut broadcast, mut unicast) = (lossy(), lossy());
+        let faults = FaultSchedule::default();
+        for k in 0..200u8 {
+            let t = f64::from(k) * 0.01;
+            let group = vec![Bytes::from(vec![k; 3])];
+            let tx = |to| Transmission {
+                to,
+                t,
+                group: group.clone(),
+                stream: Stream::Measurement,
+            };
+            broadcast.transmit(0, tx(Dest::Broadcast), &faults);
+            for to in 1..4 {
+                unicast.transmit(0, tx(Dest::Node(to)), &faults);
+            }
+        }
+        let all = |m: &mut PairwiseMedium| {
+            let mut v: Vec<_> = std::iter::from_fn(|| m.poll_delivery(0, f64::INFINITY))
+                .map(|d| (d.to, d.bytes))
+                .collect();
+            v.sort();
+            v
+        };
+        let got = all(&mut broadcast);
+        assert!((250..450).contains(&got.len()), "{} delivered of 600 sent", got.len());
+        assert_eq!(got, all(&mut unicast));
+        assert_eq!(broadcast.counters(0), unicast.counters(0));
     }
 }

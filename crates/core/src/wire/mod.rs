@@ -95,7 +95,9 @@ pub struct Header {
     pub scheme: u8,
     /// Sending node (its id in the topology).
     pub src: u32,
-    /// Receiving node (its id in the topology), or [`BROADCAST`].
+    /// Receiving node (its id in the topology), or [`BROADCAST`]. On the wire as `dst + 1`, wrapping: a broadcast
+    /// takes one byte, as a small id does.
+    #[serde(with = "dst_on_the_wire")]
     pub dst: u32,
     /// The sender's sequence number towards `dst` (a broadcast has a sequence of its own); duplicates share it.
     pub seq: u32,
@@ -107,6 +109,19 @@ pub struct Header {
 
 /// `Header::dst` of a datagram for every node that hears it.
 pub const BROADCAST: u32 = u32::MAX;
+
+/// `dst + 1`, wrapping ([`BROADCAST`] is 0): the varint of a broadcast is one byte rather than five.
+mod dst_on_the_wire {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(dst: &u32, s: S) -> Result<S::Ok, S::Error> {
+        dst.wrapping_add(1).serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<u32, D::Error> {
+        u32::deserialize(d).map(|v| v.wrapping_sub(1))
+    }
+}
 
 impl Header {
     /// A measurement's header: from `src` to `dst`, number `seq` on that link, sampled and sent at `at`.

@@ -189,6 +189,21 @@ fn header_fields_are_checked() {
     assert!(h.is_for(7) && !h.is_for(2) && !h.is_for(8));
     let b = Header { dst: BROADCAST, ..h };
     assert!(b.is_for(7) && b.is_for(8));
+    // A broadcast and a small id take one byte each, and read back as themselves.
+    let broadcast = Datagram {
+        header: b,
+        payload: sample().payload,
+    };
+    let bytes = broadcast.encode().unwrap();
+    assert_eq!(bytes.len(), sample().encode().unwrap().len());
+    assert_eq!(Datagram::decode(&bytes).unwrap().header.dst, BROADCAST);
+    for dst in [0, 126, 127, u32::MAX - 1] {
+        let d = Datagram {
+            header: Header { dst, ..h },
+            payload: sample().payload,
+        };
+        assert_eq!(Datagram::decode(&d.encode().unwrap()).unwrap(), d, "{dst}");
+    }
     // Times survive the wire to the nanosecond, up to the largest.
     let mut d = information_round();
     d.header.pertains = Time::from_nanos(u64::MAX - 1);
