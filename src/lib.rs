@@ -14,7 +14,7 @@
 //! | module | owns |
 //! |---|---|
 //! | [`scenario`] | topology TOML and overrides → a validated [`scenario::Scenario`]; every error names the file and the key; built-ins |
-//! | [`model`] (core) | the estimation models behind one trait made of five roles (dynamics, sensing, manifold, world, report): pose, attitude (quaternion EKF), linear |
+//! | [`model`] (core) | the estimation models behind one trait made of five roles (dynamics, sensing, manifold, ground truth, report): pose, attitude (quaternion EKF), linear |
 //! | [`motion`] (core) | analytic ground-truth trajectories shared by every node |
 //! | [`world`] (core) | where every node is at every time (fixed, or mounted on a moving body): [`Scenario::world`] |
 //! | [`sensor`] (core) | accelerometer/gyro (noise, bias, Wiener drift), magnetometer, pose fixes, linear measurements |

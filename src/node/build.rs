@@ -102,7 +102,7 @@ impl Node {
         node
     }
 
-    /// The prior a (re)started filter begins from ([`crate::model::World::initial`]), from the node's own stream.
+    /// The prior a (re)started filter begins from ([`crate::model::GroundTruth::initial`]), from the node's own stream.
     pub(super) fn initial_estimate(&self, restart: u64, k: u64) -> Gaussian {
         let k = k as usize;
         let first = self.truth.recording().and_then(|(rec, _)| {

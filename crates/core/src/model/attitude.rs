@@ -7,7 +7,7 @@ use std::borrow::Cow;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector4};
 
 use super::{
-    stacked, Dynamics, FusionLayout, ImuRow, Kind, Manifold, Measurement, Report, Sensed, Sensing, Truth, World,
+    stacked, Dynamics, FusionLayout, GroundTruth, ImuRow, Kind, Manifold, Measurement, Report, Sensed, Sensing, Truth,
 };
 use crate::estimate::attitude::{from_euler, level, measurement, predict, to_euler};
 use crate::estimate::{Gaussian, Observation};
@@ -165,7 +165,7 @@ impl Manifold for Attitude {
     }
 }
 
-impl World for Attitude {
+impl GroundTruth for Attitude {
     fn kinematic_state(
         &self,
         _p: Option<Vector3<f64>>,

@@ -5,7 +5,7 @@
 
 use nalgebra::{DMatrix, DVector, Vector3};
 
-use super::{Dynamics, FusionLayout, Kind, Manifold, Measurement, Report, Sensed, Sensing, Truth, World};
+use super::{Dynamics, FusionLayout, GroundTruth, Kind, Manifold, Measurement, Report, Sensed, Sensing, Truth};
 use crate::estimate::{Gaussian, Observation};
 use crate::imu_csv::StepRecording;
 use crate::motion::Trajectory;
@@ -127,7 +127,7 @@ impl Manifold for Linear {
     }
 }
 
-impl World for Linear {
+impl GroundTruth for Linear {
     fn truth(
         &self,
         _trajectory: Trajectory,

@@ -1,6 +1,6 @@
 //! The estimation models: [`Model`] is five traits by role — [`Dynamics`] (process noise, prediction), [`Sensing`]
 //! (observation, its linearisation, a step's IMU sample and measurement), [`Manifold`] (angles, unit quaternions,
-//! a double cover), [`World`] (the truth and the prior) and [`Report`] (kind, columns, fusion layout, error) — and
+//! a double cover), [`GroundTruth`] (the truth and the prior) and [`Report`] (kind, columns, fusion layout, error) — and
 //! any type with the five is a model. A caller holding a concrete model imports the role it calls
 //! (`use simnet::model::Dynamics` for `predict`); a `&dyn Model` has them all. [`pose`] (position, velocity and Euler angles
 //! driven by the IMU, §2 of Sequeira (2023)), [`attitude`] (the quaternion EKF of Lesecq's slides) and [`linear`]
@@ -341,7 +341,7 @@ pub trait Manifold {
 }
 
 /// The ground truth: the truth a node computes, the true state from kinematics, and the prior a filter starts from.
-pub trait World {
+pub trait GroundTruth {
     /// The ground truth a node computes for itself: the trajectory, its recording's reference columns, or the
     /// model's own random system.
     fn truth(&self, trajectory: Trajectory, dt: f64, _seed: u64, recorded: Option<Arc<StepRecording>>) -> Truth {
@@ -392,11 +392,11 @@ pub trait Report {
     }
 }
 
-/// One estimation model: its [`Dynamics`], [`Sensing`], [`Manifold`], [`World`] and [`Report`]. A node holds it as
+/// One estimation model: its [`Dynamics`], [`Sensing`], [`Manifold`], [`GroundTruth`] and [`Report`]. A node holds it as
 /// `&dyn Model`; so do the observer, the recorders and the plots. Every type with the five roles is a model.
-pub trait Model: Dynamics + Sensing + Manifold + World + Report + Send + Sync + std::fmt::Debug {}
+pub trait Model: Dynamics + Sensing + Manifold + GroundTruth + Report + Send + Sync + std::fmt::Debug {}
 
-impl<T: Dynamics + Sensing + Manifold + World + Report + Send + Sync + std::fmt::Debug> Model for T {}
+impl<T: Dynamics + Sensing + Manifold + GroundTruth + Report + Send + Sync + std::fmt::Debug> Model for T {}
 
 /// Standard normal samples.
 pub fn randn(rng: &mut Rng, n: usize) -> DVector<f64> {

@@ -3,7 +3,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, Vector3};
 
-use super::{Dynamics, FusionLayout, ImuRow, Kind, Manifold, Measurement, Report, Sensed, Sensing, Truth, World};
+use super::{Dynamics, FusionLayout, GroundTruth, ImuRow, Kind, Manifold, Measurement, Report, Sensed, Sensing, Truth};
 use crate::estimate::{wrap_rows, Gaussian, Observation};
 use crate::geom::{euler_rates, euler_rates_jacobian, rotation, rotation_partials, wrap_angle, GRAVITY};
 use crate::motion::PoseTruth;
@@ -163,7 +163,7 @@ impl Manifold for Pose {
     }
 }
 
-impl World for Pose {
+impl GroundTruth for Pose {
     fn kinematic_state(
         &self,
         p: Option<Vector3<f64>>,

@@ -1,7 +1,7 @@
 //! The ground truth as each node computes it for itself: the analytic trajectory, the reference columns of its
 //! recorded IMU file, or a linear system driven by its own seeded process noise. Every node derives the same truth
 //! from the run seed, so no truth crosses the network and separate processes agree on it. The model turns it into
-//! the filter's coordinates ([`super::World::kinematic_state`]).
+//! the filter's coordinates ([`super::GroundTruth::kinematic_state`]).
 #![allow(non_snake_case)]
 
 use std::sync::Arc;
