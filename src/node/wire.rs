@@ -132,8 +132,9 @@ impl Wire {
     /// Whether `d` fits a datagram on every link, whatever its receiver and sequence number.
     pub fn fits(&self, d: &Datagram) -> Result<(), WireError> {
         let longest = Datagram {
+            // The largest id and sequence number: five bytes each on the wire (a broadcast takes one).
             header: Header {
-                dst: BROADCAST,
+                dst: BROADCAST - 1,
                 seq: u32::MAX,
                 ..d.header
             },
