@@ -138,7 +138,7 @@ pub const KEYS: &[KeyDoc] = &[
     k("generate.seed", INT, "", "1", "0 to 2⁶⁴ − 1", "random-geometric: the graph's own seed (the graph stays as the run seed changes).", Some("-1")),
     k("generate.naive_every", INT, "", "none", "≥ 2", "Every k-th node (ids k − 1, 2k − 1, …) is naive: an estimator without a sensor.", Some("1")),
     // [[node]]
-    k("node[].id", INT, "", "its place in the list", "0 to 2³² − 1, unique", "The node's id in outputs and on the wire.", Some("-1")),
+    k("node[].id", INT, "", "its place in the list", "0 to 2³² − 2, unique", "The node's id in outputs and on the wire (2³² − 1 is the broadcast address).", Some("4294967295")),
     k("node[].role", "peer | sensor | estimator", "", "\"peer\"", "the words listed", "peer: senses and estimates; sensor: senses and sends; estimator: estimates only.", Some("\"boss\"")),
     k("node[].addr", STR, "host:port", "node<ID>:7000", "host:port, port 1 to 65535", "Where the node listens in a multi-host run (`simnet node`).", Some("\"nohost\"")),
     k("node[].sensor", "table", "", "[sensor]", "the keys of [sensor]", "This node's sensor, over the [sensor] defaults.", None),

@@ -95,8 +95,12 @@ impl Validator {
         for (i, n) in raw.node.iter().enumerate() {
             let key = format!("node[{i}]");
             let id = n.id.unwrap_or(i as i64);
-            if !(0..=u32::MAX as i64).contains(&id) {
-                self.bad(format!("{key}.id"), format!("must be a non-negative integer, got {id}"));
+            // 2³² − 1 is the wire's broadcast address ([`crate::wire::BROADCAST`]).
+            if !(0..crate::wire::BROADCAST as i64).contains(&id) {
+                self.bad(
+                    format!("{key}.id"),
+                    format!("must be 0 to 4294967294 (4294967295 addresses every node), got {id}"),
+                );
             }
             if ids.insert(id, i).is_some() {
                 self.bad(format!("{key}.id"), format!("id {id} is used by more than one node"));
