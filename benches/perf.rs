@@ -846,9 +846,9 @@ fn main() {
     };
     let mut link = Link::new(0, 1, cfg, simnet::rng::stream(1, "link", 0, 1));
     let sched = FaultSchedule::default();
-    let mut now = 0.0;
+    let mut now = simnet::time::Time::ZERO;
     let t = time_per_call(|| {
-        now += 0.01;
+        now = now + std::time::Duration::from_millis(10);
         black_box(link.verdict(now, 80, &sched));
     });
     println!(

@@ -296,7 +296,7 @@ impl PyScenario {
             .iter()
             .enumerate()
             .map(|(i, n)| {
-                let p = world.position(i, t);
+                let p = world.position(i, simnet::time::Time::from_secs(t));
                 (n.id, p.x, p.y, p.z)
             })
             .collect()

@@ -99,7 +99,7 @@ fn write_run(
         .iter()
         .enumerate()
         .map(|(i, n)| {
-            let p = world.position(i, 0.0);
+            let p = world.position(i, simnet_core::time::Time::ZERO);
             (n.id, p.x, p.y)
         })
         .collect();

@@ -29,6 +29,7 @@ use super::{NetError, Progress};
 use crate::medium::Medium;
 use crate::node::{Node, NodeReport, StepEstimate};
 use crate::scenario::Scenario;
+use crate::time::Time;
 use crate::wire::MAX_DATAGRAM;
 
 pub struct HostConfig {
@@ -377,7 +378,7 @@ pub async fn run_node(
                 }
                 // Sent all the same: the link layer counted them, and the neighbours count them late.
                 node.send_to(&mut medium);
-                while let Some(tx) = medium.poll_delivery(index, f64::INFINITY) {
+                while let Some(tx) = medium.poll_delivery(index, Time::MAX) {
                     peers.send(&socket, tx.to, &tx.bytes).await;
                 }
                 node.handle_deadline(k);
@@ -409,7 +410,7 @@ pub async fn run_node(
                 node.handle_round(k, round);
                 round += 1;
             }
-            let sim_now = (now - base).as_secs_f64();
+            let sim_now = Time::since_start(now - base);
             node.send_to(&mut medium);
             while let Some(tx) = medium.poll_delivery(index, sim_now) {
                 peers.send(&socket, tx.to, &tx.bytes).await;
@@ -428,7 +429,7 @@ pub async fn run_node(
             let next_round = if round + 1 < rounds { round_end(round) } else { close };
             let wake = medium
                 .poll_timeout(index)
-                .map(|t| base + Duration::from_secs_f64(t.max(0.0)))
+                .map(|t| base + t.since(Time::ZERO))
                 .unwrap_or(close)
                 .min(next_round);
             tokio::select! {

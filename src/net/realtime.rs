@@ -21,6 +21,7 @@ use crate::node::{Node, NodeReport};
 use crate::report::summary::Schedule;
 use crate::scenario::Scenario;
 use crate::sim::{begin_step, Clock, RunResults};
+use crate::time::Time;
 use crate::wire::MAX_DATAGRAM;
 
 /// The longest a worker waits before looking at the stop flag again.
@@ -44,8 +45,8 @@ struct Shared {
 }
 
 impl Shared {
-    fn at(&self, s: f64) -> Instant {
-        self.t0 + Duration::from_secs_f64(s.max(0.0))
+    fn at(&self, t: Time) -> Instant {
+        self.t0 + t.since(Time::ZERO)
     }
 
     /// May worker `w` start step `k`? It is then recorded as started.
@@ -127,8 +128,7 @@ fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedS
         }
     };
     'steps: for k in 0..sh.steps {
-        let t_k = k as f64 * sh.dt;
-        let start = sh.at(t_k);
+        let start = sh.at(sh.topo.step_time(k));
         // Sleep to the step's start; datagrams that come meanwhile wait in the sockets, as they would for a node.
         loop {
             if sh.stopping_at() <= k {
@@ -154,7 +154,7 @@ fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedS
             loop {
                 // Send whatever is due now; the next thing due bounds the wait.
                 let now = Instant::now();
-                let now_sim = now.saturating_duration_since(sh.t0).as_secs_f64();
+                let now_sim = Time::since_start(now.saturating_duration_since(sh.t0));
                 let mut next = close;
                 for slot in &mut slots {
                     slot.node.send_to(&mut slot.medium);

@@ -4,12 +4,14 @@
 //!
 //! # Call order and time
 //!
-//! Time is simulated seconds; step k begins at t_k = k·Δt and closes at its deadline t_k + D (D ≤ Δt).
+//! Time is [`crate::time::Time`], whole nanoseconds since the run began; step k begins at t_k = k·Δt
+//! ([`Scenario::step_time`]) and closes at its deadline t_k + D (D ≤ Δt, [`Scenario::deadline`]).
 //!
 //! 0. [`Node::handle_crash`] / [`Node::handle_restart`] before the step they precede, as the crash timeline
 //!    ([`crate::link::FaultSchedule::node_events`]) says: the node itself never reads the fault schedule.
 //! 1. [`Node::handle_step`]`(k)` at t_k: the node senses, predicts both filters to t_k, and sends this step's
-//!    datagrams to its out-neighbours. It only says what it sends ([`crate::medium::Transmission`]s); it never
+//!    datagrams: one broadcast to its out-neighbours, or (authenticated: each link has its own key) a copy sealed
+//!    for each. It only says what it sends ([`crate::medium::Transmission`]s); it never
 //!    decides what becomes of them.
 //! 2. [`Node::send_to`]`(medium)` hands everything sent to the [`crate::medium::Medium`] (the scenario's links:
 //!    [`crate::Scenario::pairwise_medium`]), which decides loss, delay, duplication and corruption; then
@@ -35,7 +37,7 @@
 //! | `receive.rs` | the receive path: bytes checked, authenticated, found plausible, collected ([`Node::handle_datagram`]) |
 //! | `deadline.rs` | the close of a step ([`Node::handle_deadline`]): both filters and the estimators updated, scored |
 //! | `accessors.rs` | what drivers and the observer read and take from a node, its end-of-run report |
-//! | `wire.rs` | sealing per link and opening: what goes out to each receiver and what is accepted |
+//! | `wire.rs` | addressing and sealing: one broadcast, or a sealed copy per out-link; opening: what is accepted |
 //! | `inbox.rs` | step collection, the early buffer, receive counters |
 //! | `filters.rs` | the networked and independent filters' update over any [`crate::model::Model`] |
 //! | `schemes.rs` | the distributed estimators beside them: each round's messages, what arrived, their traffic |
@@ -317,17 +319,18 @@ impl Node {
             }
         }
         self.last_imu = imu;
+        let at = Time::at_step(k, dt);
         let round0 = if self.schemes.is_empty() {
             Vec::new()
         } else {
             self.schemes.begin(
                 k,
-                Time::at_step(k, dt),
+                at,
                 &schemes::input(&*self.model, &self.obs, own.as_ref()),
                 &self.wire,
             )
         };
-        self.send(k, t, own.as_ref(), &round0);
+        self.send(at, own.as_ref(), &round0);
         self.inbox.open(k, own);
         self.air_on_step(k);
     }
@@ -338,14 +341,14 @@ impl Node {
         if self.schemes.is_empty() || !self.up {
             return;
         }
-        let t = self.topo.round_end(k, r);
+        let at = self.topo.round_end(k, r);
         let input = schemes::input(&*self.model, &self.obs, self.inbox.own());
-        let out = self.schemes.close_round(k, r, Time::from_secs(t), &input, &self.wire);
+        let out = self.schemes.close_round(k, r, at, &input, &self.wire);
         if out.is_empty() {
             return;
         }
         for (to, group) in self.addressed(&out) {
-            self.queue(to, t, group, Stream::Round(r + 1));
+            self.queue(to, at, group, Stream::Round(r + 1));
         }
     }
 
@@ -364,15 +367,16 @@ impl Node {
     /// The step's measurement datagrams to every out-neighbour, and `round0` (the estimators' round-0 messages)
     /// under the verdict of the first of them, or under their own from the round stream when there is no
     /// measurement.
-    fn send(&mut self, k: u64, t: f64, own: Option<&Measurement>, round0: &[Datagram]) {
+    /// `at` is the step's time.
+    fn send(&mut self, at: Time, own: Option<&Measurement>, round0: &[Datagram]) {
         let Some(own) = own else {
             for (to, group) in self.addressed(round0) {
-                self.queue(to, t, group, Stream::Round(0));
+                self.queue(to, at, group, Stream::Round(0));
             }
             return;
         };
         // A compromised node sends its measurement moved by the false-data attacks under way.
-        let tainted = self.trust.tainted(own, t);
+        let tainted = self.trust.tainted(own, at);
         let own = tainted.as_ref().map_or(own, |(m, _)| m);
         let (z, m) = (&own.z, own.z.len());
         let have = (0..m).filter(|&r| own.present[r]).fold(0u64, |acc, r| acc | 1 << r);
@@ -390,7 +394,6 @@ impl Node {
             vec![have]
         };
         let rides = !round0.is_empty();
-        let at = Time::at_step(k, self.topo.sim().dt());
         let datagrams: Vec<Datagram> = groups
             .iter()
             .map(|rows| Datagram {
@@ -401,7 +404,7 @@ impl Node {
         let measurements = self.addressed(&datagrams);
         for ((to, round0), (_, measurements)) in self.addressed(round0).into_iter().zip(measurements) {
             if measurements.is_empty() {
-                self.queue(to, t, round0, Stream::Round(0));
+                self.queue(to, at, round0, Stream::Round(0));
                 continue;
             }
             for (i, bytes) in measurements.into_iter().enumerate() {
@@ -409,7 +412,7 @@ impl Node {
                 if i == 0 && rides {
                     group.extend_from_slice(&round0);
                 }
-                self.queue(to, t, group, Stream::Measurement);
+                self.queue(to, at, group, Stream::Measurement);
             }
         }
         for i in tainted.map(|(_, attacks)| attacks).unwrap_or_default() {
@@ -417,10 +420,10 @@ impl Node {
         }
     }
 
-    /// `group` sent at `t` to `to`, for the driver to hand to the medium.
-    fn queue(&mut self, to: Dest, t: f64, group: Vec<bytes::Bytes>, stream: Stream) {
+    /// `group` sent at `at` to `to`, for the driver to hand to the medium.
+    fn queue(&mut self, to: Dest, at: Time, group: Vec<bytes::Bytes>, stream: Stream) {
         if !group.is_empty() {
-            self.outbox.push_back(Transmission { to, t, group, stream });
+            self.outbox.push_back(Transmission { to, at, group, stream });
         }
     }
 

@@ -6,8 +6,7 @@ use crate::wire::Datagram;
 
 /// One lockstep step with the scenario's deadline, the scenario's links carrying the datagrams.
 fn step_in_memory(nodes: &mut [Node], medium: &mut crate::medium::PairwiseMedium, k: u64) {
-    let sim = &nodes[0].topo.sim();
-    let window_end = k as f64 * sim.dt() + sim.deadline_s;
+    let window_end = nodes[0].topo.deadline(k);
     crate::sim::lockstep(nodes, medium, k, window_end);
 }
 
@@ -257,7 +256,7 @@ fn restarts_never_reuse_a_nonce() {
         }
         let _ = node.handle_deadline(k);
         node.send_to(&mut medium);
-        while let Some(t) = medium.poll_delivery(0, (k + 1) as f64 * dt + 1.0) {
+        while let Some(t) = medium.poll_delivery(0, Time::at_step(k + 1, dt) + std::time::Duration::from_secs(1)) {
             let n = claimed_nonce(&t.bytes).expect("every datagram is sealed");
             if let Some(before) = seen.insert((t.to, n), t.bytes.clone()) {
                 // The link layer's duplicate: the same bytes again, never another datagram under the nonce.

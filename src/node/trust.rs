@@ -11,6 +11,7 @@ use crate::attack::{Air, Attack, AttackKind, Injection, Tally};
 use crate::estimate::{Gaussian, Observation};
 use crate::model::{Measurement, Model};
 use crate::scenario::Scenario;
+use crate::time::Time;
 
 /// The adversaries around one node and its innovation gate.
 pub(super) struct Trust {
@@ -43,7 +44,7 @@ impl Trust {
 
     /// The measurement a compromised node sends at `t`: its own moved by every false-data attack under way, and
     /// those attacks (to count what they send).
-    pub fn tainted(&self, own: &Measurement, t: f64) -> Option<(Measurement, Vec<usize>)> {
+    pub fn tainted(&self, own: &Measurement, t: Time) -> Option<(Measurement, Vec<usize>)> {
         let active: Vec<&(usize, Attack)> = self.false_data.iter().filter(|(_, a)| a.active(t)).collect();
         if active.is_empty() {
             return None;
@@ -130,8 +131,8 @@ impl Node {
     }
 
     /// Simulated time now: the start of the last step begun.
-    fn now(&self) -> f64 {
-        self.last_step.unwrap_or(0) as f64 * self.topo.sim().dt()
+    fn now(&self) -> Time {
+        self.topo.step_time(self.last_step.unwrap_or(0))
     }
 
     /// What the outsiders send ahead of a datagram that reaches this node, taken first.
@@ -151,7 +152,7 @@ impl Node {
             return;
         }
         let dt = self.topo.sim().dt();
-        for inj in self.trust.air.on_step(k as f64 * dt, dt) {
+        for inj in self.trust.air.on_step(self.topo.step_time(k), dt) {
             self.inject(inj);
         }
     }

@@ -129,18 +129,16 @@ impl Wire {
         }
     }
 
-    /// Whether `d` fits a datagram on every link, whatever its receiver and sequence number.
+    /// Whether `d` fits a datagram on every link, whatever its receiver and sequence number: a message sent to some
+    /// neighbours and not others would be a fault no medium chose.
     pub fn fits(&self, d: &Datagram) -> Result<(), WireError> {
-        let longest = Datagram {
-            // The largest id and sequence number: five bytes each on the wire (a broadcast takes one).
-            header: Header {
-                dst: BROADCAST - 1,
-                seq: u32::MAX,
-                ..d.header
-            },
-            payload: d.payload.clone(),
+        // The largest id and sequence number: five bytes each on the wire (a broadcast takes one).
+        let longest = Header {
+            dst: BROADCAST - 1,
+            seq: u32::MAX,
+            ..d.header
         };
-        let len = longest.encode()?.len() + if self.sealer.is_some() { OVERHEAD } else { 0 };
+        let len = Datagram::encoded_len(&longest, &d.payload)? + if self.sealer.is_some() { OVERHEAD } else { 0 };
         if len > crate::wire::MAX_DATAGRAM {
             return Err(WireError::TooLong(len));
         }

@@ -284,7 +284,8 @@ struct Star {
     medium: PairwiseMedium,
     sink: usize,
     faults: crate::link::FaultSchedule,
-    deadline: f64,
+    /// D, from a step's time to its deadline.
+    deadline: std::time::Duration,
     ids: Vec<u32>,
     traffic: StarTraffic,
 }
@@ -313,7 +314,7 @@ impl Star {
                 .fold(PairwiseMedium::new(), |m, j| m.with_sender(j, star(j))),
             sink,
             faults: s.faults().clone(),
-            deadline: s.sim().deadline_s,
+            deadline: s.deadline(0).since(s.step_time(0)),
             ids: s.nodes().iter().map(|n| n.id).collect(),
             traffic: StarTraffic::default(),
         }
@@ -331,23 +332,18 @@ impl Star {
             .filter(|&r| m.present[r])
             .fold(0u64, |acc, r| acc | 1 << r);
         let values = (0..m.z.len()).filter(|&r| m.present[r]).map(|r| m.z[r]).collect();
+        let at = crate::time::Time::at_step(f.step, dt);
         let dg = Datagram {
-            header: Header::new(
-                self.ids[f.node],
-                self.ids[self.sink],
-                f.step as u32,
-                crate::time::Time::at_step(f.step, dt),
-            ),
+            header: Header::new(self.ids[f.node], self.ids[self.sink], f.step as u32, at),
             payload: Payload::measurement(rows, values),
         };
         let bytes = dg.encode().unwrap_or_default();
         self.traffic.messages += 1;
         self.traffic.bytes += bytes.len() as u64;
         let got = if self.medium.carries(f.node) {
-            let t = f.step as f64 * dt;
             let tx = Transmission {
                 to: crate::medium::Dest::Node(self.sink),
-                t,
+                at,
                 group: vec![bytes],
                 stream: Stream::Measurement,
             };
@@ -355,10 +351,10 @@ impl Star {
             // A corrupted copy fails its checksum; a duplicate may still arrive whole; a copy after the deadline is
             // late.
             let mut intact = false;
-            while let Some(d) = self.medium.poll_delivery(f.node, t + self.deadline) {
+            while let Some(d) = self.medium.poll_delivery(f.node, at + self.deadline) {
                 intact |= Datagram::decode(&d.bytes).is_ok();
             }
-            while self.medium.poll_delivery(f.node, f64::INFINITY).is_some() {}
+            while self.medium.poll_delivery(f.node, crate::time::Time::MAX).is_some() {}
             intact.then(|| m.clone())
         } else {
             heard.and_then(|h| h.get(&f.node)).cloned()

@@ -370,7 +370,7 @@ mod tests {
         let (mut longest_edge, mut nearest_apart) = (0.0f64, f64::INFINITY);
         for a in 0..n {
             for b in (a + 1)..n {
-                let d = world.distance(a, b, 0.0);
+                let d = world.distance(a, b, crate::time::Time::ZERO);
                 if linked.contains(&(a, b)) {
                     longest_edge = longest_edge.max(d);
                 } else {

@@ -29,12 +29,14 @@ pub use validate::check_addr;
 
 use std::fmt;
 use std::sync::Arc;
+use std::time::Duration;
 
 use crate::imu_csv::ImuRecording;
 use crate::link::{FaultSchedule, LinkConfig};
 use crate::model::ModelConfig;
 use crate::motion::Trajectory;
 use crate::sensor::SensorProfile;
+use crate::time::Time;
 
 pub use crate::checks::{Checks, Problem};
 
@@ -381,10 +383,27 @@ impl Scenario {
 }
 
 impl Scenario {
-    /// The sub-deadline of round r of step k: t_k + D(r+1)/L.
-    pub fn round_end(&self, k: u64, r: usize) -> f64 {
-        let sim = self.sim();
-        k as f64 * sim.dt() + sim.deadline_s * (r + 1) as f64 / self.estimators().rounds as f64
+    /// The time of step k, t_k = k·Δt.
+    pub fn step_time(&self, k: u64) -> Time {
+        Time::at_step(k, self.sim().dt())
+    }
+
+    /// The deadline of step k, t_k + D: what arrives by then is used in step k.
+    pub fn deadline(&self, k: u64) -> Time {
+        self.step_time(k) + Duration::from_nanos(self.deadline_ns())
+    }
+
+    /// The sub-deadline of round r of step k, t_k + D(r+1)/L (to the nanosecond below; the last round's is the
+    /// step's deadline).
+    pub fn round_end(&self, k: u64, r: usize) -> Time {
+        let rounds = self.estimators().rounds.max(1) as u64;
+        let d = u128::from(self.deadline_ns()) * (r as u128 + 1) / u128::from(rounds);
+        self.step_time(k) + Duration::from_nanos(u64::try_from(d).unwrap_or(u64::MAX))
+    }
+
+    /// D in nanoseconds.
+    fn deadline_ns(&self) -> u64 {
+        (self.sim().deadline_s * 1e9).round() as u64
     }
 
     /// Index of the node whose file id is `id`.
@@ -424,7 +443,7 @@ impl Scenario {
                 ));
             }
         }
-        let late: Vec<f64> = self.faults.starts().filter(|t| *t >= d).collect();
+        let late: Vec<f64> = self.faults.starts().map(Time::as_secs).filter(|t| *t >= d).collect();
         if !late.is_empty() {
             w.push(format!(
                 "{} after the run ends at {d} s (at {}): never applied",

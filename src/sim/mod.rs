@@ -23,6 +23,7 @@ use crate::node::{Node, StepEstimate};
 use crate::observe::fusion::Observer;
 use crate::report::trace::TraceWriter;
 use crate::scenario::{Scenario, ScenarioError};
+use crate::time::Time;
 
 pub use results::{Clock, RunResults};
 
@@ -56,6 +57,7 @@ pub struct SimOptions {
     /// use simnet::link::{FaultSchedule, LinkCounters};
     /// use simnet::medium::{Delivery, Dest, Medium, Transmission};
     /// use simnet::sim::SimOptions;
+    /// use simnet::time::Time;
     /// use simnet::{Overrides, Scenario, Sim};
     ///
     /// #[derive(Debug)]
@@ -76,12 +78,12 @@ pub struct SimOptions {
     ///             self.due.extend(tx.group.iter().map(|bytes| Delivery { from, to, bytes: bytes.clone() }));
     ///         }
     ///     }
-    ///     fn poll_delivery(&mut self, from: usize, _now: f64) -> Option<Delivery> {
+    ///     fn poll_delivery(&mut self, from: usize, _now: Time) -> Option<Delivery> {
     ///         let i = self.due.iter().position(|d| d.from == from)?;
     ///         Some(self.due.remove(i))
     ///     }
-    ///     fn poll_timeout(&self, from: usize) -> Option<f64> {
-    ///         self.due.iter().any(|d| d.from == from).then_some(0.0)
+    ///     fn poll_timeout(&self, from: usize) -> Option<Time> {
+    ///         self.due.iter().any(|d| d.from == from).then_some(Time::ZERO)
     ///     }
     ///     fn counters(&self, from: usize) -> Vec<(usize, LinkCounters)> {
     ///         let out = self.sent.iter().filter(|((f, _), _)| *f == from);
@@ -188,9 +190,9 @@ impl Sim {
         }
         // As on the virtual clock over sockets: the last window also flushes everything still queued.
         let window_end = if k + 1 == steps {
-            f64::INFINITY
+            Time::MAX
         } else {
-            k as f64 * self.scenario.sim().dt() + self.scenario.sim().deadline_s
+            self.scenario.deadline(k)
         };
         let estimates = lockstep(&mut self.nodes, &mut *self.medium, k, window_end);
         let mut rows = Vec::new();
@@ -278,10 +280,10 @@ pub fn begin_step(node: &mut Node, k: u64) {
     node.handle_step(k);
 }
 
-/// Step `k` of nodes wired together in memory; datagrams due by `window_end` (simulated s) reach their receivers
-/// before the step closes.
+/// Step `k` of nodes wired together in memory; datagrams due by `window_end` reach their receivers before the step
+/// closes.
 /// Round r of L closes at t_k + D(r+1)/L, the last one at `window_end`.
-pub(crate) fn lockstep(nodes: &mut [Node], medium: &mut dyn Medium, k: u64, window_end: f64) -> Vec<StepEstimate> {
+pub(crate) fn lockstep(nodes: &mut [Node], medium: &mut dyn Medium, k: u64, window_end: Time) -> Vec<StepEstimate> {
     for n in nodes.iter_mut() {
         begin_step(n, k);
     }

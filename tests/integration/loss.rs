@@ -1,6 +1,7 @@
 //! (h) Loss statistics of the pure link model against theory, within 3σ over ≥ 100,000 packets.
 
 use simnet::link::{FaultSchedule, Link, LinkConfig, LossModel, Verdict};
+use simnet::time::Time;
 
 const PACKETS: usize = 200_000;
 
@@ -13,7 +14,12 @@ fn losses(model: LossModel, seed: u64) -> Vec<bool> {
     let mut link = Link::new(0, 1, cfg, simnet::rng::stream(seed, "link", 0, 1));
     let schedule = FaultSchedule::default();
     (0..PACKETS)
-        .map(|i| matches!(link.verdict(i as f64 * 0.01, 40, &schedule), Verdict::Drop(_)))
+        .map(|i| {
+            matches!(
+                link.verdict(Time::at_step(i as u64, 0.01), 40, &schedule),
+                Verdict::Drop(_)
+            )
+        })
         .collect()
 }
 
@@ -118,7 +124,7 @@ fn link_counters_track_loss_runs() {
     let mut link = Link::new(0, 1, cfg, simnet::rng::stream(5, "link", 0, 1));
     let s = FaultSchedule::default();
     let l: Vec<bool> = (0..50_000)
-        .map(|i| matches!(link.verdict(i as f64, 10, &s), Verdict::Drop(_)))
+        .map(|i| matches!(link.verdict(Time::from_secs(i as f64), 10, &s), Verdict::Drop(_)))
         .collect();
     let c = link.counters();
     assert_eq!(c.sent, 50_000);

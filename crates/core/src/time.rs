@@ -29,6 +29,9 @@ impl Time {
     /// The run's start.
     pub const ZERO: Time = Time(0);
 
+    /// The latest time there is: what a driver waits until to flush everything still queued.
+    pub const MAX: Time = Time(u64::MAX);
+
     /// `ns` nanoseconds after the start.
     pub const fn from_nanos(ns: u64) -> Time {
         Time(ns)
@@ -46,9 +49,11 @@ impl Time {
         Time((s * 1e9).round() as u64)
     }
 
-    /// Seconds after the start.
+    /// Seconds after the start, the double nearest to them (a time read from decimal seconds with at most nine
+    /// places reads back as the same double).
     pub fn as_secs(self) -> f64 {
-        self.0 as f64 * 1e-9
+        // A quotient is correctly rounded; a product by 1e-9 (itself inexact) is not: 10⁹ · 1e-9 ≠ 1.
+        self.0 as f64 / 1e9
     }
 
     /// The time of step `k` of a run stepping every `dt` seconds.
@@ -59,6 +64,12 @@ impl Time {
     /// The step of a run stepping every `dt` seconds that this time is nearest to.
     pub fn step(self, dt: f64) -> u64 {
         (self.as_secs() / dt).round() as u64
+    }
+
+    /// The time `d` after the run began (the largest time if that is past it): a wall clock's reading as
+    /// simulated time.
+    pub fn since_start(d: Duration) -> Time {
+        Time::ZERO + d
     }
 
     /// The time `d` after this one (the largest time if that is past it).
@@ -118,5 +129,16 @@ mod tests {
             core::time::Duration::ZERO
         );
         assert_eq!(Time::from_nanos(1_500_000_000).to_string(), "1.500000000 s");
+    }
+
+    /// Seconds written with up to nine decimals come back as the same double, and times compare as the seconds they
+    /// were read from.
+    #[test]
+    fn decimal_seconds_read_back() {
+        for s in [0.0, 0.3, 1.0, 1.25, 2.5, 7.001, 10.0, 59.999999999, 123.456789, 3600.5] {
+            assert_eq!(Time::from_secs(s).as_secs(), s, "{s}");
+        }
+        assert!(Time::at_step(3, 0.1) == Time::from_secs(0.3) && Time::at_step(70, 0.01) == Time::from_secs(0.7));
+        assert_eq!(Time::MAX.as_nanos(), u64::MAX);
     }
 }

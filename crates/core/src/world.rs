@@ -11,6 +11,7 @@
 //! ```
 //! use nalgebra::Vector3;
 //! use simnet_core::motion::Trajectory;
+//! use simnet_core::time::Time;
 //! use simnet_core::world::{Place, World};
 //!
 //! let mut w = World::new();
@@ -18,13 +19,14 @@
 //! w.place(Place::Fixed(Vector3::new(0.0, 5.0, 0.0)));
 //! w.place(Place::Mounted { body: package, lever: Vector3::new(0.1, 0.0, 0.0) });
 //! // The package moves along x at about 1 m/s: the mounted node passes the fixed one.
-//! assert!((w.distance(0, 1, 0.0) - (25.0f64 + 0.01).sqrt()).abs() < 0.2);
-//! assert!(w.distance(0, 1, 10.0) > 10.0);
+//! assert!((w.distance(0, 1, Time::ZERO) - (25.0f64 + 0.01).sqrt()).abs() < 0.2);
+//! assert!(w.distance(0, 1, Time::from_secs(10.0)) > 10.0);
 //! ```
 
 use nalgebra::Vector3;
 
 use crate::motion::Trajectory;
+use crate::time::Time;
 
 /// Where one node is.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -81,14 +83,14 @@ impl World {
         self.places.get(node).copied()
     }
 
-    /// Node `node`'s position at time `t` (s): its fixed position, or its body's position with the lever arm turned
+    /// Node `node`'s position at time `t`: its fixed position, or its body's position with the lever arm turned
     /// by the body's attitude (p + R(θ) ℓ). The origin for a node the world does not have.
-    pub fn position(&self, node: usize, t: f64) -> Vector3<f64> {
+    pub fn position(&self, node: usize, t: Time) -> Vector3<f64> {
         match self.places.get(node) {
             Some(Place::Fixed(p)) => *p,
             Some(Place::Mounted { body, lever }) => match self.bodies.get(*body) {
                 Some(tr) => {
-                    let s = tr.at(t);
+                    let s = tr.at(t.as_secs());
                     s.p + crate::geom::rotation(&s.euler) * lever
                 }
                 None => Vector3::zeros(),
@@ -98,7 +100,7 @@ impl World {
     }
 
     /// The distance between nodes `a` and `b` at time `t`, m.
-    pub fn distance(&self, a: usize, b: usize, t: f64) -> f64 {
+    pub fn distance(&self, a: usize, b: usize, t: Time) -> f64 {
         (self.position(a, t) - self.position(b, t)).norm()
     }
 }
@@ -123,12 +125,13 @@ mod tests {
         });
         for t in [0.0, 1.7, 4.2, 9.9] {
             let s = Trajectory::Circle.at(t);
-            let arm = w.position(1, t) - w.position(0, t);
+            let at = Time::from_secs(t);
+            let arm = w.position(1, at) - w.position(0, at);
             assert!((arm.norm() - 0.5).abs() < 1e-12, "{t}");
             // Roll and pitch sway a little: the arm stays within a few degrees of the heading.
             let heading = s.v.normalize();
             assert!(arm.normalize().dot(&heading) > 0.99, "{t}: {arm:?} {heading:?}");
-            assert_eq!(w.position(0, t), s.p);
+            assert_eq!(w.position(0, at), s.p);
         }
     }
 
@@ -141,9 +144,9 @@ mod tests {
             body: 7,
             lever: Vector3::new(1.0, 0.0, 0.0),
         });
-        assert_eq!(w.position(0, 123.0), p);
-        assert_eq!(w.distance(0, 1, 0.0), 5.0);
-        assert_eq!(w.distance(0, 9, 0.0), 5.0);
+        assert_eq!(w.position(0, Time::from_secs(123.0)), p);
+        assert_eq!(w.distance(0, 1, Time::ZERO), 5.0);
+        assert_eq!(w.distance(0, 9, Time::ZERO), 5.0);
         assert_eq!((w.len(), w.place_of(2)), (2, None));
     }
 }

@@ -36,6 +36,7 @@ use crate::medium::Medium;
 use crate::node::{Node, NodeReport};
 use crate::scenario::Scenario;
 use crate::sim::{begin_step, Clock, RunResults};
+use crate::time::Time;
 use crate::wire::{Frame, FrameView, FrameWriter, Nack, MAX_FRAME};
 
 mod slot;
@@ -170,7 +171,7 @@ async fn worker(
             let window = k * sh.rounds as u64 + r as u64;
             let last = r + 1 == sh.rounds;
             let window_end = if last && k + 1 == sh.steps {
-                f64::INFINITY
+                Time::MAX
             } else {
                 sh.topo.round_end(k, r)
             };

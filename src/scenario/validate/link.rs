@@ -6,6 +6,7 @@ use std::collections::HashMap;
 use crate::link::{FaultSchedule, Jitter, LinkConfig, LossModel, ScheduledFault};
 use crate::scenario::toml::{RawFault, RawLink, RawLoss};
 use crate::scenario::Validator;
+use crate::time::Time;
 
 impl Validator {
     pub(crate) fn loss(&mut self, key: &str, l: &RawLoss) -> LossModel {
@@ -130,7 +131,7 @@ impl Validator {
                 }
                 r
             };
-            let window = |v: &mut Validator| -> Option<(f64, f64)> {
+            let window = |v: &mut Validator| -> Option<(Time, Time)> {
                 let (Some(s), Some(e)) = (r.start_s, r.end_s) else {
                     v.bad(key.clone(), "needs start_s and end_s");
                     return None;
@@ -143,7 +144,7 @@ impl Validator {
                     );
                     return None;
                 }
-                Some((s, e))
+                Some((Time::from_secs(s), Time::from_secs(e)))
             };
             // A key of another kind would be silently ignored: refused instead.
             let given = [
@@ -232,8 +233,8 @@ impl Validator {
                     }
                     out.push(ScheduledFault::Crash {
                         node,
-                        at,
-                        restart: r.restart_s,
+                        at: Time::from_secs(at),
+                        restart: r.restart_s.map(Time::from_secs),
                     });
                 }
                 other => self.bad(

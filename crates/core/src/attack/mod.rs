@@ -14,12 +14,14 @@
 //! original, so an attack that a key defeats leaves a run as it was. Each injection's fate is counted in a [`Tally`].
 
 use std::collections::VecDeque;
+use std::time::Duration;
 
 use bytes::Bytes;
 use nalgebra::DVector;
 use rand::Rng as _;
 use serde::{Deserialize, Serialize};
 
+use crate::time::Time;
 use crate::wire::{Datagram, Header, Payload, KIND_MEASUREMENT};
 
 /// What an `[[attack]]` does.
@@ -96,19 +98,19 @@ pub struct Attack {
 }
 
 impl Attack {
-    /// The attack is on at time `t` (s): start ≤ t < end.
-    pub fn active(&self, t: f64) -> bool {
-        t >= self.start_s && t < self.end_s
+    /// The attack is on at time `t`: start ≤ t < end, to the nanosecond (as a fault window is).
+    pub fn active(&self, t: Time) -> bool {
+        t >= Time::from_secs(self.start_s) && t < Time::from_secs(self.end_s)
     }
 
     /// What row `r` is moved by at `t`.
-    pub fn offset(&self, r: usize, t: f64) -> f64 {
+    pub fn offset(&self, r: usize, t: Time) -> f64 {
         let at = |v: &[f64]| v.get(r).copied().unwrap_or(0.0);
-        at(&self.bias) + at(&self.ramp) * (t - self.start_s).max(0.0)
+        at(&self.bias) + at(&self.ramp) * (t.as_secs() - self.start_s).max(0.0)
     }
 
     /// A compromised node's measurement as it sends it (false-data).
-    pub fn taint(&self, z: &mut DVector<f64>, t: f64) {
+    pub fn taint(&self, z: &mut DVector<f64>, t: Time) {
         for (r, v) in z.iter_mut().enumerate() {
             *v += self.offset(r, t);
         }
@@ -226,7 +228,7 @@ pub struct Air {
     /// (attack index, attack, claimed node's id) of the attacks on this node.
     attacks: Vec<(usize, Attack, u32)>,
     /// (due time, attack index, bytes) captured by replayers.
-    captured: VecDeque<(f64, usize, Bytes)>,
+    captured: VecDeque<(Time, usize, Bytes)>,
     /// Flood credit per attack (fractional datagrams carried between steps).
     credit: Vec<f64>,
     rng: crate::rng::Rng,
@@ -258,7 +260,7 @@ impl Air {
     }
 
     /// The target begins a step at `t` (length `dt`): the flood of the step, and the replays now due.
-    pub fn on_step(&mut self, t: f64, dt: f64) -> Vec<Injection> {
+    pub fn on_step(&mut self, t: Time, dt: f64) -> Vec<Injection> {
         let mut out = Vec::new();
         while self.captured.front().is_some_and(|(due, _, _)| *due <= t) {
             let (_, attack, bytes) = self.captured.pop_front().expect("front exists");
@@ -292,7 +294,7 @@ impl Air {
 
     /// A datagram reaches the target at `t` from `from`: what the outsiders send ahead of it, and what they
     /// capture of it.
-    pub fn on_arrival(&mut self, t: f64, from: Option<usize>, bytes: &[u8]) -> Vec<Injection> {
+    pub fn on_arrival(&mut self, t: Time, from: Option<usize>, bytes: &[u8]) -> Vec<Injection> {
         let mut out = Vec::new();
         let Some(from) = from else { return out };
         let Ok(header) = crate::wire::peek_header(bytes) else {
@@ -306,8 +308,9 @@ impl Air {
             }
             match a.kind {
                 AttackKind::Replay if self.captured.len() < MAX_CAPTURES => {
-                    self.captured
-                        .push_back((t + a.delay_s, *i, Bytes::copy_from_slice(bytes)));
+                    // To the nanosecond; never negative (the scenario checks delay_s ≥ 0).
+                    let delay = Duration::from_nanos((a.delay_s * 1e9).round().max(0.0) as u64);
+                    self.captured.push_back((t + delay, *i, Bytes::copy_from_slice(bytes)));
                 }
                 AttackKind::Forge if header.kind == KIND_MEASUREMENT => {
                     let (rows, values) = match &clear {
@@ -368,7 +371,7 @@ impl Air {
 }
 
 /// `values` of the rows in `rows` (in row order), each moved by the attack's offset at `t`.
-fn moved(a: &Attack, rows: u64, values: &[f64], t: f64) -> Vec<f64> {
+fn moved(a: &Attack, rows: u64, values: &[f64], t: Time) -> Vec<f64> {
     (0..64)
         .filter(|r| rows & (1 << r) != 0)
         .zip(values)

@@ -7,6 +7,7 @@ use std::collections::BinaryHeap;
 use bytes::Bytes;
 
 use super::{FaultSchedule, Link, LinkCounters, Verdict};
+use crate::time::Time;
 
 /// A datagram ready to leave for node `to`.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -19,7 +20,7 @@ pub struct Transmit {
 
 #[derive(Debug)]
 struct Pending {
-    at: f64,
+    at: Time,
     order: u64,
     tx: Transmit,
 }
@@ -36,7 +37,7 @@ impl PartialOrd for Pending {
 }
 impl Ord for Pending {
     fn cmp(&self, o: &Self) -> std::cmp::Ordering {
-        self.at.total_cmp(&o.at).then(self.order.cmp(&o.order))
+        self.at.cmp(&o.at).then(self.order.cmp(&o.order))
     }
 }
 
@@ -99,7 +100,7 @@ impl Egress {
 
     /// Send the datagrams of one slot under one verdict, drawn from `stream` for the first datagram: every copy
     /// the link makes carries all of them with the same delay, and a corrupted copy has a bit flipped in each.
-    pub fn push_group(&mut self, link: usize, now: f64, group: &[Bytes], faults: &FaultSchedule, stream: Stream) {
+    pub fn push_group(&mut self, link: usize, now: Time, group: &[Bytes], faults: &FaultSchedule, stream: Stream) {
         let Some(first) = group.first() else { return };
         let l = match stream {
             Stream::Measurement => &mut self.links[link],
@@ -133,9 +134,9 @@ impl Egress {
         }
     }
 
-    /// The next copy due at or before `now` (simulated seconds), in delivery order.
-    pub fn poll_transmit(&mut self, now: f64) -> Option<Transmit> {
-        if self.queue.peek().is_some_and(|Reverse(p)| p.at <= now + 1e-12) {
+    /// The next copy due at or before `now`, in delivery order.
+    pub fn poll_transmit(&mut self, now: Time) -> Option<Transmit> {
+        if self.queue.peek().is_some_and(|Reverse(p)| p.at <= now) {
             self.queue.pop().map(|Reverse(p)| p.tx)
         } else {
             None
@@ -143,7 +144,7 @@ impl Egress {
     }
 
     /// When the next queued copy is due.
-    pub fn poll_timeout(&self) -> Option<f64> {
+    pub fn poll_timeout(&self) -> Option<Time> {
         self.queue.peek().map(|Reverse(p)| p.at)
     }
 

@@ -18,6 +18,7 @@ pub use rules::{Delivery, Rule};
 pub use schedule::{FaultSchedule, FaultWindow, NodeEvent, ScheduledFault};
 
 use crate::rng::Rng;
+use crate::time::Time;
 
 /// How a link loses datagrams.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -223,9 +224,9 @@ impl Link {
         &self.counters
     }
 
-    /// Decide the fate of one datagram of `len` bytes sent at simulated time `now` (seconds): the first rule that
-    /// drops it wins; otherwise every copy is shaped by every rule, copy after copy.
-    pub fn verdict(&mut self, now: f64, len: usize, faults: &FaultSchedule) -> Verdict {
+    /// Decide the fate of one datagram of `len` bytes sent at simulated time `now`: the first rule that drops it
+    /// wins; otherwise every copy is shaped by every rule, copy after copy.
+    pub fn verdict(&mut self, now: Time, len: usize, faults: &FaultSchedule) -> Verdict {
         let cx = Context {
             from: self.from,
             to: self.to,
@@ -256,7 +257,7 @@ impl Link {
         let out = (0..copies)
             .map(|_| {
                 let mut d = Delivery {
-                    delay: 0.0,
+                    delay: core::time::Duration::ZERO,
                     flip_bit: None,
                 };
                 for rule in &mut self.rules {
@@ -294,7 +295,7 @@ mod tests {
             ..Default::default()
         };
         let mut l = Link::new(0, 1, cfg, crate::rng::stream(3, "link", 0, 1));
-        let v = l.verdict(0.0, 10, &FaultSchedule::default());
+        let v = l.verdict(Time::ZERO, 10, &FaultSchedule::default());
         match v {
             Verdict::Deliver(c) => {
                 assert_eq!(c.len(), 2);

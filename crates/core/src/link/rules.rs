@@ -2,11 +2,14 @@
 //! (Bernoulli or Gilbert–Elliott), duplication, then per copy delay with jitter and corruption. Each rule draws from
 //! the link's own seeded stream only when it is active, so a link without a fault draws nothing for it.
 
+use core::time::Duration;
+
 use rand::Rng as _;
 use rand_distr::StandardNormal;
 
 use super::{DropCause, FaultSchedule, Jitter, LinkConfig, LossModel};
 use crate::rng::Rng;
+use crate::time::Time;
 
 /// One datagram on its way: where and when.
 pub struct Context<'a> {
@@ -14,8 +17,8 @@ pub struct Context<'a> {
     pub from: usize,
     /// Receiving node, by index.
     pub to: usize,
-    /// Simulated send time, s.
-    pub now: f64,
+    /// Simulated send time.
+    pub now: Time,
     /// Bytes.
     pub len: usize,
     /// The run's fault windows.
@@ -25,8 +28,8 @@ pub struct Context<'a> {
 /// One copy's fate so far.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Delivery {
-    /// Seconds after sending.
-    pub delay: f64,
+    /// How long after sending it arrives.
+    pub delay: Duration,
     /// Bit to flip, if this copy is corrupted.
     pub flip_bit: Option<usize>,
 }
@@ -115,7 +118,8 @@ impl Rule for Delay {
         } else {
             0.0
         };
-        copy.delay += ((self.delay_ms + j) / 1000.0).max(0.0);
+        // To the nearest nanosecond (ms · 10⁶); never negative.
+        copy.delay += Duration::from_nanos(((self.delay_ms + j) * 1e6).round().max(0.0) as u64);
     }
 }
 

@@ -1,6 +1,8 @@
 //! Faults over simulated time: link-down windows, partitions, node crashes with optional restart.
 
-/// A fault window of `[[fault]]`, nodes by index, times in seconds.
+use crate::time::Time;
+
+/// A fault window of `[[fault]]`, nodes by index.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ScheduledFault {
     /// The link from → to (and back, if `both_ways`) carries nothing in [start, end).
@@ -11,28 +13,28 @@ pub enum ScheduledFault {
         to: usize,
         /// Down both ways.
         both_ways: bool,
-        /// Start, s.
-        start: f64,
-        /// End, s.
-        end: f64,
+        /// Start.
+        start: Time,
+        /// End.
+        end: Time,
     },
     /// Nodes in `nodes` cannot talk to nodes outside it in [start, end).
     Partition {
         /// One side of the partition.
         nodes: Vec<usize>,
-        /// Start, s.
-        start: f64,
-        /// End, s.
-        end: f64,
+        /// Start.
+        start: Time,
+        /// End.
+        end: Time,
     },
     /// The node stops at `at`; at `restart` (if any) it comes back with its filters re-initialised.
     Crash {
         /// The node.
         node: usize,
-        /// When it stops, s.
-        at: f64,
-        /// When it comes back, s (none: never).
-        restart: Option<f64>,
+        /// When it stops.
+        at: Time,
+        /// When it comes back (none: never).
+        restart: Option<Time>,
     },
 }
 
@@ -93,8 +95,8 @@ impl FaultSchedule {
         FaultSchedule { faults }
     }
 
-    /// Node `node` is running at time `t` (s).
-    pub fn node_up(&self, node: usize, t: f64) -> bool {
+    /// Node `node` is running at time `t`.
+    pub fn node_up(&self, node: usize, t: Time) -> bool {
         !self.faults.iter().any(|f| match f {
             ScheduledFault::Crash { node: n, at, restart } => *n == node && t >= *at && restart.is_none_or(|r| t < r),
             _ => false,
@@ -102,7 +104,7 @@ impl FaultSchedule {
     }
 
     /// Whether a datagram sent at `t` can cross from → to: both ends up, no window or partition in the way.
-    pub fn link_up(&self, from: usize, to: usize, t: f64) -> bool {
+    pub fn link_up(&self, from: usize, to: usize, t: Time) -> bool {
         if !self.node_up(from, t) || !self.node_up(to, t) {
             return false;
         }
@@ -137,29 +139,29 @@ impl FaultSchedule {
                     kind: "link-down".into(),
                     nodes: vec![id_of(*from), id_of(*to)],
                     directed: !both_ways,
-                    start_s: *start,
-                    end_s: Some(*end),
+                    start_s: start.as_secs(),
+                    end_s: Some(end.as_secs()),
                 },
                 ScheduledFault::Partition { nodes, start, end } => FaultWindow {
                     kind: "partition".into(),
                     directed: false,
                     nodes: nodes.iter().map(|n| id_of(*n)).collect(),
-                    start_s: *start,
-                    end_s: Some(*end),
+                    start_s: start.as_secs(),
+                    end_s: Some(end.as_secs()),
                 },
                 ScheduledFault::Crash { node, at, restart } => FaultWindow {
                     kind: "crash".into(),
                     directed: false,
                     nodes: vec![id_of(*node)],
-                    start_s: *at,
-                    end_s: *restart,
+                    start_s: at.as_secs(),
+                    end_s: restart.map(Time::as_secs),
                 },
             })
             .collect()
     }
 
     /// When each fault starts (to warn of faults that a run ends before).
-    pub fn starts(&self) -> impl Iterator<Item = f64> + '_ {
+    pub fn starts(&self) -> impl Iterator<Item = Time> + '_ {
         self.faults.iter().map(|f| match f {
             ScheduledFault::LinkDown { start, .. } | ScheduledFault::Partition { start, .. } => *start,
             ScheduledFault::Crash { at, .. } => *at,
@@ -169,18 +171,20 @@ impl FaultSchedule {
     /// The events due to `node`, now `up` or down, before step k of period `dt`: a crash, a restart, or both when
     /// it went down and came back since the step before.
     pub fn node_events(&self, node: usize, k: u64, dt: f64, up: bool) -> &'static [NodeEvent] {
-        let t = k as f64 * dt;
+        let t = Time::at_step(k, dt);
         let up_now = self.node_up(node, t);
         match (up, up_now) {
             (true, false) => &[NodeEvent::Crash],
             (false, true) => &[NodeEvent::Restart],
-            (true, true) if k > 0 && self.restarts_between(node, t - dt, t) => &[NodeEvent::Crash, NodeEvent::Restart],
+            (true, true) if k > 0 && self.restarts_between(node, Time::at_step(k - 1, dt), t) => {
+                &[NodeEvent::Crash, NodeEvent::Restart]
+            }
             _ => &[],
         }
     }
 
     /// True when `node` restarts in (t0, t1]: it must re-initialise.
-    pub fn restarts_between(&self, node: usize, t0: f64, t1: f64) -> bool {
+    pub fn restarts_between(&self, node: usize, t0: Time, t1: Time) -> bool {
         self.faults.iter().any(|f| match f {
             ScheduledFault::Crash {
                 node: n,
@@ -198,29 +202,41 @@ mod tests {
 
     #[test]
     fn windows_partitions_and_crashes() {
+        let t = Time::from_secs;
         let s = FaultSchedule::new(vec![
             ScheduledFault::LinkDown {
                 from: 0,
                 to: 1,
                 both_ways: false,
-                start: 1.0,
-                end: 2.0,
+                start: t(1.0),
+                end: t(2.0),
             },
             ScheduledFault::Partition {
                 nodes: vec![2],
-                start: 3.0,
-                end: 4.0,
+                start: t(3.0),
+                end: t(4.0),
             },
             ScheduledFault::Crash {
                 node: 1,
-                at: 5.0,
-                restart: Some(6.0),
+                at: t(5.0),
+                restart: Some(t(6.0)),
             },
         ]);
-        assert!(!s.link_up(0, 1, 1.5) && s.link_up(1, 0, 1.5) && s.link_up(0, 1, 2.0));
-        assert!(!s.link_up(0, 2, 3.5) && !s.link_up(2, 1, 3.5) && s.link_up(0, 1, 3.5));
-        assert!(!s.node_up(1, 5.5) && s.node_up(1, 6.0) && !s.link_up(0, 1, 5.2));
-        assert!(s.restarts_between(1, 5.99, 6.0) && !s.restarts_between(1, 6.0, 7.0));
+        assert!(!s.link_up(0, 1, t(1.5)) && s.link_up(1, 0, t(1.5)) && s.link_up(0, 1, t(2.0)));
+        assert!(!s.link_up(0, 2, t(3.5)) && !s.link_up(2, 1, t(3.5)) && s.link_up(0, 1, t(3.5)));
+        assert!(!s.node_up(1, t(5.5)) && s.node_up(1, t(6.0)) && !s.link_up(0, 1, t(5.2)));
+        assert!(s.restarts_between(1, t(5.99), t(6.0)) && !s.restarts_between(1, t(6.0), t(7.0)));
+        // A window opens on the step that begins at its start whatever the rounding of k·Δt (at 30 Hz, step 111 in
+        // seconds is 3.6999999999999997).
+        let w = FaultSchedule::new(vec![ScheduledFault::Partition {
+            nodes: vec![0],
+            start: t(3.7),
+            end: t(4.0),
+        }]);
+        let dt = 1.0 / 30.0;
+        assert!(111.0 * dt < 3.7);
+        assert!(w.link_up(0, 1, Time::at_step(110, dt)) && !w.link_up(0, 1, Time::at_step(111, dt)));
+        assert!(!w.link_up(0, 1, Time::at_step(119, dt)) && w.link_up(0, 1, Time::at_step(120, dt)));
         use NodeEvent::{Crash, Restart};
         // At 10 Hz: down at step 50, back at step 60; nothing while it stays either way.
         let events = |k, up| s.node_events(1, k, 0.1, up);

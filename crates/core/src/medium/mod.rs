@@ -16,16 +16,18 @@
 //!
 //! ```
 //! use std::collections::VecDeque;
+//! use std::time::Duration;
 //! use bytes::Bytes;
 //! use nalgebra::Vector3;
 //! use simnet_core::link::{FaultSchedule, LinkCounters, Stream};
 //! use simnet_core::medium::{Delivery, Dest, Medium, Transmission};
+//! use simnet_core::time::Time;
 //! use simnet_core::world::{Place, World};
 //!
 //! #[derive(Debug)]
 //! struct InRange {
 //!     world: World,
-//!     queue: VecDeque<(f64, Delivery)>,
+//!     queue: VecDeque<(Time, Delivery)>,
 //!     sent: Vec<(usize, usize, u64)>,
 //! }
 //!
@@ -40,20 +42,20 @@
 //!                 Some(s) => s.2 += 1,
 //!                 None => self.sent.push((from, to, 1)),
 //!             }
-//!             if !faults.link_up(from, to, tx.t) || self.world.distance(from, to, tx.t) > 30.0 {
+//!             if !faults.link_up(from, to, tx.at) || self.world.distance(from, to, tx.at) > 30.0 {
 //!                 continue;
 //!             }
 //!             for bytes in &tx.group {
-//!                 self.queue.push_back((tx.t + 0.004, Delivery { from, to, bytes: bytes.clone() }));
+//!                 self.queue.push_back((tx.at + Duration::from_millis(4), Delivery { from, to, bytes: bytes.clone() }));
 //!             }
 //!         }
 //!     }
-//!     fn poll_delivery(&mut self, from: usize, now: f64) -> Option<Delivery> {
+//!     fn poll_delivery(&mut self, from: usize, now: Time) -> Option<Delivery> {
 //!         let i = self.queue.iter().position(|(at, d)| d.from == from && *at <= now)?;
 //!         self.queue.remove(i).map(|(_, d)| d)
 //!     }
-//!     fn poll_timeout(&self, from: usize) -> Option<f64> {
-//!         self.queue.iter().filter(|(_, d)| d.from == from).map(|(at, _)| *at).reduce(f64::min)
+//!     fn poll_timeout(&self, from: usize) -> Option<Time> {
+//!         self.queue.iter().filter(|(_, d)| d.from == from).map(|(at, _)| *at).min()
 //!     }
 //!     fn counters(&self, from: usize) -> Vec<(usize, LinkCounters)> {
 //!         let sent = self.sent.iter().filter(|(f, _, _)| *f == from);
@@ -67,23 +69,25 @@
 //! }
 //! let mut air = InRange { world, queue: VecDeque::new(), sent: Vec::new() };
 //! let faults = FaultSchedule::default();
-//! let tx = Transmission { to: Dest::Broadcast, t: 0.01, group: vec![Bytes::from_static(b"hi")], stream: Stream::Measurement };
+//! let ms = |n: u64| Time::from_nanos(n * 1_000_000);
+//! let tx = Transmission { to: Dest::Broadcast, at: ms(10), group: vec![Bytes::from_static(b"hi")], stream: Stream::Measurement };
 //! air.transmit(0, tx, &faults);
-//! assert!(air.poll_delivery(0, 0.012).is_none());
-//! assert_eq!(air.poll_timeout(0), Some(0.014));
-//! let d = air.poll_delivery(0, 0.014).unwrap();
+//! assert!(air.poll_delivery(0, ms(12)).is_none());
+//! assert_eq!(air.poll_timeout(0), Some(ms(14)));
+//! let d = air.poll_delivery(0, ms(14)).unwrap();
 //! assert_eq!((d.from, d.to, &d.bytes[..]), (0, 1, &b"hi"[..]));
-//! assert!(air.poll_delivery(0, 1.0).is_none(), "node 2 is 50 m away");
+//! assert!(air.poll_delivery(0, Time::MAX).is_none(), "node 2 is 50 m away");
 //! assert_eq!(air.counters(0).len(), 2);
 //! // Node 1 to node 2 alone, 30 m apart.
-//! let tx = Transmission { to: Dest::Node(2), t: 0.02, group: vec![Bytes::from_static(b"yo")], stream: Stream::Measurement };
+//! let tx = Transmission { to: Dest::Node(2), at: ms(20), group: vec![Bytes::from_static(b"yo")], stream: Stream::Measurement };
 //! air.transmit(1, tx, &faults);
-//! assert_eq!(air.poll_delivery(1, 0.03).map(|d| d.to), Some(2));
+//! assert_eq!(air.poll_delivery(1, ms(30)).map(|d| d.to), Some(2));
 //! ```
 
 use bytes::Bytes;
 
 use crate::link::{Egress, FaultSchedule, LinkCounters, Stream};
+use crate::time::Time;
 
 /// Who a transmission is for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -100,8 +104,8 @@ pub enum Dest {
 pub struct Transmission {
     /// Who it is for.
     pub to: Dest,
-    /// Simulated send time, s.
-    pub t: f64,
+    /// When it is sent.
+    pub at: Time,
     /// The datagrams, in order.
     pub group: Vec<Bytes>,
     /// Which of the link's seeded streams decides their fate.
@@ -124,10 +128,10 @@ pub struct Delivery {
 pub trait Medium: Send + std::fmt::Debug {
     /// `from` sends `tx`; the medium decides what becomes of it.
     fn transmit(&mut self, from: usize, tx: Transmission, faults: &FaultSchedule);
-    /// The next datagram from `from` due at or before `now` (simulated s).
-    fn poll_delivery(&mut self, from: usize, now: f64) -> Option<Delivery>;
+    /// The next datagram from `from` due at or before `now`.
+    fn poll_delivery(&mut self, from: usize, now: Time) -> Option<Delivery>;
     /// When the next datagram from `from` is due.
-    fn poll_timeout(&self, from: usize) -> Option<f64>;
+    fn poll_timeout(&self, from: usize) -> Option<Time>;
     /// What each of `from`'s links carried, by receiver.
     fn counters(&self, from: usize) -> Vec<(usize, LinkCounters)>;
 }
@@ -183,15 +187,15 @@ impl Medium for PairwiseMedium {
         match tx.to {
             Dest::Node(to) => {
                 if let Some(li) = e.link_to(to) {
-                    e.push_group(li, tx.t, &tx.group, faults, tx.stream);
+                    e.push_group(li, tx.at, &tx.group, faults, tx.stream);
                 }
             }
             // Each out-link decides alone, in link order: the draws of as many unicasts.
-            Dest::Broadcast => (0..e.len()).for_each(|li| e.push_group(li, tx.t, &tx.group, faults, tx.stream)),
+            Dest::Broadcast => (0..e.len()).for_each(|li| e.push_group(li, tx.at, &tx.group, faults, tx.stream)),
         }
     }
 
-    fn poll_delivery(&mut self, from: usize, now: f64) -> Option<Delivery> {
+    fn poll_delivery(&mut self, from: usize, now: Time) -> Option<Delivery> {
         let t = self.sender_mut(from)?.poll_transmit(now)?;
         Some(Delivery {
             from,
@@ -200,7 +204,7 @@ impl Medium for PairwiseMedium {
         })
     }
 
-    fn poll_timeout(&self, from: usize) -> Option<f64> {
+    fn poll_timeout(&self, from: usize) -> Option<Time> {
         self.sender(from)?.poll_timeout()
     }
 
@@ -248,13 +252,13 @@ mod tests {
             .with_sender(1, egress(1, 4));
         let tx = Transmission {
             to: Dest::Node(4),
-            t: 0.5,
+            at: Time::from_secs(0.5),
             group: vec![Bytes::from_static(b"a"), Bytes::from_static(b"b")],
             stream: Stream::Measurement,
         };
         m.transmit(3, tx, &FaultSchedule::default());
-        assert!(m.poll_delivery(1, f64::INFINITY).is_none());
-        let got: Vec<_> = std::iter::from_fn(|| m.poll_delivery(3, 0.5))
+        assert!(m.poll_delivery(1, Time::MAX).is_none());
+        let got: Vec<_> = std::iter::from_fn(|| m.poll_delivery(3, Time::from_secs(0.5)))
             .map(|d| (d.from, d.to, d.bytes))
             .collect();
         assert_eq!(
@@ -284,11 +288,11 @@ mod tests {
         let (mut broadcast, mut unicast) = (lossy(), lossy());
         let faults = FaultSchedule::default();
         for k in 0..200u8 {
-            let t = f64::from(k) * 0.01;
+            let at = Time::at_step(u64::from(k), 0.01);
             let group = vec![Bytes::from(vec![k; 3])];
             let tx = |to| Transmission {
                 to,
-                t,
+                at,
                 group: group.clone(),
                 stream: Stream::Measurement,
             };
@@ -298,7 +302,7 @@ mod tests {
             }
         }
         let all = |m: &mut PairwiseMedium| {
-            let mut v: Vec<_> = std::iter::from_fn(|| m.poll_delivery(0, f64::INFINITY))
+            let mut v: Vec<_> = std::iter::from_fn(|| m.poll_delivery(0, Time::MAX))
                 .map(|d| (d.to, d.bytes))
                 .collect();
             v.sort();

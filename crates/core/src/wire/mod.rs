@@ -342,6 +342,14 @@ impl Datagram {
         Ok(Bytes::from(buf))
     }
 
+    /// The length [`Datagram::encode_parts`] gives `payload` under `header` (checksum included), counted without
+    /// writing a byte: what a sender checks a message against before it chooses the receivers' headers.
+    pub fn encoded_len(header: &Header, payload: &Payload) -> Result<usize, WireError> {
+        let len = postcard::serialize_with_flavor(&(header, payload), postcard::ser_flavors::Size::default())
+            .map_err(|e| WireError::Malformed(e.to_string()))?;
+        Ok(len + CRC_LEN)
+    }
+
     /// Checked decode of untrusted bytes (an unsealed datagram: a sealed one goes through [`secure::Opener`]).
     pub fn decode(bytes: &[u8]) -> Result<Datagram, WireError> {
         let body = checked_body(bytes)?;

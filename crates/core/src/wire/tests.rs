@@ -275,3 +275,36 @@ fn oversized_measurement_is_refused() {
     };
     assert!(big.encode().is_err());
 }
+
+#[test]
+fn encoded_len_is_the_encoding_length() {
+    let mut ds = vec![sample(), information_round()];
+    ds.push(Datagram {
+        header: Header::hello(3, BROADCAST, u32::MAX, Time::from_nanos(u64::MAX)),
+        payload: Payload::Hello {
+            running: Some(12),
+            run: 7,
+            boot: u64::MAX,
+            echo: 0,
+            probe: u64::MAX,
+            answer: 1,
+        },
+    });
+    ds.push(Datagram {
+        header: Header::new(0, BROADCAST - 1, u32::MAX, Time::ZERO),
+        payload: Payload::measurement(u64::MAX, vec![1.0; 64]),
+    });
+    for d in ds {
+        assert_eq!(
+            Datagram::encoded_len(&d.header, &d.payload).unwrap(),
+            d.encode().unwrap().len(),
+            "{d:?}"
+        );
+    }
+    // Counted even past the limit that encoding refuses.
+    let big = Payload::Measurement {
+        rows: u64::MAX,
+        values: vec![1.0; 200],
+    };
+    assert!(Datagram::encoded_len(&Header::new(0, 1, 0, Time::ZERO), &big).unwrap() > MAX_DATAGRAM);
+}
