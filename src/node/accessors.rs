@@ -86,7 +86,7 @@ impl Node {
             traffic: self.schemes.traffic(),
             rounds_late: self.schemes.late,
             links_out: medium.counters(self.index),
-            rx: self.inbox.rx.clone(),
+            rx: self.inbox.counters(),
             counters: NodeCounters {
                 rejected: self.wire.rejected,
                 ..self.counters

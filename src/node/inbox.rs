@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 
 use crate::model::Measurement;
 use crate::observe::metrics::RxBySource;
+use crate::wire::sequence::Sequence;
 
 /// Most early measurements a node holds.
 pub(super) const EARLY_CAP: usize = 256;
@@ -32,6 +33,8 @@ pub(super) struct Inbox {
     early: Vec<(u64, usize, u64, Vec<f64>)>,
     /// Receive counters, by source node index.
     pub rx: RxBySource,
+    /// The numbers seen on each link in: (source, broadcast or addressed to this node), sorted.
+    seqs: Vec<((usize, bool), Sequence)>,
 }
 
 impl Inbox {
@@ -44,7 +47,30 @@ impl Inbox {
             from: BTreeMap::new(),
             early: Vec::new(),
             rx: RxBySource::for_sources(sources),
+            seqs: Vec::new(),
         }
+    }
+
+    /// Number `seq` of `src`'s broadcasts (or of its datagrams to this node) came.
+    pub fn numbered(&mut self, src: usize, broadcast: bool, seq: u32) {
+        let key = (src, broadcast);
+        let i = match self.seqs.binary_search_by_key(&key, |(k, _)| *k) {
+            Ok(i) => i,
+            Err(i) => {
+                self.seqs.insert(i, (key, Sequence::default()));
+                i
+            }
+        };
+        self.seqs[i].1.see(seq);
+    }
+
+    /// The receive counters with each source's sequence gaps.
+    pub fn counters(&self) -> RxBySource {
+        let mut rx = self.rx.clone();
+        for ((src, _), q) in &self.seqs {
+            rx.get_mut(*src).seq_gaps += q.missing();
+        }
+        rx
     }
 
     /// The node is down: nothing is collected.

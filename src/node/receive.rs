@@ -74,6 +74,8 @@ impl Node {
             return None;
         }
         self.session.heard_from(src, peer_step);
+        self.inbox
+            .numbered(src, dg.header.dst == crate::wire::BROADCAST, dg.header.seq);
         let arrival = Arrival {
             src,
             step,

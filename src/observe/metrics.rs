@@ -157,6 +157,11 @@ pub struct RxCounters {
     /// Measurements left out of the networked update by the innovation gate.
     #[serde(default)]
     pub gated: u64,
+    /// Datagrams the source numbered for this node (or broadcast) that never came intact, from the gaps in their
+    /// sequence numbers: loss as the receiver alone can count it (a corrupted one is a gap too; one that comes
+    /// over 64 datagrams late is counted in the gap and as late).
+    #[serde(default)]
+    pub seq_gaps: u64,
 }
 
 /// Receive counters by source node index, held only for the sources heard from or expected (a node's memory grows

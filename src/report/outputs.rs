@@ -214,7 +214,7 @@ pub const SUMMARY: &[Field] = &[
     f("nodes[].implausible_step", "Datagrams whose step was implausibly far from the node's."),
     f("nodes[].unknown_address", "Datagrams from an address no neighbour has."),
     f("nodes[].gated", "Neighbours' measurements the innovation gate left out."),
-    f("links[].*", "Each directed link's figures, as the columns of links.csv, and `delivered_fraction` (delivered / sent) and `gated` (the sender's measurements the receiver's gate left out)."),
+    f("links[].*", "Each directed link's figures, as the columns of links.csv, and `delivered_fraction` (delivered / sent), `gated` (the sender's measurements the receiver's gate left out) and `seq_gaps` (datagrams the sender numbered for the receiver that never came intact, counted by the receiver from the gaps in their sequence numbers)."),
     f("fused.nodes", "The nodes fused."),
     f("fused.omega", "The covariance intersection weight."),
     f("fused.mean_error", "The fused estimate's mean error."),

@@ -231,6 +231,47 @@ fn jitter_past_the_deadline_makes_datagrams_late() {
     }
 }
 
+/// A receiver counts from the sequence numbers alone what its sender lost on their link: over UDP and in memory,
+/// broadcast and sealed per link, with bursty loss, duplicates, reordering and a crash, its gaps are the sender's
+/// losses but for the run of losses after the last datagram that came (which no receiver can see).
+#[test]
+fn a_receiver_counts_the_senders_losses_from_sequence_gaps() {
+    let faults = "[[fault]]\nkind = \"crash\"\nnode = 2\nat_s = 1.0\nrestart_s = 1.5\n";
+    let toml = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/topologies/ring3.toml")).unwrap() + faults;
+    for auth in [false, true] {
+        let o = Overrides {
+            loss: Some(simnet::link::LossModel::gilbert_elliott_from(0.2, 3.0).unwrap()),
+            duplicate: Some(0.2),
+            delay_ms: Some(5.0),
+            jitter_ms: Some(4.0),
+            duration_s: Some(4.0),
+            auth: auth.then_some(true),
+            ..common::seed(6)
+        };
+        let topo = common::topology(&toml, o);
+        let memory = simnet::Sim::new(&topo).unwrap().run().unwrap();
+        let (_, udp) = common::run_with(topo, RunOptions::default());
+        for (how, results) in [("memory", &memory), ("udp", &udp)] {
+            let mut lost = 0;
+            for from in &results.reports {
+                for (to, tx) in &from.links_out {
+                    let rx = results.reports[*to].rx.get(from.index);
+                    let gone = tx.lost_random + tx.lost_down;
+                    assert!(gone > 0, "{how}: {} → {to} lost nothing", from.index);
+                    assert_eq!(
+                        rx.seq_gaps,
+                        gone - tx.current_run,
+                        "{how}, auth {auth}: {} → {to}: {tx:?} {rx:?}",
+                        from.index
+                    );
+                    lost += gone;
+                }
+            }
+            assert!(lost > 200, "{how}: {lost}");
+        }
+    }
+}
+
 /// The realtime clock: steps paced by the wall clock, delay and jitter as real waits. Timing is not asserted (shared
 /// machines); accounting and estimation are.
 #[test]

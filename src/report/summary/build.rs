@@ -34,6 +34,7 @@ impl LinkSummary {
             mean_loss_run: tx.mean_loss_run(),
             longest_loss_run: tx.longest_loss_run.max(tx.current_run),
             gated: rx.gated,
+            seq_gaps: rx.seq_gaps,
         }
     }
 }

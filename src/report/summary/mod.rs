@@ -66,6 +66,11 @@ pub struct LinkSummary {
     /// The sender's measurements the receiver's innovation gate left out.
     #[serde(default)]
     pub gated: u64,
+    /// Datagrams the sender numbered for the receiver that never came intact, as the receiver counts them from
+    /// the gaps in their sequence numbers (every datagram, measurements, rounds and hellos, where `sent` counts
+    /// transmissions; without estimators and hellos, `lost + corrupted`).
+    #[serde(default)]
+    pub seq_gaps: u64,
 }
 
 /// How a run was set up, so that a result file says how it was made.

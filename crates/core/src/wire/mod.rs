@@ -35,6 +35,7 @@ use crate::time::Time;
 
 mod frame;
 pub mod secure;
+pub mod sequence;
 pub use frame::{Frame, FrameView, FrameWriter, Nack, MAX_FRAME};
 
 /// The first two bytes of every datagram: "SN".
