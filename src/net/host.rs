@@ -429,7 +429,7 @@ pub async fn run_node(
             let next_round = if round + 1 < rounds { round_end(round) } else { close };
             let wake = medium
                 .poll_timeout(index)
-                .map(|t| base + t.since(Time::ZERO))
+                .map(|t| base + t.as_duration())
                 .unwrap_or(close)
                 .min(next_round);
             tokio::select! {

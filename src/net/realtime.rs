@@ -46,7 +46,7 @@ struct Shared {
 
 impl Shared {
     fn at(&self, t: Time) -> Instant {
-        self.t0 + t.since(Time::ZERO)
+        self.t0 + t.as_duration()
     }
 
     /// May worker `w` start step `k`? It is then recorded as started.

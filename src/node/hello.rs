@@ -38,7 +38,7 @@ impl Node {
             probe,
             answer,
         };
-        let sent = running.map_or(Time::ZERO, |k| Time::at_step(k, self.topo.sim().dt()));
+        let sent = running.map_or(Time::ZERO, |k| self.topo.step_time(k));
         let (id, to_id) = (self.id, self.topo.nodes()[to].id);
         let d = Datagram {
             header: Header::hello(id, to_id, 0, sent),

@@ -319,7 +319,7 @@ impl Node {
             }
         }
         self.last_imu = imu;
-        let at = Time::at_step(k, dt);
+        let at = self.topo.step_time(k);
         let round0 = if self.schemes.is_empty() {
             Vec::new()
         } else {

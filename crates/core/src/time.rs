@@ -72,6 +72,11 @@ impl Time {
         Time::ZERO + d
     }
 
+    /// How long after the run began this is: what a driver adds to the wall clock's reading at the start.
+    pub fn as_duration(self) -> Duration {
+        Duration::from_nanos(self.0)
+    }
+
     /// The time `d` after this one (the largest time if that is past it).
     pub fn saturating_add(self, d: Duration) -> Time {
         Time(self.0.saturating_add(u64::try_from(d.as_nanos()).unwrap_or(u64::MAX)))
