@@ -190,7 +190,12 @@ async fn worker(
                 for (j, bundle) in bundles.iter_mut().enumerate().take(slot.outs.len()) {
                     let n = writer.pack(window, bundle.iter().map(|b| &b[..]));
                     bundle.clear();
-                    let parts: Vec<Bytes> = (0..n).map(|i| Bytes::copy_from_slice(writer.part(i))).collect();
+                    let mut parts = slot.frames_for(j, keep);
+                    parts.resize_with(n, Vec::new);
+                    for (i, p) in parts.iter_mut().enumerate() {
+                        p.clear();
+                        p.extend_from_slice(writer.part(i));
+                    }
                     for p in &parts {
                         if let Err(e) = slot.socket.send_to(p, sh.addrs[slot.outs[j]]).await {
                             tracing::warn!(node = slot.node.id(), "send_to failed: {e}");

@@ -26,7 +26,7 @@ pub(super) struct Slot {
     /// come is late; one that comes again is a resend.
     pub(super) gave_up: BTreeMap<(u64, usize), Vec<u16>>,
     /// Per out-link (as `outs`): the frames of its last windows, for a resend.
-    pub(super) kept: Vec<VecDeque<(u64, Vec<Bytes>)>>,
+    pub(super) kept: Vec<VecDeque<(u64, Vec<Vec<u8>>)>>,
     /// Frames resent on a NACK.
     pub(super) resent: u64,
 }
@@ -181,8 +181,19 @@ impl Slot {
         missing
     }
 
+    /// Buffers for the next window's frames to `outs[j]`: those of the oldest window kept once `keep` are (it is
+    /// let go as the next is kept), so that a run past its first windows allocates no frame.
+    pub(super) fn frames_for(&mut self, j: usize, keep: u64) -> Vec<Vec<u8>> {
+        let q = &mut self.kept[j];
+        if keep > 0 && q.len() as u64 >= keep {
+            q.pop_front().map(|(_, frames)| frames).unwrap_or_default()
+        } else {
+            Vec::new()
+        }
+    }
+
     /// Window `window`'s frames to `outs[j]`, kept for a resend.
-    pub(super) fn keep(&mut self, j: usize, window: u64, parts: Vec<Bytes>, keep: u64) {
+    pub(super) fn keep(&mut self, j: usize, window: u64, parts: Vec<Vec<u8>>, keep: u64) {
         let q = &mut self.kept[j];
         q.push_back((window, parts));
         while q.len() as u64 > keep {
