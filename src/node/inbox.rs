@@ -33,8 +33,17 @@ pub(super) struct Inbox {
     early: Vec<(u64, usize, u64, Vec<f64>)>,
     /// Receive counters, by source node index.
     pub rx: RxBySource,
-    /// The numbers seen on each link in: (source, broadcast or addressed to this node), sorted.
-    seqs: Vec<((usize, bool), Sequence)>,
+    /// The numbers seen on each link in, by (source, broadcast or addressed to this node), sorted.
+    seqs: Vec<((usize, bool), Numbered)>,
+}
+
+/// The numbers one link in has carried: those of the sender's boot now, and the gaps of its earlier boots.
+#[derive(Debug, Default)]
+struct Numbered {
+    /// The boot they are of (none before the first).
+    boot: Option<u64>,
+    now: Sequence,
+    earlier: u64,
 }
 
 impl Inbox {
@@ -51,24 +60,36 @@ impl Inbox {
         }
     }
 
-    /// Number `seq` of `src`'s broadcasts (or of its datagrams to this node) came.
-    pub fn numbered(&mut self, src: usize, broadcast: bool, seq: u32) {
+    /// Number `seq` of `src`'s broadcasts (or of its datagrams to this node) came, from its boot `boot` (one boot
+    /// in a run of one process; a process's boot as its hellos vouch for it).
+    pub fn numbered(&mut self, src: usize, broadcast: bool, boot: u64, seq: u32) {
         let key = (src, broadcast);
         let i = match self.seqs.binary_search_by_key(&key, |(k, _)| *k) {
             Ok(i) => i,
             Err(i) => {
-                self.seqs.insert(i, (key, Sequence::default()));
+                self.seqs.insert(i, (key, Numbered::default()));
                 i
             }
         };
-        self.seqs[i].1.see(seq);
+        let n = &mut self.seqs[i].1;
+        match n.boot {
+            Some(b) if b != boot => {
+                // A later boot numbers again, from wherever it stands: counted from the first number accepted.
+                n.earlier += n.now.missing();
+                n.now = Sequence::from_first(seq);
+            }
+            _ => {
+                n.now.see(seq);
+            }
+        }
+        n.boot = Some(boot);
     }
 
     /// The receive counters with each source's sequence gaps.
     pub fn counters(&self) -> RxBySource {
         let mut rx = self.rx.clone();
-        for ((src, _), q) in &self.seqs {
-            rx.get_mut(*src).seq_gaps += q.missing();
+        for ((src, _), n) in &self.seqs {
+            rx.get_mut(*src).seq_gaps += n.earlier + n.now.missing();
         }
         rx
     }
@@ -142,5 +163,33 @@ impl Inbox {
             }
         }
         Some(from)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Inbox;
+
+    /// Gaps are counted per stream and per boot of the sender: a later boot, numbering afresh or going on from where
+    /// its process stood, is counted from its first number accepted, and its earlier boot's gaps are kept.
+    #[test]
+    fn gaps_are_counted_per_stream_and_per_boot() {
+        let mut inbox = Inbox::new([1, 2], 3);
+        // Source 1's broadcasts 0–9 without 3 and 7; its unicasts 0, 2 (1 lost).
+        for seq in (0..10).filter(|s| ![3, 7].contains(s)) {
+            inbox.numbered(1, true, 5, seq);
+        }
+        inbox.numbered(1, false, 5, 0);
+        inbox.numbered(1, false, 5, 2);
+        assert_eq!(inbox.counters().get(1).seq_gaps, 3);
+        // Its next boot numbers from 0 again: 0, 1, 3 (2 lost); then a third boot from 40 on: 40, 42 (41 lost).
+        for seq in [0, 1, 3] {
+            inbox.numbered(1, true, 6, seq);
+        }
+        for seq in [40, 42] {
+            inbox.numbered(1, true, 7, seq);
+        }
+        assert_eq!(inbox.counters().get(1).seq_gaps, 3 + 1 + 1);
+        assert_eq!(inbox.counters().get(2).seq_gaps, 0);
     }
 }

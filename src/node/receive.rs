@@ -74,8 +74,14 @@ impl Node {
             return None;
         }
         self.session.heard_from(src, peer_step);
+        // A process's later boot numbers afresh; the boot its hellos vouch for tells them apart.
+        let boot = if self.handshake {
+            self.session.vouched_boot(src).unwrap_or(0)
+        } else {
+            0
+        };
         self.inbox
-            .numbered(src, dg.header.dst == crate::wire::BROADCAST, dg.header.seq);
+            .numbered(src, dg.header.dst == crate::wire::BROADCAST, boot, dg.header.seq);
         let arrival = Arrival {
             src,
             step,

@@ -159,7 +159,8 @@ pub struct RxCounters {
     pub gated: u64,
     /// Datagrams the source numbered for this node (or broadcast) that never came intact, from the gaps in their
     /// sequence numbers: loss as the receiver alone can count it (a corrupted one is a gap too; one that comes
-    /// over 64 datagrams late is counted in the gap and as late).
+    /// over 64 datagrams late is counted in the gap and as late). A later boot of a sender's process is counted
+    /// from its first datagram accepted.
     #[serde(default)]
     pub seq_gaps: u64,
 }

@@ -1,6 +1,16 @@
 //! What a receiver learns from one link's sequence numbers (a sender numbers the datagrams it sends to each receiver,
 //! and its broadcasts, 0, 1, 2, …): how many it numbered that never came. A node that sends nothing numbers
 //! nothing, so a gap is a datagram lost, never one not sent.
+//!
+//! ```
+//! use simnet_core::wire::sequence::{Seen, Sequence};
+//! let mut q = Sequence::default();
+//! for seq in [0, 1, 3, 2] {
+//!     assert_eq!(q.see(seq), Seen::First); // 2 came late: not a gap
+//! }
+//! assert_eq!((q.see(3), q.see(6)), (Seen::Again, Seen::First));
+//! assert_eq!(q.missing(), 2); // 4 and 5
+//! ```
 
 /// How far behind the highest number a datagram may come and still be told from a duplicate.
 pub const WINDOW: u64 = 64;
@@ -28,6 +38,17 @@ pub enum Seen {
 }
 
 impl Sequence {
+    /// The numbers from `first` on, `first` seen: those before it are not this receiver's to count (a sender's
+    /// earlier boot numbered them, or this one's before the receiver could accept it), and one that comes later is
+    /// taken for a duplicate.
+    pub fn from_first(first: u32) -> Sequence {
+        Sequence {
+            next: u64::from(first) + 1,
+            seen: u64::MAX,
+            distinct: u64::from(first) + 1,
+        }
+    }
+
     /// Number `seq` arrived.
     pub fn see(&mut self, seq: u32) -> Seen {
         // The 32-bit number nearest the highest seen, read as a position in the whole sequence.
@@ -122,5 +143,8 @@ mod tests {
         assert_eq!(q.see(200), Seen::First);
         assert_eq!(q.see(0), Seen::TooOld);
         assert_eq!(q.missing(), 200 - 2);
+        let mut q = Sequence::from_first(500);
+        assert_eq!((q.missing(), q.see(500), q.see(499)), (0, Seen::Again, Seen::Again));
+        assert_eq!((q.see(503), q.missing()), (Seen::First, 2));
     }
 }
