@@ -314,7 +314,7 @@ impl Star {
                 .fold(PairwiseMedium::new(), |m, j| m.with_sender(j, star(j))),
             sink,
             faults: s.faults().clone(),
-            deadline: s.deadline(0).since(s.step_time(0)),
+            deadline: s.deadline_delay(),
             ids: s.nodes().iter().map(|n| n.id).collect(),
             traffic: StarTraffic::default(),
         }

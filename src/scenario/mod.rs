@@ -390,20 +390,20 @@ impl Scenario {
 
     /// The deadline of step k, t_k + D: what arrives by then is used in step k.
     pub fn deadline(&self, k: u64) -> Time {
-        self.step_time(k) + Duration::from_nanos(self.deadline_ns())
+        self.step_time(k) + self.deadline_delay()
     }
 
     /// The sub-deadline of round r of step k, t_k + D(r+1)/L (to the nanosecond below; the last round's is the
     /// step's deadline).
     pub fn round_end(&self, k: u64, r: usize) -> Time {
         let rounds = self.estimators().rounds.max(1) as u64;
-        let d = u128::from(self.deadline_ns()) * (r as u128 + 1) / u128::from(rounds);
+        let d = self.deadline_delay().as_nanos() * (r as u128 + 1) / u128::from(rounds);
         self.step_time(k) + Duration::from_nanos(u64::try_from(d).unwrap_or(u64::MAX))
     }
 
-    /// D in nanoseconds.
-    fn deadline_ns(&self) -> u64 {
-        (self.sim().deadline_s * 1e9).round() as u64
+    /// D, from a step's time to its deadline (to the nanosecond).
+    pub fn deadline_delay(&self) -> Duration {
+        crate::time::nanos(self.sim().deadline_s * 1e9)
     }
 
     /// Index of the node whose file id is `id`.

@@ -45,8 +45,7 @@ impl Time {
     /// `s` seconds after the start, to the nearest nanosecond (negative or NaN: the start; past 584 years: the
     /// largest time).
     pub fn from_secs(s: f64) -> Time {
-        // `as` saturates: NaN and negatives give 0, too large gives u64::MAX.
-        Time((s * 1e9).round() as u64)
+        Time::since_start(nanos(s * 1e9))
     }
 
     /// Seconds after the start, the double nearest to them (a time read from decimal seconds with at most nine
@@ -86,6 +85,13 @@ impl Time {
     pub fn since(self, earlier: Time) -> Duration {
         Duration::from_nanos(self.0.saturating_sub(earlier.0))
     }
+}
+
+/// The whole nanoseconds nearest `ns` as a duration (negative or NaN: zero; past 584 years: the longest): how a
+/// delay, a deadline or a replay's lag given as a decimal becomes simulated time, in one place.
+pub fn nanos(ns: f64) -> Duration {
+    // `as` saturates: NaN and negatives give 0, too large gives u64::MAX.
+    Duration::from_nanos(ns.round() as u64)
 }
 
 impl core::ops::Add<Duration> for Time {

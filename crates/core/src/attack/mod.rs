@@ -14,7 +14,6 @@
 //! original, so an attack that a key defeats leaves a run as it was. Each injection's fate is counted in a [`Tally`].
 
 use std::collections::VecDeque;
-use std::time::Duration;
 
 use bytes::Bytes;
 use nalgebra::DVector;
@@ -308,8 +307,7 @@ impl Air {
             }
             match a.kind {
                 AttackKind::Replay if self.captured.len() < MAX_CAPTURES => {
-                    // To the nanosecond; never negative (the scenario checks delay_s ≥ 0).
-                    let delay = Duration::from_nanos((a.delay_s * 1e9).round().max(0.0) as u64);
+                    let delay = crate::time::nanos(a.delay_s * 1e9);
                     self.captured.push_back((t + delay, *i, Bytes::copy_from_slice(bytes)));
                 }
                 AttackKind::Forge if header.kind == KIND_MEASUREMENT => {

@@ -119,7 +119,7 @@ impl Rule for Delay {
             0.0
         };
         // To the nearest nanosecond (ms · 10⁶); never negative.
-        copy.delay += Duration::from_nanos(((self.delay_ms + j) * 1e6).round().max(0.0) as u64);
+        copy.delay += crate::time::nanos((self.delay_ms + j) * 1e6);
     }
 }
 
