@@ -822,8 +822,8 @@ fn builtins() -> Vec<(String, String)> {
 /// The distributed estimators: (name, reference, what each round sends, parameters).
 #[pyfunction]
 fn estimators() -> Vec<(&'static str, &'static str, &'static str, &'static str)> {
-    simnet::estimators::SCHEMES
-        .iter()
+    simnet::estimators::schemes()
+        .into_iter()
         .map(|s| (s.name, s.reference, s.messages, s.parameters))
         .collect()
 }

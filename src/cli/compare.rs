@@ -100,7 +100,7 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
     let mut all = args
         .estimators
         .as_deref()
-        .map_or_else(|| Kind::ALL.to_vec(), super::args::EstimatorChoice::kinds);
+        .map_or_else(Kind::all, super::args::EstimatorChoice::kinds);
     if !all.contains(&Kind::Centralized) {
         all.push(Kind::Centralized);
         all.sort();

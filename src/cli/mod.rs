@@ -281,7 +281,7 @@ fn list_topologies() -> anyhow::Result<()> {
 }
 
 fn list_estimators() -> anyhow::Result<()> {
-    for s in crate::estimators::SCHEMES {
+    for s in crate::estimators::schemes() {
         outln!(
             "{}\n  {}\n  sends: {}\n  parameters: {}",
             s.name,

@@ -140,7 +140,7 @@ impl Schemes {
                 }
             };
             let d = Datagram {
-                header: Header::round(wire.id(), BROADCAST, 0, s.kind as u8, self.open_at, sent),
+                header: Header::round(wire.id(), BROADCAST, 0, s.kind.id(), self.open_at, sent),
                 payload: Payload::Round { round: r as u8, body },
             };
             match wire.fits(&d) {
@@ -166,7 +166,7 @@ impl Schemes {
         rows: usize,
     ) -> Result<(), ()> {
         let round = round as usize;
-        let slot = Kind::from_index(scheme).and_then(|k| self.slot_of(k)).ok_or(())?;
+        let slot = Kind::from_id(scheme).and_then(|k| self.slot_of(k)).ok_or(())?;
         if round >= self.rounds {
             return Err(());
         }
@@ -251,7 +251,7 @@ impl Schemes {
 
     /// A round's message of scheme `scheme` (its wire byte) went out as `bytes` bytes, reaching `links` out-links.
     pub fn count_sent(&mut self, scheme: u8, bytes: usize, links: usize) {
-        if let Some(s) = self.slots.iter_mut().find(|s| s.kind as u8 == scheme) {
+        if let Some(s) = self.slots.iter_mut().find(|s| s.kind.id() == scheme) {
             s.traffic.messages += links as u64;
             s.traffic.bytes += (bytes * links) as u64;
         }

@@ -133,7 +133,7 @@ fn forged_round_messages_are_counted_not_used() {
     };
     let to = |dst: u32, src: u32, round: u8, scheme: Kind, body: Body| {
         Datagram {
-            header: Header::round(src, dst, 0, scheme as u8, Time::ZERO, Time::ZERO),
+            header: Header::round(src, dst, 0, scheme.id(), Time::ZERO, Time::ZERO),
             payload: Payload::Round { round, body },
         }
         .encode()

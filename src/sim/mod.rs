@@ -13,6 +13,60 @@
 //! assert_eq!(summary.nodes.len(), 3);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+//!
+//! A scheme of your own is one [`crate::estimators::Estimator`] and one [`crate::estimators::register`]; a run then
+//! holds it like a built-in one (its figures in `summary.estimators`, its rounds on the wire). This one is the
+//! node's own Kalman filter, so it must match `independent` to the last digit:
+//!
+//! ```
+//! use simnet::estimate::{EstimateError, Gaussian, MissingChannels};
+//! use simnet::estimators::{register, Estimator, Kind, Message, Scheme, StepInput};
+//!
+//! struct Own {
+//!     g: Gaussian,
+//!     policy: MissingChannels,
+//! }
+//!
+//! impl Estimator for Own {
+//!     fn name(&self) -> &'static str {
+//!         "own"
+//!     }
+//!     fn state(&self) -> Option<&Gaussian> {
+//!         Some(&self.g)
+//!     }
+//!     fn state_mut(&mut self) -> Option<&mut Gaussian> {
+//!         Some(&mut self.g)
+//!     }
+//!     fn message(&self, _round: usize) -> Option<Message> {
+//!         None
+//!     }
+//!     fn combine(&mut self, _: usize, _: &[(usize, &Message)], _: &StepInput<'_>) -> Result<(), EstimateError> {
+//!         Ok(())
+//!     }
+//!     fn finish(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
+//!         if let Some(m) = input.own {
+//!             self.g = input.update(&self.g, m, self.policy)?;
+//!         }
+//!         Ok(())
+//!     }
+//! }
+//!
+//! let scheme = Scheme { name: "own", reference: "the node's own filter", messages: "none", parameters: "-" };
+//! let own = register(scheme, |_, g, policy, _| Box::new(Own { g, policy }))?;
+//! let scenario = simnet::Scenario::resolve("ring3")?.with(&simnet::Overrides {
+//!     duration_s: Some(3.0),
+//!     estimators: Some(vec![Kind::Independent, own]),
+//!     ..Default::default()
+//! })?;
+//! let summary = simnet::Sim::new(&scenario)?.run()?.summary();
+//! let (mine, theirs) = (&summary.estimators["own"], &summary.estimators["independent"]);
+//! assert_eq!(mine.nodes.len(), 3);
+//! for (a, b) in mine.nodes.iter().zip(&theirs.nodes) {
+//!     let (a, b) = (a.figures.mean_error.unwrap(), b.figures.mean_error.unwrap());
+//!     assert_eq!(a, b);
+//! }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 mod results;
 

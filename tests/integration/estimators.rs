@@ -16,7 +16,7 @@ use crate::common;
 
 fn all(rounds: u64, o: Overrides) -> Overrides {
     Overrides {
-        estimators: Some(Kind::ALL.to_vec()),
+        estimators: Some(Kind::BUILTIN.to_vec()),
         rounds: Some(rounds),
         ..o
     }
@@ -45,7 +45,7 @@ fn the_schemes_leave_the_two_filters_and_the_links_unchanged() {
     let plain = common::simulate(common::topology("rgg50", o.clone()));
     let with = common::simulate(common::topology("rgg50", all(3, o)));
     assert!(plain.estimators.is_empty());
-    assert_eq!(with.estimators.len(), Kind::ALL.len());
+    assert_eq!(with.estimators.len(), Kind::BUILTIN.len());
     assert_eq!(plain.nodes, with.nodes);
     // Every figure of every link but the receiver's sequence gaps, which count the rounds' datagrams too.
     let measurements = |s: &simnet::report::summary::Summary| {
@@ -265,7 +265,7 @@ fn the_centralized_reference_has_the_lowest_error() {
             .collect()
     };
     let central = mse("centralized");
-    for k in Kind::ALL.iter().filter(|k| **k != Kind::Centralized) {
+    for k in Kind::BUILTIN.iter().filter(|k| **k != Kind::Centralized) {
         // Without loss, centralized-net is the reference itself: a difference of exactly 0 passes.
         let other = mse(k.name());
         let d: Vec<f64> = other.iter().zip(&central).map(|(o, c)| o - c).collect();

@@ -50,12 +50,7 @@ fn palette(i: usize) -> RGBColor {
 
 /// An estimator's colour: by its place in the registry, so that it keeps its colour in every plot.
 fn estimator_colour(kind: crate::estimators::Kind) -> RGBColor {
-    palette(
-        crate::estimators::Kind::ALL
-            .iter()
-            .position(|k| *k == kind)
-            .unwrap_or(0),
-    )
+    palette(usize::from(kind.id()))
 }
 
 fn err<E: std::fmt::Display>(name: &'static str) -> impl Fn(E) -> PlotError {
@@ -339,7 +334,7 @@ fn across_nodes(series: &[&Series], value: &dyn Fn(&TraceRow) -> f64) -> Vec<(u6
 mod tests {
     #[test]
     fn every_estimator_has_a_colour_of_its_own() {
-        let all = crate::estimators::Kind::ALL;
+        let all = crate::estimators::Kind::BUILTIN;
         assert!(
             all.len() <= super::PALETTE.len(),
             "{} estimators, {} colours",

@@ -217,8 +217,7 @@ impl Summary {
         let rounds = self.settings.as_ref().map_or(1, |s| s.rounds);
         // The reference first, then the schemes in `simnet estimators` order.
         let mut names: Vec<&String> = self.estimators.keys().collect();
-        let order = |n: &str| crate::estimators::SCHEMES.iter().position(|s| s.name == n);
-        names.sort_by_key(|n| (n.as_str() != "centralized", order(n)));
+        names.sort_by_key(|n| (n.as_str() != "centralized", crate::estimators::Kind::rank(n)));
         writeln!(
             w,
             "estimators ({}): mean error per node, side by side on the same samples and link verdicts",

@@ -8,9 +8,34 @@
 //! (`centralized`, the reference) or over lossy links (`centralized-net`) is the network's business, not this
 //! file's.
 
+use super::registry::{Registration, Role, Scheme};
 use super::{Context, Estimator, Info, Message, StepInput};
 use crate::estimate::{symmetrize, wrap_rows, EstimateError, Gaussian};
 use crate::model::Measurement;
+
+/// `centralized` in the registry: the observer hosts it, every measurement delivered whole.
+pub(super) const REGISTRATION: Registration = Registration {
+    scheme: Scheme {
+        name: "centralized",
+        reference: "one fusion center, every sensing node's measurement stacked (the Kalman filter of the network)",
+        messages: "round 0: the measurement, to the center",
+        parameters:
+            "estimators.sink (the center; default: the first sensing node); every measurement reaches it with no loss",
+    },
+    role: Role::Center,
+};
+
+/// `centralized-net` in the registry: the same center, over the scenario's medium.
+pub(super) const NET_REGISTRATION: Registration = Registration {
+    scheme: Scheme {
+        name: "centralized-net",
+        reference: "the same fusion center, reached over lossy links: a star from every sensing node to the sink",
+        messages: "round 0: the measurement, to the sink, by the step's deadline",
+        parameters:
+            "estimators.sink; the scenario's link to the sink where one exists, else a star link with [link]'s faults",
+    },
+    role: Role::Center,
+};
 
 /// The centralized Kalman filter: every node's measurement stacked, one filter.
 pub struct Centralized {

@@ -5,8 +5,20 @@
 //! node's own first.
 
 use super::local::own_update;
+use super::registry::{Registration, Role, Scheme};
 use super::{renormalised, Context, Estimator, Info, Message, StepInput};
 use crate::estimate::{wrap_rows, EstimateError, Gaussian, MissingChannels};
+
+/// `ci` in the registry.
+pub(super) const REGISTRATION: Registration = Registration {
+    scheme: Scheme {
+        name: "ci",
+        reference: "covariance intersection with consensus weights (Julier & Uhlmann 1997; Battistelli & Chisci 2014)",
+        messages: "every round: the estimate (x, P)",
+        parameters: "estimators.rounds; Metropolis weights",
+    },
+    role: Role::Node(|ctx, g, policy, _| Box::new(Ci::new(ctx, g, policy))),
+};
 
 /// Covariance intersection of the neighbours' estimates after the node's own update.
 pub struct Ci {

@@ -12,9 +12,21 @@
 //! own measurement alone: with the identity combination that is the node's own filter.
 
 use super::local::own_update;
+use super::registry::{Registration, Role, Scheme};
 use super::{renormalised, Context, Estimator, Message, StepInput};
 use crate::estimate::{wrap_rows, EstimateError, Gaussian, MissingChannels};
 use crate::model::Measurement;
+
+/// `diffusion` in the registry.
+pub(super) const REGISTRATION: Registration = Registration {
+    scheme: Scheme {
+        name: "diffusion",
+        reference: "Cattivelli & Sayed (2010), IEEE TAC 55(9), diffusion KF, adapt-then-combine",
+        messages: "round 0: the measurement; later rounds: the adapted estimate",
+        parameters: "estimators.rounds; Metropolis combination, adapting with the neighbours' measurements",
+    },
+    role: Role::Node(|ctx, g, policy, _| Box::new(Diffusion::new(ctx, g, policy, true, true))),
+};
 
 /// Diffusion Kalman filtering: incremental updates with the neighbours' measurements, then a convex combination of their estimates.
 pub struct Diffusion {

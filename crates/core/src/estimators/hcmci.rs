@@ -10,8 +10,23 @@
 //! message that did not arrive is left out and the remaining weights renormalised, so that each round stays a
 //! convex combination.
 
+use super::registry::{Registration, Role, Scheme};
 use super::{renormalised, Context, Estimator, Info, Message, StepInput};
 use crate::estimate::{wrap_rows, EstimateError, Gaussian};
+
+/// `hcmci` in the registry.
+pub(super) const REGISTRATION: Registration = Registration {
+    scheme: Scheme {
+        name: "hcmci",
+        reference: "Battistelli, Chisci, Mugnai, Farina & Graziano (2015), IEEE TAC 60(5)",
+        messages: "every round: the prior's and the measurement's information pairs",
+        parameters: "estimators.rounds; estimators.hcmci_omega (default: the number of nodes); Metropolis weights",
+    },
+    role: Role::Node(|ctx, g, _, p| {
+        let omega = p.hcmci_omega.unwrap_or(ctx.nodes as f64);
+        Box::new(Hcmci::new(ctx, g, omega))
+    }),
+};
 
 /// Hybrid consensus on measurements and on information (HCMCI).
 pub struct Hcmci {

@@ -9,8 +9,20 @@
 //! not arrive drops its term — its weight stays with the node, the update's own form — so the average is no longer
 //! preserved exactly under loss: that bias is what a lossy network does to ICF.
 
+use super::registry::{Registration, Role, Scheme};
 use super::{Context, Estimator, Info, Message, StepInput};
 use crate::estimate::{wrap_rows, EstimateError, Gaussian};
+
+/// `icf` in the registry.
+pub(super) const REGISTRATION: Registration = Registration {
+    scheme: Scheme {
+        name: "icf",
+        reference: "Kamal, Farrell & Roy-Chowdhury (2013), IEEE TAC 58(12), Algorithm 1",
+        messages: "every round: the information pair (V, v)",
+        parameters: "estimators.rounds; Metropolis weights",
+    },
+    role: Role::Node(|ctx, g, _, _| Box::new(Icf::new(ctx, g))),
+};
 
 /// The information consensus filter (ICF).
 pub struct Icf {

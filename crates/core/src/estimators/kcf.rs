@@ -11,8 +11,20 @@
 use nalgebra::DVector;
 
 use super::local::own_update;
+use super::registry::{Registration, Role, Scheme};
 use super::{Context, Estimator, Message, StepInput};
 use crate::estimate::{wrap_rows, EstimateError, Gaussian, MissingChannels};
+
+/// `kcf` in the registry.
+pub(super) const REGISTRATION: Registration = Registration {
+    scheme: Scheme {
+        name: "kcf",
+        reference: "Olfati-Saber (2009), Kalman-consensus filter, Algorithm 1",
+        messages: "round 0: the prior estimate",
+        parameters: "estimators.kcf_gamma (consensus gain; default 1/(1 + max degree))",
+    },
+    role: Role::Node(|ctx, g, policy, p| Box::new(Kcf::new(ctx, g, policy, p.kcf_gamma))),
+};
 
 /// The Kalman consensus filter (KCF).
 pub struct Kcf {

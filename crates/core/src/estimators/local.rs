@@ -1,7 +1,19 @@
 //! `independent`: the node's own Kalman filter (Joseph form), the baseline every scheme is measured against.
 
+use super::registry::{Registration, Role, Scheme};
 use super::{Estimator, Message, StepInput};
 use crate::estimate::{EstimateError, Gaussian, MissingChannels};
+
+/// `independent` in the registry: the node runs it as its second filter beside `sequeira`.
+pub(super) const REGISTRATION: Registration = Registration {
+    scheme: Scheme {
+        name: "independent",
+        reference: "the node's own Kalman filter (Joseph form), the baseline of Sequeira (2023)",
+        messages: "none",
+        parameters: "-",
+    },
+    role: Role::Filters,
+};
 
 /// The node's own filter alone: the baseline.
 pub struct Local {

@@ -6,6 +6,8 @@
 //!
 //! | file | scheme |
 //! |---|---|
+//! | `registry.rs` | the one registry: [`Kind`], the built-in schemes in order, [`register`] for a program's own |
+//! | `message.rs` | a [`Message`]'s wire form |
 //! | `local.rs` | `independent`: the node's own Kalman filter |
 //! | `centralized.rs` | `centralized`: one fusion center with every sensing node's measurement (the optimum for linear models) |
 //! | `kcf.rs` | `kcf`: Kalman-consensus filter, Olfati-Saber (2009) |
@@ -33,8 +35,9 @@ mod diffusion;
 mod hcmci;
 mod icf;
 mod kcf;
-mod kind;
 mod local;
+mod message;
+mod registry;
 #[cfg(test)]
 mod tests;
 
@@ -53,81 +56,9 @@ pub use diffusion::Diffusion;
 pub use hcmci::Hcmci;
 pub use icf::Icf;
 pub use kcf::Kcf;
-pub use kind::{build, from_body, to_body, Kind, MessageError, Params};
 pub use local::Local;
-
-/// One scheme as `simnet estimators` lists it.
-#[derive(Debug, Clone, Copy)]
-pub struct Scheme {
-    /// Its name in topology files and `--estimators`.
-    pub name: &'static str,
-    /// The source document and equations it implements.
-    pub reference: &'static str,
-    /// What each round carries.
-    pub messages: &'static str,
-    /// Its `[estimators]` parameters.
-    pub parameters: &'static str,
-}
-
-/// Every scheme, in registry order (the order of [`Kind::ALL`]).
-pub const SCHEMES: &[Scheme] = &[
-    Scheme {
-        name: "independent",
-        reference: "the node's own Kalman filter (Joseph form), the baseline of Sequeira (2023)",
-        messages: "none",
-        parameters: "-",
-    },
-    Scheme {
-        name: "sequeira",
-        reference: "Sequeira (2023), Sensors 23(18) 7838: beta-weighted consensus, eqs. 5-10, LMI guard (17), (19)",
-        messages: "round 0: the measurement",
-        parameters: "consensus.beta0, consensus.self / neighbor or matrix, consensus.lmi",
-    },
-    Scheme {
-        name: "centralized",
-        reference: "one fusion center, every sensing node's measurement stacked (the Kalman filter of the network)",
-        messages: "round 0: the measurement, to the center",
-        parameters:
-            "estimators.sink (the center; default: the first sensing node); every measurement reaches it with no loss",
-    },
-    Scheme {
-        name: "centralized-net",
-        reference: "the same fusion center, reached over lossy links: a star from every sensing node to the sink",
-        messages: "round 0: the measurement, to the sink, by the step's deadline",
-        parameters:
-            "estimators.sink; the scenario's link to the sink where one exists, else a star link with [link]'s faults",
-    },
-    Scheme {
-        name: "kcf",
-        reference: "Olfati-Saber (2009), Kalman-consensus filter, Algorithm 1",
-        messages: "round 0: the prior estimate",
-        parameters: "estimators.kcf_gamma (consensus gain; default 1/(1 + max degree))",
-    },
-    Scheme {
-        name: "icf",
-        reference: "Kamal, Farrell & Roy-Chowdhury (2013), IEEE TAC 58(12), Algorithm 1",
-        messages: "every round: the information pair (V, v)",
-        parameters: "estimators.rounds; Metropolis weights",
-    },
-    Scheme {
-        name: "hcmci",
-        reference: "Battistelli, Chisci, Mugnai, Farina & Graziano (2015), IEEE TAC 60(5)",
-        messages: "every round: the prior's and the measurement's information pairs",
-        parameters: "estimators.rounds; estimators.hcmci_omega (default: the number of nodes); Metropolis weights",
-    },
-    Scheme {
-        name: "diffusion",
-        reference: "Cattivelli & Sayed (2010), IEEE TAC 55(9), diffusion KF, adapt-then-combine",
-        messages: "round 0: the measurement; later rounds: the adapted estimate",
-        parameters: "estimators.rounds; Metropolis combination, adapting with the neighbours' measurements",
-    },
-    Scheme {
-        name: "ci",
-        reference: "covariance intersection with consensus weights (Julier & Uhlmann 1997; Battistelli & Chisci 2014)",
-        messages: "every round: the estimate (x, P)",
-        parameters: "estimators.rounds; Metropolis weights",
-    },
-];
+pub use message::{from_body, to_body, MessageError};
+pub use registry::{build, register, schemes, Builder, Kind, Params, RegisterError, Scheme};
 
 /// What one node's estimator knows of the network.
 #[derive(Debug, Clone)]
