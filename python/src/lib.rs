@@ -251,7 +251,7 @@ impl PyScenario {
     }
     #[getter]
     fn model(&self) -> String {
-        self.inner.model().get().kind().to_string()
+        self.inner.model().kind().to_string()
     }
     #[getter]
     fn nodes(&self) -> usize {
@@ -313,7 +313,7 @@ impl PyScenario {
             "Scenario({:?}: {} nodes, {} model, {} s at {} Hz, seed {})",
             self.inner.name(),
             self.inner.nodes().len(),
-            self.inner.model().get().kind(),
+            self.inner.model().kind(),
             self.inner.sim().duration_s,
             self.inner.sim().rate_hz,
             self.inner.sim().seed

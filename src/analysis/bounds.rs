@@ -73,7 +73,7 @@ impl System {
     pub fn of(scenario: &Scenario) -> Result<System, BoundsError> {
         let m = scenario.model().as_linear().ok_or_else(|| BoundsError::NotLinear {
             name: scenario.name().to_string(),
-            kind: scenario.model().get().kind().to_string(),
+            kind: scenario.model().kind().to_string(),
         })?;
         Ok(System {
             A: m.A().clone(),

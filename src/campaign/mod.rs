@@ -116,7 +116,7 @@ impl PlanFile {
     pub fn of(plan: &Plan) -> PlanFile {
         PlanFile {
             topology: plan.base.name().to_string(),
-            model: plan.base.model().get().kind(),
+            model: plan.base.model().kind(),
             base: plan.base.to_toml(),
             base_sha256: plan.base.digest(),
             axes: plan.axes.clone(),

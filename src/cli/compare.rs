@@ -139,7 +139,7 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
     if args.json {
         let v = serde_json::json!({
             "topology": base.name(),
-            "model": base.model().get().kind(),
+            "model": base.model().kind(),
             "duration_s": args.duration.unwrap_or(base.sim().duration_s),
             "seeds": args.seeds,
             "rows": rows,
@@ -151,7 +151,7 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
         out,
         "{} ({} model), {} s per run, {} per cell: mean error / centralized's, mean ± sd over the seeds",
         base.name(),
-        base.model().get().kind(),
+        base.model().kind(),
         args.duration.unwrap_or(base.sim().duration_s),
         crate::scenario::count(args.seeds as usize, "seed")
     )?;

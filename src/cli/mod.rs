@@ -304,7 +304,7 @@ fn validate(files: &[PathBuf]) -> anyhow::Result<ExitCode> {
                 t.name(),
                 crate::scenario::count(t.nodes().len(), "node"),
                 crate::scenario::count(t.links().len(), "directed link"),
-                t.model().get().kind(),
+                t.model().kind(),
                 t.sim().steps()
             ),
             Err(e) => {

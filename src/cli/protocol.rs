@@ -187,7 +187,7 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
         (result.reference.exchange, result.reference.mean_error),
         (found.exchange, found.mean_error),
         boundary_exchange,
-        topo.model().get().kind().error_text().label,
+        topo.model().kind().error_text().label,
         &format!("{}: mean error against exchanged weight", topo.name()),
     )?;
     write_atomic(&out_dir.join("protocol.svg"), svg.as_bytes())?;
@@ -250,7 +250,7 @@ pub fn protocol(args: &ProtocolArgs, quiet: bool) -> anyhow::Result<ExitCode> {
             o.mean_error,
             o.infeasible_steps,
             f.independent_error,
-            u = topo.model().get().kind().error_text().unit
+            u = topo.model().kind().error_text().unit
         )?;
         writeln!(
             stdout,
@@ -285,7 +285,7 @@ fn choose(
                 r.steps_as_cones,
                 r.evaluation.exchange,
                 r.evaluation.mean_error,
-                topo.model().get().kind().error_text().unit,
+                topo.model().kind().error_text().unit,
                 r.evaluation.infeasible_steps
             );
             Ok((r.beta, r.evaluation, Some(note)))
@@ -343,7 +343,7 @@ fn print_table(
         "{:>8} {:>9} {:>11} {:>11} {:>12} {:>11}",
         "u",
         "exchange",
-        format!("mean err{}", topo.model().get().kind().error_text().unit),
+        format!("mean err{}", topo.model().kind().error_text().unit),
         "worst seed",
         "independent",
         "infeasible"
@@ -378,7 +378,7 @@ fn print_table(
         "topology's own protocol: exchange {:.4}, mean error {:.5}{} ({} infeasible steps)",
         r.reference.exchange,
         r.reference.mean_error,
-        topo.model().get().kind().error_text().unit,
+        topo.model().kind().error_text().unit,
         r.reference.infeasible_steps
     )?;
     if let Some(n) = sdp_note {
@@ -389,7 +389,7 @@ fn print_table(
         "found: exchange {:.4}, mean error {:.5}{} — {:.1} % below the own protocol, {:.1} % below independent nodes",
         found.exchange,
         found.mean_error,
-        topo.model().get().kind().error_text().unit,
+        topo.model().kind().error_text().unit,
         pct(found.mean_error, r.reference.mean_error),
         pct(found.mean_error, found.independent_error)
     )

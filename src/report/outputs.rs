@@ -179,7 +179,7 @@ pub const SUMMARY: &[Field] = &[
     f("simnet_version", "The simnet version that wrote the file."),
     f("topology", "The topology's name."),
     f("source", "Where it was read from (`builtin:ring3`, a path)."),
-    f("model", "pose | attitude | linear."),
+    f("model", "pose | attitude | linear, or the name of a model the program registered."),
     f("seed", "The run's seed."),
     f("clock", "virtual (lockstep), realtime (wall clock) or multi-host (merged parts)."),
     f("rate_hz", "The step rate."),

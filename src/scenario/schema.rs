@@ -66,7 +66,7 @@ pub const KEYS: &[KeyDoc] = &[
     k("sim.split_channels", BOOL, "", "false", "true | false", "One datagram per measurement channel (pose: position, orientation; attitude: accelerometer, magnetometer), so that a link can lose part of a measurement.", None),
     k("sim.divergence_trace", NUM, "", "1e6", POS, "A filter whose trace P exceeds this is marked diverged.", Some("0")),
     // [model]
-    k("model.kind", "pose | attitude | linear", "", "\"pose\"", "the words listed", "pose: state [p, v, θ] driven by the node's IMU, z = [p, θ]; attitude: a quaternion EKF, z = [accelerometer, magnetometer]; linear: x⁺ = A x + w, y = C x + v.", Some("\"nope\"")),
+    k("model.kind", "pose | attitude | linear | a registered name", "", "\"pose\"", "the words listed, or a model the program registered", "pose: state [p, v, θ] driven by the node's IMU, z = [p, θ]; attitude: a quaternion EKF, z = [accelerometer, magnetometer]; linear: x⁺ = A x + w, y = C x + v; any other: a model a program registered with `simnet::model::register`.", Some("\"nope\"")),
     k("model.q_pos", NUM, "m² per step", "0.0", NONNEG, "pose: process noise added to the position variance each step, beyond what the IMU's noise densities imply.", Some("-1")),
     k("model.q_vel", NUM, "(m/s)² per step", "0.0", NONNEG, "pose: the same for velocity.", Some("-1")),
     k("model.q_att", NUM, "rad² per step", "0.0", NONNEG, "pose: the same for attitude.", Some("-1")),
@@ -84,6 +84,7 @@ pub const KEYS: &[KeyDoc] = &[
     k("model.r", MATRIX, "", "required (linear)", "m × m, symmetric positive definite", "linear: the measurement noise covariance R: y = C x + v, v ~ N(0, R).", Some("[[0.0]]")),
     k("model.x0", "list of numbers", "", "zeros", "n entries", "linear: the initial estimate x̂₀, and the mean the true initial state is drawn from (x(0) ~ N(x0, p0); then the truth runs x⁺ = A x + w on its own seeded stream).", Some("[1.0, 2.0, 3.0]")),
     k("model.p0", MATRIX, "", "the identity", "n × n, symmetric positive definite", "linear: the initial covariance P₀, and the spread the true initial state is drawn with.", Some("[[0.0]]")),
+    k("model.params", "table", "", "empty", "the keys the registered model reads", "a registered model's own keys (`[model.params]`), which it checks and reports by key (`model.params.<key>`).", Some("{ q = 1.0 }")),
     // [consensus]
     k("consensus.beta0", NUM, "", "0.0", PROB, "β₀ of Sequeira (2023) (17): the weight of the node's own prior in the consensus step.", Some("2")),
     k("consensus.self", NUM, "", "1.0", NONNEG, "β_i^i: the weight of the node's own measurement.", Some("-1")),

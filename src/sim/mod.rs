@@ -67,6 +67,115 @@
 //! }
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+//!
+//! A model of your own is a type with the five roles of [`crate::model::Model`] and one [`crate::model::register`];
+//! a topology file then names it in `[model] kind` and gives its keys in `[model.params]`, checked by key like any
+//! other. This one tracks a node in the plane from position fixes alone (constant velocity, white acceleration of
+//! spectral density q: Bar-Shalom, Li and Kirubarajan (2001) §6.2.2), so its filter must beat the fixes it is fed,
+//! whose mean error is σ √(π/2) (a 2-D normal's mean distance):
+//!
+//! ```
+//! use std::sync::Arc;
+//! use nalgebra::{DMatrix, DVector, Vector3};
+//! use simnet::estimate::{Gaussian, Observation};
+//! use simnet::model::*;
+//! use simnet::{rng::Rng, sensor::{ImuInterval, ImuSample, Sensor, SensorProfile}};
+//!
+//! #[derive(Debug)]
+//! struct Track { q: f64, r: f64 }
+//!
+//! impl Dynamics for Track {
+//!     fn imu_driven(&self) -> bool { false }
+//!     fn process_noise(&self, _: Option<&SensorProfile>, dt: f64) -> DMatrix<f64> {
+//!         let (a, b, c) = (dt.powi(3) / 3.0, dt.powi(2) / 2.0, dt);
+//!         let i = DMatrix::<f64>::identity(2, 2);
+//!         let mut Q = DMatrix::zeros(4, 4);
+//!         Q.view_mut((0, 0), (2, 2)).copy_from(&(&i * a));
+//!         Q.view_mut((0, 2), (2, 2)).copy_from(&(&i * b));
+//!         Q.view_mut((2, 0), (2, 2)).copy_from(&(&i * b));
+//!         Q.view_mut((2, 2), (2, 2)).copy_from(&(&i * c));
+//!         Q * self.q
+//!     }
+//!     fn predict(&self, g: &Gaussian, _: Option<&ImuInterval>, Q: &DMatrix<f64>, dt: f64) -> Gaussian {
+//!         let mut F = DMatrix::identity(4, 4);
+//!         F[(0, 2)] = dt;
+//!         F[(1, 3)] = dt;
+//!         simnet::estimate::predict(g, &F, Q)
+//!     }
+//! }
+//!
+//! impl Sensing for Track {
+//!     fn observation(&self) -> Observation {
+//!         Observation {
+//!             H: DMatrix::identity(2, 4),
+//!             R: DMatrix::identity(2, 2) * self.r,
+//!             angle_rows: vec![false; 2],
+//!             channel_of_row: vec![0; 2],
+//!         }
+//!     }
+//!     fn sense(&self, sensor: &mut Sensor, truth: &Truth, _t: f64) -> Sensed {
+//!         let Some(now) = truth.motion_now() else { return Sensed::default() };
+//!         let x = DVector::from_row_slice(&[now.p.x, now.p.y, now.v.x, now.v.y]);
+//!         let z = sensor.linear(&DMatrix::identity(2, 4), &(DMatrix::identity(2, 2) * self.r.sqrt()), &x);
+//!         Sensed { imu: None, z: Some(Measurement::full(z)), row: None }
+//!     }
+//! }
+//!
+//! impl Manifold for Track {
+//!     fn angle_states(&self) -> Vec<bool> { vec![false; 4] }
+//! }
+//!
+//! impl GroundTruth for Track {
+//!     fn kinematic_state(&self, p: Option<Vector3<f64>>, v: Option<Vector3<f64>>, _: Option<Vector3<f64>>) -> DVector<f64> {
+//!         let (p, v) = (p.unwrap_or(Vector3::repeat(f64::NAN)), v.unwrap_or(Vector3::repeat(f64::NAN)));
+//!         DVector::from_row_slice(&[p.x, p.y, v.x, v.y])
+//!     }
+//!     fn initial(&self, truth: &DVector<f64>, _: Option<(&ImuSample, Option<&Vector3<f64>>)>, rng: &mut Rng) -> Gaussian {
+//!         let P = DMatrix::from_diagonal(&DVector::from_row_slice(&[0.25, 0.25, 0.01, 0.01]));
+//!         let x = truth.map(|v| if v.is_finite() { v } else { 0.0 }) + P.map(f64::sqrt) * randn(rng, 4);
+//!         Gaussian { x, P }
+//!     }
+//! }
+//!
+//! impl Report for Track {
+//!     fn columns(&self) -> Vec<String> { ["x", "y", "vx", "vy"].map(String::from).to_vec() }
+//!     fn reported(&self, state: &DVector<f64>) -> Vec<f64> { state.iter().copied().collect() }
+//!     fn reported_var(&self, g: &Gaussian) -> Vec<f64> { g.P.diagonal().iter().copied().collect() }
+//!     fn fusion(&self) -> FusionLayout {
+//!         FusionLayout { angle_states: vec![false; 4], error_rows: vec![0, 1], median: false, quaternion: false }
+//!     }
+//! }
+//!
+//! register(Registration {
+//!     name: "track",
+//!     about: "a node in the plane, constant velocity, from position fixes",
+//!     error_text: Kind::Pose.error_text(),
+//!     view: TrajectoryView::Plane,
+//!     build: Some(|params, ck| {
+//!         let get = |k: &str| params.get(k).and_then(|v| v.as_float());
+//!         Arc::new(Track { q: ck.positive("model.params.q", get("q"), 0.1), r: ck.positive("model.params.r", get("r"), 0.01) })
+//!     }),
+//! })?;
+//!
+//! let file = |r: &str| format!(
+//!     "name = \"tracked\"\n[sim]\nduration_s = 20.0\n[model]\nkind = \"track\"\n[model.params]\nq = 0.1\nr = {r}\n\
+//!      [[node]]\n[[node]]\n[[node]]\n[[edge]]\nnodes = [0, 1]\n[[edge]]\nnodes = [1, 2]\n[[edge]]\nnodes = [2, 0]\n"
+//! );
+//! let refused = simnet::Scenario::from_toml(&file("-1.0"), "tracked.toml").unwrap_err().to_string();
+//! assert!(refused.contains("model.params.r"), "{refused}");
+//! let scenario = simnet::Scenario::from_toml(&file("0.01"), "tracked.toml")?;
+//! assert_eq!(simnet::Scenario::from_toml(&scenario.to_toml(), "again")?.digest(), scenario.digest());
+//! let swept = scenario.set("model.params.r", toml::Value::Float(-1.0)).unwrap_err().to_string(); // a campaign's axis
+//! assert!(swept.contains("model.params.r"), "{swept}");
+//! let summary = simnet::Sim::new(&scenario)?.run()?.summary();
+//! assert_eq!(summary.model.as_str(), "track");
+//! let fixes = 0.01f64.sqrt() * std::f64::consts::FRAC_PI_2.sqrt();
+//! for node in &summary.nodes {
+//!     let own = node.independent.as_ref().and_then(|f| f.mean_error).unwrap();
+//!     assert!(own < fixes, "node {}: {own} m, no better than its fixes ({fixes} m)", node.id);
+//! }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 mod results;
 

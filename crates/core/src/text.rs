@@ -25,3 +25,44 @@ pub fn quoted(s: &str) -> String {
 pub fn markdown_cell(s: &str) -> String {
     s.replace('|', "\\|").replace('<', "&lt;").replace('>', "&gt;")
 }
+
+/// A name a topology file can hold as a registered thing's name: lower-case letters, digits and `-`, starting with a
+/// letter.
+pub fn is_name(s: &str) -> bool {
+    s.starts_with(|c: char| c.is_ascii_lowercase())
+        && s.chars()
+            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-')
+}
+
+/// `Debug`, `Display`, `Serialize` and `Deserialize` of a registry place by its name (`$name`, `from_name`); an
+/// unknown name is an error naming it as a `$what`.
+macro_rules! by_name {
+    ($t:ty, $name:ident, $what:literal) => {
+        impl std::fmt::Debug for $t {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(self.$name())
+            }
+        }
+
+        impl std::fmt::Display for $t {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(self.$name())
+            }
+        }
+
+        impl serde::Serialize for $t {
+            fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+                s.serialize_str(self.$name())
+            }
+        }
+
+        impl<'de> serde::Deserialize<'de> for $t {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<$t, D::Error> {
+                let name = <String as serde::Deserialize>::deserialize(d)?;
+                <$t>::from_name(&name)
+                    .ok_or_else(|| serde::de::Error::custom(format!(concat!("unknown ", $what, " `{}`"), name)))
+            }
+        }
+    };
+}
+pub(crate) use by_name;

@@ -124,7 +124,7 @@ impl Summary {
             simnet_version: env!("CARGO_PKG_VERSION").to_string(),
             topology: topo.name().to_string(),
             source: topo.source().to_string(),
-            model: topo.model().get().kind(),
+            model: topo.model().kind(),
             seed: topo.sim().seed,
             clock,
             rate_hz: topo.sim().rate_hz,

@@ -80,7 +80,7 @@ impl Validator {
                 "sim.trajectory",
                 format!(
                     "a {} model moves no body: its truth comes from its own dynamics; drop sim.trajectory",
-                    model.get().kind()
+                    model.kind()
                 ),
             );
         }
@@ -129,10 +129,7 @@ impl Validator {
                 if !model.get().imu_driven() {
                     self.bad(
                         format!("{key}.imu_csv"),
-                        format!(
-                            "a {} model has no IMU: only for kind = pose or attitude",
-                            model.get().kind()
-                        ),
+                        format!("a {} model has no IMU: only for kind = pose or attitude", model.kind()),
                     );
                 }
             }
@@ -142,13 +139,7 @@ impl Validator {
                 }
             }
             let drawn_at = drawn.as_ref().and_then(|d| d.get(i)).map(|[x, y]| vec![*x, *y, 0.0]);
-            let place = self.place(
-                &key,
-                n,
-                drawn_at,
-                model.get().imu_driven(),
-                &model.get().kind().to_string(),
-            );
+            let place = self.place(&key, n, drawn_at, model.get().imu_driven(), &model.kind().to_string());
             nodes.push(NodeConfig {
                 id: id.clamp(0, u32::MAX as i64) as u32,
                 role,

@@ -142,11 +142,7 @@ pub enum RegisterError {
 /// `simnet::Sim` then runs it like any other (the `simnet` crate's `sim` module shows a run).
 pub fn register(scheme: Scheme, build: Builder) -> Result<Kind, RegisterError> {
     let name = scheme.name;
-    let valid = name.starts_with(|c: char| c.is_ascii_lowercase())
-        && name
-            .chars()
-            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-');
-    if !valid {
+    if !crate::text::is_name(name) {
         return Err(RegisterError::Name(name));
     }
     if name == "all" {
@@ -237,7 +233,12 @@ impl Kind {
 
     /// The scheme called `name`.
     pub fn from_name(name: &str) -> Option<Kind> {
-        Kind::all().into_iter().find(|k| k.name() == name)
+        if let Some(i) = BUILTIN.iter().position(|r| r.scheme.name == name) {
+            return Some(Kind(i as u8));
+        }
+        let added = ADDED.read().unwrap_or_else(|e| e.into_inner());
+        let i = added.iter().position(|r| r.scheme.name == name)?;
+        Some(Kind((BUILTIN.len() + i) as u8))
     }
 
     /// Its byte on the wire (the `scheme` of a round's datagram).
@@ -247,6 +248,10 @@ impl Kind {
 
     /// The scheme whose wire byte is `id`, if one is registered.
     pub fn from_id(id: u8) -> Option<Kind> {
+        // Every received round asks: the built-in ids need no lock.
+        if (id as usize) < BUILTIN.len() {
+            return Some(Kind(id));
+        }
         let n = BUILTIN.len() + ADDED.read().unwrap_or_else(|e| e.into_inner()).len();
         ((id as usize) < n).then_some(Kind(id))
     }
@@ -291,30 +296,7 @@ impl Kind {
     }
 }
 
-impl std::fmt::Debug for Kind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::fmt::Display for Kind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl serde::Serialize for Kind {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(self.name())
-    }
-}
-
-impl<'de> serde::Deserialize<'de> for Kind {
-    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Kind, D::Error> {
-        let name = String::deserialize(d)?;
-        Kind::from_name(&name).ok_or_else(|| serde::de::Error::custom(format!("unknown estimator `{name}`")))
-    }
-}
+crate::text::by_name!(Kind, name, "estimator");
 
 /// The schemes' parameters (`[estimators]` in a topology file).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]

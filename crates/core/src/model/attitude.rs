@@ -7,7 +7,7 @@ use std::borrow::Cow;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector4};
 
 use super::{
-    stacked, Dynamics, FusionLayout, GroundTruth, ImuRow, Kind, Manifold, Measurement, Report, Sensed, Sensing, Truth,
+    stacked, Dynamics, FusionLayout, GroundTruth, ImuRow, Manifold, Measurement, Report, Sensed, Sensing, Truth,
 };
 use crate::estimate::attitude::{from_euler, level, measurement, predict, to_euler};
 use crate::estimate::{Gaussian, Observation};
@@ -203,10 +203,6 @@ impl GroundTruth for Attitude {
 }
 
 impl Report for Attitude {
-    fn kind(&self) -> Kind {
-        Kind::Attitude
-    }
-
     fn columns(&self) -> Vec<String> {
         ["roll", "pitch", "yaw"].iter().map(|s| s.to_string()).collect()
     }

@@ -5,7 +5,7 @@
 
 use nalgebra::{DMatrix, DVector, Vector3};
 
-use super::{Dynamics, FusionLayout, GroundTruth, Kind, Manifold, Measurement, Report, Sensed, Sensing, Truth};
+use super::{Dynamics, FusionLayout, GroundTruth, Manifold, Measurement, Report, Sensed, Sensing, Truth};
 use crate::estimate::{Gaussian, Observation};
 use crate::imu_csv::StepRecording;
 use crate::motion::Trajectory;
@@ -169,10 +169,6 @@ impl GroundTruth for Linear {
 }
 
 impl Report for Linear {
-    fn kind(&self) -> Kind {
-        Kind::Linear
-    }
-
     fn columns(&self) -> Vec<String> {
         (0..self.state_dim()).map(|i| format!("x{i}")).collect()
     }

@@ -1,7 +1,7 @@
 //! The estimation models: [`Model`] is five traits by role — [`Dynamics`] (process noise, prediction), [`Sensing`]
 //! (observation, its linearisation, a step's IMU sample and measurement), [`Manifold`] (angles, unit quaternions,
-//! a double cover), [`GroundTruth`] (the truth and the prior) and [`Report`] (kind, columns, fusion layout, error) — and
-//! any type with the five is a model. A caller holding a concrete model imports the role it calls
+//! a double cover), [`GroundTruth`] (the truth and the prior) and [`Report`] (columns, fusion layout, error) — and
+//! any type with the five is a model; [`register`] names one so that a topology file can run it. A caller holding a concrete model imports the role it calls
 //! (`use simnet::model::Dynamics` for `predict`); a `&dyn Model` has them all. [`pose`] (position, velocity and Euler angles
 //! driven by the IMU, §2 of Sequeira (2023)), [`attitude`] (the quaternion EKF of Lesecq's slides) and [`linear`]
 //! (x⁺ = A x + w, y = C x + v, the setting of Sinopoli et al. (2004)).
@@ -14,6 +14,7 @@ pub mod attitude;
 pub mod linear;
 mod parse;
 pub mod pose;
+mod registry;
 mod truth;
 
 use std::borrow::Cow;
@@ -34,70 +35,8 @@ pub use linear::Linear;
 pub use parse::RawModel;
 pub use parse::{matrix_rows, parse, to_raw};
 pub use pose::Pose;
+pub use registry::{register, Builder, Kind, RegisterError, Registration};
 pub use truth::{psd_sqrt, Truth, REBASE_LIMIT};
-
-/// Which model: its name in files and summaries.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Kind {
-    /// Position, velocity and attitude from a strapdown IMU and pose fixes.
-    Pose,
-    /// Attitude from gyro, accelerometer and magnetometer.
-    Attitude,
-    /// x⁺ = A x + w, z = C x + v, given by its matrices.
-    Linear,
-}
-
-impl Kind {
-    /// Its name in files and summaries.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Kind::Pose => "pose",
-            Kind::Attitude => "attitude",
-            Kind::Linear => "linear",
-        }
-    }
-
-    /// The words and units of the error figures: position error (pose), rotation angle (attitude), state error
-    /// norm (linear).
-    pub fn error_text(self) -> ErrorText {
-        match self {
-            Kind::Pose => ErrorText {
-                unit: " m",
-                label: "mean position error, m",
-                axis: "position error (m)",
-                legend: "errors: mean position error, m",
-            },
-            Kind::Attitude => ErrorText {
-                unit: "°",
-                label: "mean attitude error, °",
-                axis: "attitude error (°)",
-                legend: "errors: mean attitude error, degrees",
-            },
-            Kind::Linear => ErrorText {
-                unit: "",
-                label: "mean state error",
-                axis: "state error",
-                legend: "errors: mean state error norm",
-            },
-        }
-    }
-
-    /// How the trajectory plot shows the reported columns.
-    pub fn trajectory_view(self) -> TrajectoryView {
-        match self {
-            Kind::Pose => TrajectoryView::Plane,
-            Kind::Attitude => TrajectoryView::Angles,
-            Kind::Linear => TrajectoryView::FirstColumn,
-        }
-    }
-}
-
-impl std::fmt::Display for Kind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
 
 /// The model a scenario runs, as validated.
 #[derive(Debug, Clone)]
@@ -109,6 +48,15 @@ pub enum ModelConfig {
     Attitude(Attitude),
     /// A linear model.
     Linear(Linear),
+    /// A model a program registered ([`register`]), built from its `[model.params]` table.
+    Registered {
+        /// Its place in the registry.
+        kind: Kind,
+        /// The `[model.params]` table it was built from (a scenario written back to TOML carries it).
+        params: toml::Table,
+        /// The model.
+        model: Arc<dyn Model>,
+    },
 }
 
 impl ModelConfig {
@@ -118,6 +66,17 @@ impl ModelConfig {
             ModelConfig::Pose(m) => m,
             ModelConfig::Attitude(m) => m,
             ModelConfig::Linear(m) => m,
+            ModelConfig::Registered { model, .. } => &**model,
+        }
+    }
+
+    /// Which model it is.
+    pub fn kind(&self) -> Kind {
+        match self {
+            ModelConfig::Pose(_) => Kind::Pose,
+            ModelConfig::Attitude(_) => Kind::Attitude,
+            ModelConfig::Linear(_) => Kind::Linear,
+            ModelConfig::Registered { kind, .. } => *kind,
         }
     }
 
@@ -127,6 +86,7 @@ impl ModelConfig {
             ModelConfig::Pose(m) => Arc::new(m.clone()),
             ModelConfig::Attitude(m) => Arc::new(m.clone()),
             ModelConfig::Linear(m) => Arc::new(m.clone()),
+            ModelConfig::Registered { model, .. } => model.clone(),
         }
     }
 
@@ -369,11 +329,8 @@ pub trait GroundTruth {
     ) -> Gaussian;
 }
 
-/// What a run reports of the model: its kind, the columns of `trace.csv`, the fusion layout and the error figure.
+/// What a run reports of the model: the columns of `trace.csv`, the fusion layout and the error figure.
 pub trait Report {
-    /// Which model it is.
-    fn kind(&self) -> Kind;
-
     /// The names of the columns `trace.csv` reports.
     fn columns(&self) -> Vec<String>;
 

@@ -2,7 +2,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::{Attitude, Linear, ModelConfig, Pose};
+use super::{Attitude, Kind, Linear, ModelConfig, Pose};
 use serde::{Deserialize, Serialize};
 
 use crate::checks::Checks;
@@ -11,8 +11,10 @@ use crate::checks::Checks;
 #[derive(Debug, Serialize, Deserialize, Default, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct RawModel {
-    /// `pose`, `attitude` or `linear`.
+    /// `pose`, `attitude`, `linear` or a model a program registered.
     pub kind: Option<String>,
+    /// A registered model's own keys (`[model.params]`).
+    pub params: Option<toml::Table>,
     // pose
     /// Pose: position process noise, m² per step.
     pub q_pos: Option<f64>,
@@ -56,7 +58,7 @@ pub struct RawModel {
 pub fn parse(m: RawModel, ck: &mut Checks) -> ModelConfig {
     let kind = m.kind.as_deref().unwrap_or("pose");
     // Keys that belong to some kinds only.
-    let owned: [(&str, bool, &[&str]); 17] = [
+    let owned: [(&str, bool, &[&str]); 18] = [
         ("q_pos", m.q_pos.is_some(), &["pose"]),
         ("q_vel", m.q_vel.is_some(), &["pose"]),
         ("q_att", m.q_att.is_some(), &["pose"]),
@@ -74,17 +76,29 @@ pub fn parse(m: RawModel, ck: &mut Checks) -> ModelConfig {
         ("r", m.r.is_some(), &["linear"]),
         ("x0", m.x0.is_some(), &["linear"]),
         ("p0", m.p0.is_some(), &["linear"]),
+        ("params", m.params.is_some(), &[]),
     ];
-    if ["pose", "attitude", "linear"].contains(&kind) {
+    let known = Kind::from_name(kind);
+    let registered = known.and_then(|k| Some((k, k.registration().build?)));
+    if known.is_some() {
         for (key, given, owners) in owned {
+            if key == "params" && registered.is_some() {
+                continue;
+            }
             if given && !owners.contains(&kind) {
                 let kinds: Vec<String> = owners.iter().map(|o| format!("\"{o}\"")).collect();
-                ck.bad(
-                    format!("model.{key}"),
-                    format!("only for kind = {}", kinds.join(" or ")),
-                );
+                let whom = match kinds.is_empty() {
+                    true => "a model a program registered".to_string(),
+                    false => format!("kind = {}", kinds.join(" or ")),
+                };
+                ck.bad(format!("model.{key}"), format!("only for {whom}"));
             }
         }
+    }
+    if let Some((kind, build)) = registered {
+        let params = m.params.unwrap_or_default();
+        let model = build(&params, ck);
+        return ModelConfig::Registered { kind, params, model };
     }
     match kind {
         "pose" => ModelConfig::Pose(Pose {
@@ -168,10 +182,7 @@ pub fn parse(m: RawModel, ck: &mut Checks) -> ModelConfig {
             ModelConfig::Linear(Linear::new(a, c, q, r, x0, p0))
         }
         other => {
-            ck.bad(
-                "model.kind",
-                format!("expected pose | attitude | linear, got `{other}`"),
-            );
+            ck.bad("model.kind", format!("expected {}, got `{other}`", Kind::names()));
             ModelConfig::Pose(Pose::default())
         }
     }
@@ -215,6 +226,11 @@ pub fn to_raw(m: &ModelConfig) -> RawModel {
             r: rows(l.R()),
             x0: Some(l.x0().iter().copied().collect()),
             p0: rows(l.P0()),
+            ..Default::default()
+        },
+        ModelConfig::Registered { kind, params, .. } => RawModel {
+            kind: Some(kind.as_str().into()),
+            params: Some(params.clone()),
             ..Default::default()
         },
     }

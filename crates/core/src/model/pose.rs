@@ -3,7 +3,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, Vector3};
 
-use super::{Dynamics, FusionLayout, GroundTruth, ImuRow, Kind, Manifold, Measurement, Report, Sensed, Sensing, Truth};
+use super::{Dynamics, FusionLayout, GroundTruth, ImuRow, Manifold, Measurement, Report, Sensed, Sensing, Truth};
 use crate::estimate::{wrap_rows, Gaussian, Observation};
 use crate::geom::{euler_rates, euler_rates_jacobian, rotation, rotation_partials, wrap_angle, GRAVITY};
 use crate::motion::PoseTruth;
@@ -201,10 +201,6 @@ impl GroundTruth for Pose {
 }
 
 impl Report for Pose {
-    fn kind(&self) -> Kind {
-        Kind::Pose
-    }
-
     fn columns(&self) -> Vec<String> {
         ["x", "y", "z", "roll", "pitch", "yaw"]
             .iter()
