@@ -36,7 +36,9 @@ impl StepOut {
         };
         for node in nodes {
             out.measurements.append(&mut node.take_measurements());
-            out.estimates.extend(node.handle_deadline(step));
+            let close = node.scenario().deadline(step);
+            out.estimates
+                .extend(node.handle_timeout(close).and_then(|c| c.estimate));
             out.feeds.extend(node.take_feed());
             out.rows.append(&mut node.take_trace());
             let imu = node.take_imu();

@@ -354,6 +354,7 @@ pub async fn run_node(
     // Running: step k starts at base + k·Δt on this host's clock.
     tracing::info!(step = first_step, "stepping");
     let mut k = first_step.min(steps);
+    node.start_at(k);
     let mut base = Instant::now().checked_sub(dt * k as u32).unwrap_or_else(Instant::now);
     let mut estimates = Vec::new();
     let mut done = 0;
@@ -372,16 +373,12 @@ pub async fn run_node(
             let target = ahead.min(own_clock()).min(steps);
             tracing::info!(from = k, to = target, "catching up with a neighbour");
             while k < target {
-                crate::sim::begin_step(&mut node, k);
-                for r in 0..rounds - 1 {
-                    node.handle_round(k, r);
-                }
+                node.handle_timeout(topo.deadline(k));
                 // Sent all the same: the link layer counted them, and the neighbours count them late.
                 node.send_to(&mut medium);
                 while let Some(tx) = medium.poll_delivery(index, Time::MAX) {
                     peers.send(&socket, tx.to, &tx.bytes).await;
                 }
-                node.handle_deadline(k);
                 k += 1;
             }
             base = Instant::now().checked_sub(dt * k as u32).unwrap_or(base);
@@ -398,7 +395,7 @@ pub async fn run_node(
             Instant::now().saturating_duration_since(start).as_secs_f64(),
             dt.as_secs_f64(),
         );
-        crate::sim::begin_step(&mut node, k);
+        node.handle_timeout(topo.step_time(k));
         let close = start + deadline;
         // The sub-deadlines of rounds 0 … L − 2 (the last round closes with the step).
         let mut round = 0;
@@ -407,7 +404,7 @@ pub async fn run_node(
         loop {
             let now = Instant::now();
             while round + 1 < rounds && now >= round_end(round) {
-                node.handle_round(k, round);
+                node.handle_timeout(topo.round_end(k, round));
                 round += 1;
             }
             let sim_now = Time::since_start(now - base);
@@ -453,7 +450,7 @@ pub async fn run_node(
                 _ = stop.changed() => { interrupted = true; break; }
             }
         }
-        if let Some(e) = node.handle_deadline(k) {
+        if let Some(e) = node.handle_timeout(topo.deadline(k)).and_then(|c| c.estimate) {
             if cfg.record_trace {
                 estimates.push(e);
             }

@@ -20,7 +20,7 @@ use crate::medium::{Medium, PairwiseMedium};
 use crate::node::{Node, NodeReport};
 use crate::report::summary::Schedule;
 use crate::scenario::Scenario;
-use crate::sim::{begin_step, Clock, RunResults};
+use crate::sim::{Clock, RunResults};
 use crate::time::Time;
 use crate::wire::MAX_DATAGRAM;
 
@@ -145,7 +145,7 @@ fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedS
         }
         for slot in &mut slots {
             schedule.record(Instant::now().saturating_duration_since(start).as_secs_f64(), sh.dt);
-            begin_step(&mut slot.node, k);
+            slot.node.handle_timeout(sh.topo.step_time(k));
         }
         // Round r closes at t_k + D(r+1)/L, the last at the step's deadline.
         for r in 0..sh.topo.estimators().rounds {
@@ -189,7 +189,7 @@ fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedS
             }
             if !last {
                 for slot in &mut slots {
-                    slot.node.handle_round(k, r);
+                    slot.node.handle_timeout(sh.topo.round_end(k, r));
                 }
             }
         }

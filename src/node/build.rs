@@ -79,6 +79,7 @@ impl Node {
             hello_due: false,
             trust,
             topo,
+            due: super::clock::Due::Step(0),
         };
         node.initial = node.initial_estimate(0, 0);
         node.filters = node.role.estimates().then(|| Filters {

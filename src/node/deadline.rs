@@ -6,7 +6,7 @@ use super::*;
 
 impl Node {
     /// The deadline of step k: update both filters with what arrived, record metrics.
-    pub fn handle_deadline(&mut self, k: u64) -> Option<StepEstimate> {
+    pub(super) fn handle_deadline(&mut self, k: u64) -> Option<StepEstimate> {
         let inbox = self.inbox.close(k, &self.in_sources)?;
         if let Some(f) = self.feed.as_mut().filter(|_| self.star_sink) {
             f.heard = Some(inbox.clone());

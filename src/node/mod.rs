@@ -5,28 +5,32 @@
 //! # Call order and time
 //!
 //! Time is [`crate::time::Time`], whole nanoseconds since the run began; step k begins at t_k = k·Δt
-//! ([`Scenario::step_time`]) and closes at its deadline t_k + D (D ≤ Δt, [`Scenario::deadline`]).
+//! ([`Scenario::step_time`]) and closes at its deadline t_k + D (D ≤ Δt, [`Scenario::deadline`]). The order in
+//! which a node acts is written once, in the node (`clock.rs`); every driver — [`crate::sim::Sim`], both clocks of
+//! [`crate::net`] and `simnet node` — only does this:
 //!
-//! 0. [`Node::handle_crash`] / [`Node::handle_restart`] before the step they precede, as the crash timeline
-//!    ([`crate::link::FaultSchedule::node_events`]) says: the node itself never reads the fault schedule.
-//! 1. [`Node::handle_step`]`(k)` at t_k: the node senses, predicts both filters to t_k, and sends this step's
-//!    datagrams: one broadcast to its out-neighbours, or (authenticated: each link has its own key) a copy sealed
-//!    for each. It only says what it sends ([`crate::medium::Transmission`]s); it never
-//!    decides what becomes of them.
-//! 2. [`Node::send_to`]`(medium)` hands everything sent to the [`crate::medium::Medium`] (the scenario's links:
-//!    [`crate::Scenario::pairwise_medium`]), which decides loss, delay, duplication and corruption; then
-//!    `medium.poll_delivery(node, now)` until it returns `None` gives every copy due by `now`, in delivery order,
-//!    and `medium.poll_timeout(node)` when the next is due. The shell sends each to `to`.
-//! 3. [`Node::handle_datagram`]`(from, bytes)` for every datagram that arrives, in any order, `from` the sender's
-//!    node index when the shell knows it by address. A measurement for the open step is collected; one for a later
-//!    step is held (bounded); one for a closed step counts as late.
-//! 4. With L consensus rounds ([`crate::scenario::EstimatorsConfig`]), [`Node::handle_round`]`(k, r)` at each
-//!    sub-deadline t_k + D(r+1)/L for r < L − 1: the distributed estimators combine round r and queue round r + 1
-//!    (then steps 2 and 3 again).
-//! 5. [`Node::handle_deadline`]`(k)` at t_k + D: both filters update with what arrived (and the estimators close
-//!    their last round); each update goes to the node's [`crate::observe::Scorer`] and then to its probes (the
-//!    trace, IMU and LMI recorders when on, any [`Node::add_probe`] added); the networked estimate is returned for
-//!    the fusion observer.
+//! 1. [`Node::poll_timeout`] says when the node next needs a call (`None` once its last step closed).
+//! 2. [`Node::send_to`]`(medium)` hands everything the node sent to the [`crate::medium::Medium`] (the scenario's
+//!    links: [`crate::Scenario::pairwise_medium`]), which decides loss, delay, duplication and corruption;
+//!    `medium.poll_delivery(node, now)` until `None` gives every copy due by `now`, in delivery order, and
+//!    `medium.poll_timeout(node)` when the next is due. The shell carries each to `to`.
+//! 3. [`Node::handle_datagram`]`(from, bytes)` for every datagram that arrives by then, in any order, `from` the
+//!    sender's node index when the shell knows it by address. A measurement for the open step is collected; one for
+//!    a later step is held (bounded); one for a closed step counts as late.
+//! 4. [`Node::handle_timeout`]`(now)`, which does in order what is due:
+//!    - at t_k, the crash timeline's events for step k ([`crate::link::FaultSchedule::node_events`]: a crash drops
+//!      what arrives and skips steps, a restart re-initialises both filters), then the step itself: the node senses,
+//!      predicts both filters to t_k and sends this step's datagrams (one broadcast to its out-neighbours, or, with
+//!      authentication, a copy sealed for each link) — it only says what it sends
+//!      ([`crate::medium::Transmission`]s), never what becomes of them;
+//!    - with L consensus rounds ([`crate::scenario::EstimatorsConfig`]), at each sub-deadline t_k + D(r+1)/L for
+//!      r < L − 1: the distributed estimators combine round r and queue round r + 1;
+//!    - at t_k + D: both filters update with what arrived (the estimators close their last round); each update goes
+//!      to the node's [`crate::observe::Scorer`] and its probes (trace, IMU and LMI recorders when on, any
+//!      [`Node::add_probe`]); the step is returned ([`Closed`]) with the networked estimate for the fusion observer.
+//!      A call closes at most one step, so that a driver collects a step before the next begins.
+//!
+//! A node joining a running network starts its timeline at a later step ([`Node::start_at`]).
 //!
 //! A node whose step k is skipped (down, or joining late) keeps its counters honest: a crash drops what arrives,
 //! a restart re-initialises both filters.
@@ -34,6 +38,7 @@
 //! | file | owns |
 //! |---|---|
 //! | `build.rs` | a node built from its scenario, and the prior a (re)started filter begins from |
+//! | `clock.rs` | the call order: what is due next on the node's timeline, and doing it ([`Node::handle_timeout`]) |
 //! | `receive.rs` | the receive path: bytes checked, authenticated, found plausible, collected ([`Node::handle_datagram`]) |
 //! | `deadline.rs` | the close of a step ([`Node::handle_deadline`]): both filters and the estimators updated, scored |
 //! | `accessors.rs` | what drivers and the observer read and take from a node, its end-of-run report |
@@ -49,6 +54,7 @@
 
 mod accessors;
 mod build;
+mod clock;
 mod deadline;
 mod events;
 mod filters;
@@ -86,6 +92,7 @@ pub use crate::observe::schemes::Feed;
 pub use schemes::Traffic;
 
 pub use crate::observe::{LmiStep, MeasurementRow, StepEstimate, TraceRow};
+pub use clock::Closed;
 pub use events::{Arrival, NodeCounters, NodeReport};
 pub use wire::Rejections;
 use wire::{Refused, Wire};
@@ -145,6 +152,8 @@ pub struct Node {
     hello_due: bool,
     /// The attacks around this node and its innovation gate.
     trust: trust::Trust,
+    /// What comes next on its timeline ([`Node::handle_timeout`]).
+    due: clock::Due,
 }
 
 impl Node {
@@ -220,7 +229,7 @@ impl Node {
     }
 
     /// Apply one event of the crash timeline.
-    pub fn handle_event(&mut self, e: NodeEvent) {
+    fn handle_event(&mut self, e: NodeEvent) {
         match e {
             NodeEvent::Crash => self.handle_crash(),
             NodeEvent::Restart => self.handle_restart(),
@@ -232,7 +241,7 @@ impl Node {
     }
 
     /// Step k begins at t = k·Δt: sense, predict, queue this step's datagrams, open collection for step k.
-    pub fn handle_step(&mut self, k: u64) {
+    pub(super) fn handle_step(&mut self, k: u64) {
         let dt = self.topo.sim().dt();
         let t = k as f64 * dt;
         self.truth.advance_to(k);
@@ -337,7 +346,7 @@ impl Node {
 
     /// The sub-deadline of round `r` of step k, t_k + D(r+1)/L, for r < L − 1 (the last round closes at
     /// [`Node::handle_deadline`]): every distributed estimator combines round r's messages and queues round r + 1's.
-    pub fn handle_round(&mut self, k: u64, r: usize) {
+    pub(super) fn handle_round(&mut self, k: u64, r: usize) {
         if self.schemes.is_empty() || !self.up {
             return;
         }

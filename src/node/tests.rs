@@ -250,6 +250,7 @@ fn restarts_never_reuse_a_nonce() {
             150 | 300 => node.handle_restart(),
             _ => {}
         }
+        // Crashes given by hand, outside the scenario's timeline: the step's parts are called one by one.
         node.handle_step(k);
         for r in 0..2 {
             node.handle_round(k, r);
@@ -281,4 +282,46 @@ fn restarts_never_reuse_a_nonce() {
     }
     assert!(sent > 600, "{sent} datagrams");
     assert_eq!(opened, sent, "a neighbour opens every datagram");
+}
+
+/// The call order on the node's timeline: a step's start, each round's close but the last, the deadline; one step
+/// closed per call however late the call; nothing after the last step.
+#[test]
+fn the_timeline_is_start_rounds_deadline() {
+    let topo = Scenario::resolve("ring3")
+        .unwrap()
+        .with(&crate::scenario::Overrides {
+            duration_s: Some(0.03),
+            estimators: Some(vec![crate::estimators::Kind::Kcf]),
+            rounds: Some(3),
+            ..Default::default()
+        })
+        .unwrap();
+    let topo = Arc::new(topo);
+    let mut node = Node::new(topo.clone(), 1, false);
+    let mut seen = Vec::new();
+    while let Some(t) = node.poll_timeout() {
+        seen.push(t);
+        let closed = node.handle_timeout(t);
+        assert_eq!(
+            closed.is_some(),
+            t == topo.deadline(closed.as_ref().map_or(u64::MAX, |c| c.step))
+        );
+    }
+    let mut want = Vec::new();
+    for k in 0..3 {
+        want.extend([
+            topo.step_time(k),
+            topo.round_end(k, 0),
+            topo.round_end(k, 1),
+            topo.deadline(k),
+        ]);
+    }
+    assert_eq!(seen, want);
+    // Called once far past the end: each call closes one step, in order.
+    let mut late = Node::new(topo.clone(), 1, false);
+    late.start_at(1);
+    let steps: Vec<u64> = std::iter::from_fn(|| late.handle_timeout(Time::MAX).map(|c| c.step)).collect();
+    assert_eq!(steps, vec![1, 2]);
+    assert_eq!(late.poll_timeout(), None);
 }

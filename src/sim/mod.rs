@@ -433,44 +433,46 @@ impl Sim {
     }
 }
 
-/// Step k of one node, after the events the crash timeline has for it (every driver steps a node this way).
-pub fn begin_step(node: &mut Node, k: u64) {
-    let s = node.scenario();
-    let events = s.faults().node_events(node.index(), k, s.sim().dt(), node.is_up());
-    for &e in events {
-        node.handle_event(e);
-    }
-    node.handle_step(k);
-}
-
-/// Step `k` of nodes wired together in memory; datagrams due by `window_end` reach their receivers before the step
-/// closes.
-/// Round r of L closes at t_k + D(r+1)/L, the last one at `window_end`.
+/// Step `k` of nodes wired together in memory: at each instant a node waits for (its step's start, each round's
+/// close, its deadline), what they sent goes to the medium and the datagrams it delivers by then reach their
+/// receivers, then every node handles the instant ([`Node::handle_timeout`]). The deadline's deliveries run to
+/// `window_end` (the run's last window flushes everything).
 pub(crate) fn lockstep(nodes: &mut [Node], medium: &mut dyn Medium, k: u64, window_end: Time) -> Vec<StepEstimate> {
-    for n in nodes.iter_mut() {
-        begin_step(n, k);
-    }
-    let Some(s) = nodes.first().map(|n| n.scenario().clone()) else {
+    let Some(close) = nodes.first().map(|n| n.scenario().deadline(k)) else {
         return Vec::new();
     };
-    let rounds = s.estimators().rounds;
-    for r in 0..rounds {
-        let end = if r + 1 == rounds { window_end } else { s.round_end(k, r) };
+    let mut estimates = Vec::new();
+    // The nodes share one timeline: every node waits for the same instants.
+    while let Some(t) = nodes
+        .iter()
+        .filter_map(Node::poll_timeout)
+        .min()
+        .filter(|t| *t <= close)
+    {
+        let until = if t == close { window_end } else { t };
         let mut moved = Vec::new();
         for n in nodes.iter_mut() {
             n.send_to(medium);
-            while let Some(d) = medium.poll_delivery(n.index(), end) {
+            while let Some(d) = medium.poll_delivery(n.index(), until) {
                 moved.push(d);
             }
         }
         for d in moved {
             nodes[d.to].handle_datagram(Some(d.from), &d.bytes);
         }
-        if r + 1 < rounds {
-            nodes.iter_mut().for_each(|n| n.handle_round(k, r));
+        let mut closed = false;
+        for n in nodes.iter_mut() {
+            if let Some(c) = n.handle_timeout(t) {
+                closed = true;
+                estimates.extend(c.estimate);
+            }
+        }
+        // The next step may begin at this very instant (D = Δt): it is the next call's.
+        if closed {
+            break;
         }
     }
-    nodes.iter_mut().filter_map(|n| n.handle_deadline(k)).collect()
+    estimates
 }
 
 pub(crate) fn observer_for(scenario: &Scenario, record: bool) -> Observer {

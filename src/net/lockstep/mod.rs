@@ -35,7 +35,7 @@ use super::{NetError, RunOptions};
 use crate::medium::Medium;
 use crate::node::{Node, NodeReport};
 use crate::scenario::Scenario;
-use crate::sim::{begin_step, Clock, RunResults};
+use crate::sim::{Clock, RunResults};
 use crate::time::Time;
 use crate::wire::{Frame, FrameView, FrameWriter, Nack, MAX_FRAME};
 
@@ -177,7 +177,7 @@ async fn worker(
             };
             for slot in &mut slots {
                 if r == 0 {
-                    begin_step(&mut slot.node, k);
+                    slot.node.handle_timeout(sh.topo.step_time(k));
                 }
                 bundles.resize_with(slot.outs.len(), Vec::new);
                 slot.node.send_to(&mut slot.medium);
@@ -259,7 +259,7 @@ async fn worker(
             }
             if !last {
                 for slot in &mut slots {
-                    slot.node.handle_round(k, r);
+                    slot.node.handle_timeout(sh.topo.round_end(k, r));
                 }
             }
         }
