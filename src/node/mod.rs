@@ -40,7 +40,7 @@
 //! | `build.rs` | a node built from its scenario, and the prior a (re)started filter begins from |
 //! | `clock.rs` | the call order: what is due next on the node's timeline, and doing it ([`Node::handle_timeout`]) |
 //! | `receive.rs` | the receive path: bytes checked, authenticated, found plausible, collected ([`Node::handle_datagram`]) |
-//! | `deadline.rs` | the close of a step ([`Node::handle_deadline`]): both filters and the estimators updated, scored |
+//! | `deadline.rs` | the close of a step (`handle_deadline`, at the deadline of [`Node::handle_timeout`]): both filters and the estimators updated, scored |
 //! | `accessors.rs` | what drivers and the observer read and take from a node, its end-of-run report |
 //! | `wire.rs` | addressing and sealing: one broadcast, or a sealed copy per out-link; opening: what is accepted |
 //! | `inbox.rs` | step collection, the early buffer, receive counters |
