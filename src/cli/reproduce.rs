@@ -97,7 +97,9 @@ fn run_over_udp(
         trace: record.then(|| TraceWriter::for_topology(&topo).keep_all()),
         ..Default::default()
     };
-    let out = rt.block_on(net::run(topo.clone(), opts, std::future::pending()))?;
+    let out = rt
+        .block_on(net::run(topo.clone(), opts, std::future::pending()))
+        .map_err(|e| crate::reproduce::ReproduceError::Run(e.into()))?;
     let summary = out.summary();
     let (rows, fused) = match out.trace {
         Some(t) => t.finish()?,

@@ -154,9 +154,18 @@ fn the_repository_files_the_book_names_exist() {
         let text = std::fs::read_to_string(&page).unwrap();
         for word in text.split(|c: char| c.is_whitespace() || "`()[],;:\"'".contains(c)) {
             let w = word.trim_end_matches('.');
-            let named = ["src/", "tests/", "benches/", "python/", "topologies/", "fuzz/", "docs/"]
-                .iter()
-                .any(|p| w.starts_with(p));
+            let named = [
+                "src/",
+                "crates/",
+                "tests/",
+                "benches/",
+                "python/",
+                "topologies/",
+                "fuzz/",
+                "docs/",
+            ]
+            .iter()
+            .any(|p| w.starts_with(p));
             let file = Path::new(w).extension().is_some_and(|x| {
                 ["rs", "py", "sh", "toml", "md", "ipynb", "png", "csv", "txt", "json"].contains(&x.to_str().unwrap())
             });

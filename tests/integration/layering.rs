@@ -227,3 +227,55 @@ fn no_source_file_is_over_600_lines_and_the_node_endpoint_is_within_500() {
     }
     assert!(long.is_empty(), "files too long:\n{}", long.join("\n"));
 }
+
+/// The workspace's crates, lowest first, with the crates none of their dependencies may be: each depends only on
+/// the crates before it in this list, and only `simnet-net` (and the facade) on sockets and an async runtime.
+const LAYERS: [(&str, &str, &[&str]); 6] = [
+    ("simnet-core", "crates/core", NO_SOCKETS),
+    ("simnet-engine", "crates/engine", NO_SOCKETS),
+    ("simnet-net", "crates/net", &[]),
+    ("simnet-campaign", "crates/campaign", NO_SOCKETS),
+    ("simnet-studies", "crates/studies", NO_SOCKETS),
+    ("simnet", ".", &[]),
+];
+
+/// What opens a socket or runs an event loop.
+const NO_SOCKETS: &[&str] = &["tokio", "mio", "socket2", "libc"];
+
+/// A crate's `[dependencies]`, by name (optional ones too; dev-dependencies are the tests').
+fn dependencies(dir: &str) -> Vec<String> {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(dir).join("Cargo.toml");
+    let manifest: toml::Table = std::fs::read_to_string(&path).unwrap().parse().unwrap();
+    let name = manifest["package"]["name"].as_str().unwrap().to_string();
+    assert_eq!(
+        name,
+        LAYERS.iter().find(|l| l.1 == dir).unwrap().0,
+        "{}",
+        path.display()
+    );
+    manifest
+        .get("dependencies")
+        .and_then(|d| d.as_table())
+        .map(|d| d.keys().cloned().collect())
+        .unwrap_or_default()
+}
+
+#[test]
+fn each_crate_depends_only_on_the_crates_below_it() {
+    let mut wrong = Vec::new();
+    for (i, (name, dir, forbidden)) in LAYERS.iter().enumerate() {
+        for dep in dependencies(dir) {
+            match LAYERS.iter().position(|l| l.0 == dep) {
+                Some(j) if j >= i => wrong.push(format!("{name} depends on {dep}, a crate at or above it")),
+                _ if forbidden.contains(&dep.as_str()) => wrong.push(format!("{name} depends on {dep}")),
+                _ => {}
+            }
+        }
+    }
+    assert!(wrong.is_empty(), "layering broken:\n{}", wrong.join("\n"));
+    // Every library crate of crates/ has its layer.
+    for e in std::fs::read_dir(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("crates")).unwrap() {
+        let dir = format!("crates/{}", e.unwrap().file_name().to_string_lossy());
+        assert!(LAYERS.iter().any(|l| l.1 == dir), "{dir} is not in LAYERS");
+    }
+}

@@ -1,0 +1,207 @@
+//! The docker compose file of a topology: one service per node (`node<ID>`), a private network, a results volume,
+//! and a `collect` service that prints the merged table once every node has finished. The run overrides come from
+//! the environment ([`ENV`]: SIMNET_DURATION, SIMNET_LOSS, …): each is handed to the node process as it is, and an
+//! unset or empty one leaves the topology's own setting alone (the node reads them as its options' defaults).
+
+use std::fmt::Write;
+
+use crate::scenario::Scenario;
+
+/// The variables a compose run passes to every node: the options of `simnet node` that override the topology.
+pub const ENV: [&str; 10] = [
+    "SIMNET_DURATION",
+    "SIMNET_RATE",
+    "SIMNET_SEED",
+    "SIMNET_LOSS",
+    "SIMNET_LOSS_MODEL",
+    "SIMNET_BURST",
+    "SIMNET_DELAY",
+    "SIMNET_JITTER",
+    "SIMNET_DUPLICATE",
+    "SIMNET_CORRUPT",
+];
+
+/// The address node `index` is reached at: its `addr` in the topology, or `node<ID>:7000` (its service name).
+pub fn node_addr(topo: &Scenario, index: usize) -> String {
+    topo.nodes()[index]
+        .addr
+        .clone()
+        .unwrap_or_else(|| format!("node{}:7000", topo.nodes()[index].id))
+}
+
+/// The host part of `node_addr`: the compose service name.
+pub fn service_name(topo: &Scenario, index: usize) -> String {
+    let addr = node_addr(topo, index);
+    addr.rsplit_once(':').map_or(addr.clone(), |(h, _)| h.to_string())
+}
+
+/// The Docker secret holding the network key, as the containers see it.
+pub const KEY_SECRET: &str = "simnet_key";
+
+/// A value as the compose file holds it: plain where it is only letters, digits and `._/-:@` (what simnet's own
+/// names, images and paths are), else a double-quoted string written by a JSON serializer (JSON strings are YAML): no value, however
+/// crafted, becomes YAML structure.
+pub fn scalar(s: &str) -> String {
+    // A plain YAML scalar may hold `:` and `@` inside, never a space; it starts with a letter, a digit, `.` or `/`.
+    let plain = s
+        .bytes()
+        .next()
+        .is_some_and(|b| b.is_ascii_alphanumeric() || b"./".contains(&b))
+        && s.bytes().all(|b| b.is_ascii_alphanumeric() || b"._/-:@".contains(&b));
+    if plain {
+        s.to_string()
+    } else {
+        serde_json::Value::String(s.to_string()).to_string()
+    }
+}
+
+/// Why a host path cannot be mounted: Docker reads `HOST:CONTAINER:ro`, so a `:` (or a control character) in either
+/// would mount something else.
+fn check_mount(what: &str, path: &str) -> Result<(), String> {
+    if path.contains(':') || path.chars().any(char::is_control) {
+        return Err(format!(
+            "{what} `{}` cannot be mounted by a compose file (a `:` or a control character in the path): move it",
+            path.escape_debug()
+        ));
+    }
+    Ok(())
+}
+
+/// An image reference as Docker takes it: `[REGISTRY/]NAME[:TAG][@DIGEST]`, letters, digits and `._-/:@`.
+pub fn check_image(image: &str) -> Result<(), String> {
+    let ok = image.bytes().next().is_some_and(|b| b.is_ascii_alphanumeric())
+        && image.len() <= 255
+        && image
+            .bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b"._-/:@".contains(&b));
+    if ok {
+        Ok(())
+    } else {
+        Err(format!(
+            "--image `{}` is not an image reference (NAME[:TAG])",
+            image.escape_debug()
+        ))
+    }
+}
+
+/// `topology_arg` is what the containers are given: a built-in name as it is, a path mounted at /topology.toml.
+/// `key_file`: the network key on the host, handed to every node as the Docker secret [`KEY_SECRET`] (the engine's
+/// own mechanism: a file under /run/secrets, in no image, environment or command line); none: `--insecure` nodes.
+/// Every name, path and address comes from the topology or the command line: each is checked against a strict
+/// grammar (node addresses by the topology's validation) and written through [`scalar`].
+pub fn compose_file(
+    topo: &Scenario,
+    topology_arg: &str,
+    builtin: bool,
+    image: &str,
+    key_file: Option<&str>,
+) -> Result<String, String> {
+    check_image(image)?;
+    let (in_container, mount) = if builtin {
+        (topology_arg.to_string(), None)
+    } else {
+        check_mount("the topology", topology_arg)?;
+        ("/topology.toml".to_string(), Some(topology_arg))
+    };
+    for (i, n) in topo.nodes().iter().enumerate() {
+        if let Some(r) = &n.recording {
+            check_mount(&format!("node[{i}].imu_csv"), &r.path)?;
+            check_mount(&format!("node[{i}].imu_csv"), &r.given)?;
+        }
+        if let Some(a) = &n.addr {
+            crate::scenario::check_addr(a).map_err(|m| format!("node[{i}].addr: {m}"))?;
+        }
+    }
+    if let Some(k) = key_file {
+        check_mount("the key file", k)?;
+    }
+    let mut y = String::new();
+    // Writing to a String cannot fail.
+    let _ = (|| -> std::fmt::Result {
+        writeln!(
+            y,
+            "# Generated by `simnet compose --topology {}`: {}, one container each.",
+            topology_arg.escape_debug(),
+            crate::scenario::count(topo.nodes().len(), "node")
+        )?;
+        writeln!(
+            y,
+            "# Build the static binary first (docs/src/multi-host.md), then: docker compose up --build"
+        )?;
+        writeln!(y)?;
+        writeln!(y, "x-node: &node")?;
+        writeln!(y, "  image: {}", scalar(image))?;
+        writeln!(y, "  build: .")?;
+        writeln!(y, "  networks: [simnet]")?;
+        writeln!(y, "  volumes:")?;
+        writeln!(y, "    - results:/results")?;
+        if let Some(m) = mount {
+            writeln!(y, "    - {}", scalar(&format!("./{m}:/topology.toml:ro")))?;
+        }
+        // Every node reads the whole topology, recorded IMU files included: each file where the containers look
+        // for it, next to /topology.toml or at its absolute path.
+        for r in topo.nodes().iter().filter_map(|n| n.recording.as_ref()) {
+            let host = if std::path::Path::new(&r.path).is_absolute() {
+                r.path.clone()
+            } else {
+                format!("./{}", r.path)
+            };
+            let inside = if r.given.starts_with('/') {
+                r.given.clone()
+            } else {
+                format!("/{}", r.given)
+            };
+            writeln!(y, "    - {}", scalar(&format!("{host}:{inside}:ro")))?;
+        }
+        if key_file.is_some() {
+            writeln!(y, "  secrets: [{KEY_SECRET}]")?;
+        }
+        writeln!(y, "  stop_grace_period: 5s")?;
+        writeln!(y, "  environment:")?;
+        for v in ENV {
+            writeln!(y, "    {v}: ${{{v}:-}}")?;
+        }
+        writeln!(y)?;
+        writeln!(y, "services:")?;
+        let auth = match key_file {
+            Some(_) => format!(r#""--key-file", "/run/secrets/{KEY_SECRET}""#),
+            None => r#""--insecure""#.to_string(),
+        };
+        for (i, n) in topo.nodes().iter().enumerate() {
+            writeln!(y, "  {}:", scalar(&service_name(topo, i)))?;
+            writeln!(y, "    <<: *node")?;
+            writeln!(
+                y,
+                r#"    command: ["node", "--topology", {}, "--id", "{}", {auth}, "--out", "/results", "-q"]"#,
+                serde_json::Value::String(in_container.clone()),
+                n.id
+            )?;
+        }
+        writeln!(y, "  collect:")?;
+        writeln!(y, "    image: {}", scalar(image))?;
+        writeln!(y, "    networks: [simnet]")?;
+        writeln!(y, "    volumes:")?;
+        writeln!(y, "      - results:/results")?;
+        writeln!(y, r#"    command: ["collect", "/results"]"#)?;
+        writeln!(y, "    depends_on:")?;
+        for i in 0..topo.nodes().len() {
+            writeln!(y, "      {}:", scalar(&service_name(topo, i)))?;
+            writeln!(y, "        condition: service_completed_successfully")?;
+        }
+        writeln!(y)?;
+        writeln!(y, "networks:\n  simnet:\n    driver: bridge\n    internal: true")?;
+        writeln!(y)?;
+        writeln!(y, "volumes:\n  results: {{}}")?;
+        if let Some(k) = key_file {
+            let host = if std::path::Path::new(k).is_absolute() || k.starts_with('.') {
+                k.to_string()
+            } else {
+                format!("./{k}")
+            };
+            writeln!(y)?;
+            writeln!(y, "secrets:\n  {KEY_SECRET}:\n    file: {}", scalar(&host))?;
+        }
+        Ok(())
+    })();
+    Ok(y)
+}
