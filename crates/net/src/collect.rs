@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use tokio::sync::mpsc;
 
-use simnet_engine::node::{ImuRow, MeasurementRow, StepEstimate, TraceRow};
+use simnet_engine::node::{Closed, ImuRow, MeasurementRow, Node, StepEstimate, TraceRow};
 use simnet_engine::observe::fusion::Observer;
 use simnet_engine::report::trace::TraceWriter;
 use simnet_engine::scenario::Scenario;
@@ -24,29 +24,39 @@ pub(super) struct StepOut {
 }
 
 impl StepOut {
-    /// Close step `step` of `nodes`: their estimates and rows.
-    pub fn close<'a>(step: u64, nodes: impl ExactSizeIterator<Item = &'a mut simnet_engine::node::Node>) -> StepOut {
-        let mut out = StepOut {
+    /// Nothing of step `step` yet.
+    pub fn new(step: u64) -> StepOut {
+        StepOut {
             step,
-            estimates: Vec::with_capacity(nodes.len()),
+            estimates: Vec::new(),
             rows: Vec::new(),
             imu: Vec::new(),
             measurements: Vec::new(),
             feeds: Vec::new(),
-        };
+        }
+    }
+
+    /// Close step `step` of `nodes` at its deadline: their estimates and rows.
+    pub fn close<'a>(step: u64, nodes: impl ExactSizeIterator<Item = &'a mut Node>) -> StepOut {
+        let mut out = StepOut::new(step);
+        out.estimates.reserve(nodes.len());
         for node in nodes {
-            out.measurements.append(&mut node.take_measurements());
-            let close = node.scenario().deadline(step);
-            out.estimates
-                .extend(node.handle_timeout(close).and_then(|c| c.estimate));
-            out.feeds.extend(node.take_feed());
-            out.rows.append(&mut node.take_trace());
-            let imu = node.take_imu();
-            if !imu.is_empty() {
-                out.imu.push((node.id(), imu));
-            }
+            let closed = node.handle_timeout(node.scenario().deadline(step));
+            out.take(node, closed);
         }
         out
+    }
+
+    /// What `node` has of the step it just closed (`closed`, as its `handle_timeout` returned it).
+    pub fn take(&mut self, node: &mut Node, closed: Option<Closed>) {
+        self.measurements.append(&mut node.take_measurements());
+        self.estimates.extend(closed.and_then(|c| c.estimate));
+        self.feeds.extend(node.take_feed());
+        self.rows.append(&mut node.take_trace());
+        let imu = node.take_imu();
+        if !imu.is_empty() {
+            self.imu.push((node.id(), imu));
+        }
     }
 }
 

@@ -297,12 +297,6 @@ pub async fn run_node(
     let mut buf = vec![0u8; MAX_DATAGRAM + 1];
     let steps = topo.sim().steps();
     let dt = Duration::from_secs_f64(topo.sim().dt());
-    let deadline = Duration::from_secs_f64(topo.sim().deadline_s);
-    let rounds = if topo.estimators().any_in_node() {
-        topo.estimators().rounds
-    } else {
-        1
-    };
 
     // Handshake.
     let t_start = Instant::now();
@@ -396,19 +390,16 @@ pub async fn run_node(
             Instant::now().saturating_duration_since(start).as_secs_f64(),
             dt.as_secs_f64(),
         );
-        node.handle_timeout(topo.step_time(k));
-        let close = start + deadline;
-        // The sub-deadlines of rounds 0 … L − 2 (the last round closes with the step).
-        let mut round = 0;
-        let round_end = |r: usize| start + deadline.mul_f64((r + 1) as f64 / rounds as f64);
+        // The node's timeline says what is due (the step's start, each round's close, and last the deadline, which
+        // closes the step): done as its instant passes, while the medium's datagrams go out and the socket is read.
+        let mut closed = None;
         let mut offsets: Vec<f64> = Vec::new();
         loop {
             let now = Instant::now();
-            while round + 1 < rounds && now >= round_end(round) {
-                node.handle_timeout(topo.round_end(k, round));
-                round += 1;
+            let sim_now = Time::since_start(now.saturating_duration_since(base));
+            if node.poll_timeout().is_some_and(|t| t <= sim_now) {
+                closed = node.handle_timeout(sim_now);
             }
-            let sim_now = Time::since_start(now - base);
             node.send_to(&mut medium);
             while let Some(tx) = medium.poll_delivery(index, sim_now) {
                 peers.send(&socket, tx.to, &tx.bytes).await;
@@ -421,15 +412,15 @@ pub async fn run_node(
                 last_hello = now;
                 next_hello = now + Duration::from_millis(500);
             }
-            if now >= close {
+            if closed.is_some() {
                 break;
             }
-            let next_round = if round + 1 < rounds { round_end(round) } else { close };
-            let wake = medium
-                .poll_timeout(index)
-                .map(|t| base + t.as_duration())
-                .unwrap_or(close)
-                .min(next_round);
+            let wake = [medium.poll_timeout(index), node.poll_timeout()]
+                .into_iter()
+                .flatten()
+                .min()
+                .map_or(next_hello, |t| base + t.as_duration())
+                .min(next_hello);
             tokio::select! {
                 r = socket.recv_from(&mut buf) => if let Ok((len, from)) = r {
                     let arrived = Instant::now();
@@ -451,7 +442,9 @@ pub async fn run_node(
                 _ = stop.changed() => { interrupted = true; break; }
             }
         }
-        if let Some(e) = node.handle_timeout(topo.deadline(k)).and_then(|c| c.estimate) {
+        // Stopped within the step: it closes all the same.
+        let closed = closed.or_else(|| node.handle_timeout(topo.deadline(k)));
+        if let Some(e) = closed.and_then(|c| c.estimate) {
             if cfg.record_trace {
                 estimates.push(e);
             }

@@ -147,10 +147,11 @@ fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedS
             schedule.record(Instant::now().saturating_duration_since(start).as_secs_f64(), sh.dt);
             slot.node.handle_timeout(sh.topo.step_time(k));
         }
-        // Round r closes at t_k + D(r+1)/L, the last at the step's deadline.
-        for r in 0..sh.topo.estimators().rounds {
-            let last = r + 1 == sh.topo.estimators().rounds;
-            let close = sh.at(sh.topo.round_end(k, r));
+        // What the nodes' timelines hold next (each round's close, then the deadline that closes the step), waited
+        // for while the medium's datagrams go out and the sockets are drained.
+        let mut step = StepOut::new(k);
+        while let Some(due) = slots.iter().filter_map(|s| s.node.poll_timeout()).min() {
+            let close = sh.at(due);
             loop {
                 // Send whatever is due now; the next thing due bounds the wait.
                 let now = Instant::now();
@@ -187,16 +188,18 @@ fn worker(w: usize, mut slots: Vec<Slot>, sh: Arc<Shared>, out: mpsc::UnboundedS
                     }
                 }
             }
-            if !last {
-                for slot in &mut slots {
-                    slot.node.handle_timeout(sh.topo.round_end(k, r));
+            let mut closed = false;
+            for slot in &mut slots {
+                if let Some(c) = slot.node.handle_timeout(due) {
+                    step.take(&mut slot.node, Some(c));
+                    closed = true;
                 }
             }
+            if closed {
+                break;
+            }
         }
-        if out
-            .send(StepOut::close(k, slots.iter_mut().map(|s| &mut s.node)))
-            .is_err()
-        {
+        if out.send(step).is_err() {
             break;
         }
         done = k + 1;
