@@ -16,7 +16,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyBytes, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 
 use simnet::analysis::bounds as study;
-use simnet::campaign::{self, Axis, CampaignError, Plan, PlanFile, ShardInfo, Store};
+use simnet::campaign::{self, Axis, CampaignError, Plan, PlanFile, Store};
 use simnet::estimate::bounds::FixedPoint;
 use simnet::estimators::Kind;
 use simnet::net::{self, RunOptions};
@@ -474,10 +474,6 @@ fn campaign_error(py: Python<'_>, e: CampaignError) -> PyErr {
     }
 }
 
-fn now() -> String {
-    humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string()
-}
-
 /// A campaign as `simnet sweep` runs it: `axes` (`KEY=V1,V2` or `KEY=START:END:STEP`) × seeds 1 … `seeds`, on
 /// every core, into `out` (resumable: runs already there are kept). The files written, and what ran.
 #[pyfunction]
@@ -542,15 +538,18 @@ fn sweep<'py>(
     .map_err(|e| flag_error(py, e))?;
     let base = campaign::sweep_base(&scenario.inner, kinds, rounds, duration).map_err(|e| scenario_error(py, &e))?;
     let plan = Plan::new(base, axes, seeds).map_err(|e| scenario_error(py, &e))?;
-    let file = PlanFile::of(&plan);
-    let store = Store::open(&out, &file).map_err(|e| campaign_error(py, e))?;
+    let store = Store::open(&out, &PlanFile::of(&plan)).map_err(|e| campaign_error(py, e))?;
     let runs = plan.runs();
     let total = runs.len() as u64;
-    let started = now();
     let stop = Arc::new(AtomicBool::new(false));
     let done = Arc::new(AtomicU64::new(0));
     let (tx, rx) = mpsc::channel();
-    let ((ran, interrupted), finished) = std::thread::scope(|scope| -> PyResult<_> {
+    let who = campaign::Runner {
+        shard: "all".into(),
+        command,
+        transport: transport.into(),
+    };
+    let (campaign::Executed { ran, finished }, interrupted) = std::thread::scope(|scope| -> PyResult<_> {
         let (plan, store, runs, stop2, done2) = (&plan, &store, &runs, stop.clone(), done.clone());
         scope.spawn(move || {
             let run_one = |s: &Scenario| {
@@ -565,21 +564,9 @@ fn sweep<'py>(
             let tick = || {
                 done2.fetch_add(1, Ordering::Relaxed);
             };
-            let _ = tx.send(campaign::run_missing(plan, runs, store, &run_one, &tick, &stop2));
+            let _ = tx.send(campaign::execute(plan, runs, store, who, &run_one, &tick, &stop2));
         });
-        let got = wait(py, rx, &stop, &done, total, progress.as_ref())?;
-        let me = ShardInfo {
-            shard: "all".into(),
-            simnet: campaign::simnet_build(),
-            command: command.clone(),
-            transport: transport.into(),
-            started,
-            finished: now(),
-            cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
-            ran: got.0.ran,
-        };
-        let finished = py.detach(|| campaign::finish(store, &file, &me));
-        Ok((got, finished))
+        wait(py, rx, &stop, &done, total, progress.as_ref())
     })?;
     let d = PyDict::new(py);
     d.set_item("dir", out.display().to_string())?;

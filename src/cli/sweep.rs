@@ -155,7 +155,6 @@ pub(super) fn run_campaign(
     transport: Transport,
     quiet: bool,
 ) -> anyhow::Result<Campaign> {
-    let started = now();
     super::out::check_out(dir)?;
     let file = PlanFile::of(plan);
     let store = Store::open(dir, &file).map_err(usage_or_run)?;
@@ -196,7 +195,12 @@ pub(super) fn run_campaign(
         Transport::Memory => campaign::in_memory(s),
         Transport::Udp => over_udp(s, &stop),
     };
-    let ran = campaign::run_missing(plan, &mine, &store, &run_one, &tick, &stop);
+    let who = campaign::Runner {
+        shard: shard_name.clone(),
+        command: std::env::args().collect(),
+        transport: transport.name().into(),
+    };
+    let campaign::Executed { ran, finished } = campaign::execute(plan, &mine, &store, who, &run_one, &tick, &stop);
     if let Some(p) = pb {
         p.finish_and_clear();
     }
@@ -211,16 +215,6 @@ pub(super) fn run_campaign(
     if ran.failed.len() > 5 {
         eprintln!("error: … and {} more failed runs", ran.failed.len() - 5);
     }
-    let me = ShardInfo {
-        shard: shard_name.clone(),
-        simnet: campaign::simnet_build(),
-        command: std::env::args().collect(),
-        transport: transport.name().into(),
-        started,
-        finished: now(),
-        cores: cores(),
-        ran: ran.ran,
-    };
     if !quiet {
         eprintln!(
             "{} run now, {} already in {}{}{}",
@@ -239,7 +233,7 @@ pub(super) fn run_campaign(
             }
         );
     }
-    match campaign::finish(&store, &file, &me) {
+    match finished {
         Ok(done) => Ok(Campaign::Finished(file, done)),
         // A shard that is not the last: the others write the files when they finish.
         Err(CampaignError::Missing { missing, total, .. })

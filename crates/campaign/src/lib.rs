@@ -261,6 +261,59 @@ pub fn in_memory(s: &Scenario) -> Result<Summary, String> {
         .map_err(|e| e.to_string())
 }
 
+/// Who runs a campaign, as its manifest records it.
+#[derive(Debug, Clone)]
+pub struct Runner {
+    /// `I/N` for shard I of N, `all` for a whole campaign.
+    pub shard: String,
+    /// The command that ran it (`simnet sweep …`, or the Python call).
+    pub command: Vec<String>,
+    /// `memory` or `udp`.
+    pub transport: String,
+}
+
+/// What [`execute`] did: the runs, and the campaign's files once the store holds every run of the plan
+/// ([`CampaignError::Missing`] while some are not there: stopped, failed, or another shard's).
+#[derive(Debug)]
+pub struct Executed {
+    pub ran: Ran,
+    pub finished: Result<Finished, CampaignError>,
+}
+
+/// A campaign, as `simnet sweep` and Python's `simnet.sweep` both run it: the runs of `runs` (the plan's, or one
+/// shard's) missing from `store`, on every core ([`run_missing`]), then its files when it is whole ([`finish`]),
+/// with who ran it, when, on how many cores and how many runs in the manifest.
+#[allow(clippy::too_many_arguments)]
+pub fn execute(
+    plan: &Plan,
+    runs: &[RunSpec],
+    store: &Store,
+    who: Runner,
+    run: &(dyn Fn(&Scenario) -> Result<Summary, String> + Sync),
+    tick: &(dyn Fn() + Sync),
+    stop: &AtomicBool,
+) -> Executed {
+    let started = now();
+    let ran = run_missing(plan, runs, store, run, tick, stop);
+    let me = ShardInfo {
+        shard: who.shard,
+        simnet: simnet_build(),
+        command: who.command,
+        transport: who.transport,
+        started,
+        finished: now(),
+        cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
+        ran: ran.ran,
+    };
+    let finished = finish(store, &PlanFile::of(plan), &me);
+    Executed { ran, finished }
+}
+
+/// The wall clock's time, RFC 3339 to the second: when a shard started and finished (provenance, never a figure).
+fn now() -> String {
+    humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string()
+}
+
 /// What [`run_missing`] did.
 #[derive(Debug, Default)]
 pub struct Ran {
