@@ -58,7 +58,9 @@ pub use icf::Icf;
 pub use kcf::Kcf;
 pub use local::Local;
 pub use message::{from_body, to_body, MessageError};
-pub use registry::{build, register, schemes, Builder, Kind, Params, RegisterError, Scheme};
+pub use registry::{
+    build, register, schemes, Builder, Configure, Configured, Kind, NodeBuilder, Params, RegisterError, Scheme,
+};
 
 /// What one node's estimator knows of the network.
 #[derive(Debug, Clone)]

@@ -2,9 +2,10 @@
 //! [`register`]. A scheme's [`Kind`] is its place here: the `scheme` byte of its rounds' datagrams, and the order of
 //! every table's estimator columns. Adding a scheme is one file (an [`Estimator`]) and one registration.
 
-use std::sync::RwLock;
+use std::sync::{Arc, RwLock};
 
 use super::{centralized, ci, diffusion, hcmci, icf, kcf, local, Context, Estimator};
+use crate::checks::Checks;
 use crate::estimate::{Gaussian, MissingChannels};
 
 /// One scheme as `simnet estimators` lists it.
@@ -20,9 +21,42 @@ pub struct Scheme {
     pub parameters: &'static str,
 }
 
-/// How a node builds its instance of a scheme: from its place in the network, the initial estimate, how missing
-/// measurement rows are treated, and the `[estimators]` parameters.
+/// How a node builds its instance of a built-in scheme: from its place in the network, the initial estimate, how
+/// missing measurement rows are treated, and the `[estimators]` parameters.
 pub type Builder = fn(Context, Gaussian, MissingChannels, &Params) -> Box<dyn Estimator>;
+
+/// How a scheme a program registered is set up, once per scenario, from its own table (`[estimators.<name>]`,
+/// empty when the file has none): its problems reported on the checks by key (`estimators.<name>.<key>`), and the
+/// function that builds each node's instance with the parameters it read.
+pub type Configure = fn(&toml::Table, &mut Checks) -> NodeBuilder;
+
+/// Builds one node's instance of a configured scheme: from its place in the network, the initial estimate and how
+/// missing measurement rows are treated.
+pub type NodeBuilder = Arc<dyn Fn(Context, Gaussian, MissingChannels) -> Box<dyn Estimator> + Send + Sync>;
+
+/// A registered scheme as a scenario set it up: its table as the file holds it, and the builder it made.
+#[derive(Clone)]
+pub struct Configured {
+    /// `[estimators.<name>]` as written (what the scenario writes back).
+    pub table: toml::Table,
+    /// Each node's instance, with the parameters read from `table`.
+    pub build: NodeBuilder,
+}
+
+impl std::fmt::Debug for Configured {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Configured")
+            .field("table", &self.table)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Two set-ups are one when their tables are: the builder is the scheme's function of its table.
+impl PartialEq for Configured {
+    fn eq(&self, other: &Configured) -> bool {
+        self.table == other.table
+    }
+}
 
 /// Who runs a scheme.
 #[derive(Clone, Copy)]
@@ -33,6 +67,8 @@ pub(super) enum Role {
     Center,
     /// Every node, over the step's rounds: built by the node with this.
     Node(Builder),
+    /// Every node, over the step's rounds: a program's scheme, set up from its own table.
+    Configured(Configure),
 }
 
 /// A scheme and who runs it.
@@ -87,15 +123,18 @@ pub enum RegisterError {
     Full(&'static str),
 }
 
-/// Registers a scheme every node runs over the step's rounds, built by `build`: from now on `name` is a scheme
-/// like the built-in ones — in topology files and overrides, on the wire, in the summary's `estimators`, in
-/// `trace.csv` and the plots. Every process of a run must register the same schemes in the same order (the kind is
-/// the wire's scheme byte).
+/// Registers a scheme every node runs over the step's rounds, set up by `configure` from its own table
+/// (`[estimators.<name>]` in a topology file, `estimators.<name>.<key>` for `--set` and sweeps; empty when the file
+/// has none): from now on `name` is a scheme like the built-in ones — in topology files and overrides, on the wire,
+/// in the summary's `estimators`, in `trace.csv` and the plots, and `simnet estimators` lists it with its
+/// `parameters`. Every process of a run must register the same schemes in the same order (the kind is the wire's
+/// scheme byte).
 ///
 /// A scheme of your own, here the node's own Kalman filter (which must agree with `independent` to the last digit),
 /// run beside the built-in ones:
 ///
 /// ```
+/// use std::sync::Arc;
 /// use simnet_core::estimate::{EstimateError, Gaussian, MissingChannels};
 /// use simnet_core::estimators::{register, Estimator, Message, Scheme, StepInput};
 ///
@@ -129,18 +168,21 @@ pub enum RegisterError {
 /// }
 ///
 /// let scheme = Scheme { name: "own", reference: "a test", messages: "none", parameters: "-" };
-/// let own = register(scheme, |_, g, policy, _| Box::new(Own { g, policy }))?;
+/// // No parameters: its table is not read; each node's instance starts from the node's prior.
+/// let own = register(scheme, |_, _| Arc::new(|_, g, policy| Box::new(Own { g, policy })))?;
 /// assert_eq!(own.name(), "own");
 /// assert_eq!(simnet_core::estimators::Kind::from_name("own"), Some(own));
-/// assert!(register(scheme, |_, g, policy, _| Box::new(Own { g, policy })).is_err()); // one name, one scheme
+/// assert!(own.takes_table() && !simnet_core::estimators::Kind::Kcf.takes_table());
+/// assert!(register(scheme, |_, _| Arc::new(|_, g, policy| Box::new(Own { g, policy }))).is_err()); // one name, one scheme
 /// let bad = Scheme { name: "Own 2", ..scheme };
-/// assert!(register(bad, |_, g, policy, _| Box::new(Own { g, policy })).is_err()); // not a name a file can hold
+/// assert!(register(bad, |_, _| Arc::new(|_, g, policy| Box::new(Own { g, policy }))).is_err()); // not a name a file can hold
 /// assert_eq!(simnet_core::estimators::Kind::from_id(own.id() + 1), None); // nothing registered there
 /// # Ok::<(), simnet_core::estimators::RegisterError>(())
 /// ```
 ///
-/// `simnet::Sim` then runs it like any other (the `simnet` crate's `sim` module shows a run).
-pub fn register(scheme: Scheme, build: Builder) -> Result<Kind, RegisterError> {
+/// `simnet::Sim` then runs it like any other (the `simnet` crate's `sim` module shows a run, and a scheme that
+/// reads its own parameters).
+pub fn register(scheme: Scheme, configure: Configure) -> Result<Kind, RegisterError> {
     let name = scheme.name;
     if !crate::text::is_name(name) {
         return Err(RegisterError::Name(name));
@@ -159,7 +201,7 @@ pub fn register(scheme: Scheme, build: Builder) -> Result<Kind, RegisterError> {
     let id = u8::try_from(BUILTIN.len() + added.len()).map_err(|_| RegisterError::Full(name))?;
     added.push(Box::leak(Box::new(Registration {
         scheme,
-        role: Role::Node(build),
+        role: Role::Configured(configure),
     })));
     Ok(Kind(id))
 }
@@ -287,7 +329,23 @@ impl Kind {
     /// Run by the node itself over the scheme rounds (independent and sequeira are the node's two filters; the
     /// two fusion centers are the observer's).
     pub fn in_node(self) -> bool {
-        matches!(self.registration().role, Role::Node(_))
+        matches!(self.registration().role, Role::Node(_) | Role::Configured(_))
+    }
+
+    /// A scheme a program registered, which takes its own table (`[estimators.<name>]`).
+    pub fn takes_table(self) -> bool {
+        matches!(self.registration().role, Role::Configured(_))
+    }
+
+    /// The scheme set up from `table`, its problems on `checks` (none for a scheme that takes no table).
+    pub fn configure(self, table: &toml::Table, checks: &mut Checks) -> Option<Configured> {
+        match self.registration().role {
+            Role::Configured(configure) => Some(Configured {
+                table: table.clone(),
+                build: configure(table, checks),
+            }),
+            _ => None,
+        }
     }
 
     /// One fusion center of the whole network, hosted by the observer: `centralized` and `centralized-net`.
@@ -317,16 +375,19 @@ impl Default for Params {
     }
 }
 
-/// Scheme `kind` at one node, from `initial`; `None` for a scheme no node runs itself.
+/// Scheme `kind` at one node, from `initial`, with the built-in schemes' `params` or, for a scheme a program
+/// registered, as `configured` set it up; `None` for a scheme no node runs itself (or one not set up).
 pub fn build(
     kind: Kind,
     ctx: Context,
     initial: Gaussian,
     policy: MissingChannels,
     params: &Params,
+    configured: Option<&Configured>,
 ) -> Option<Box<dyn Estimator>> {
     match kind.registration().role {
         Role::Node(build) => Some(build(ctx, initial, policy, params)),
+        Role::Configured(_) => configured.map(|c| (c.build)(ctx, initial, policy)),
         Role::Filters | Role::Center => None,
     }
 }

@@ -94,7 +94,8 @@ impl Node {
                 .iter()
                 .filter(|k| k.in_node())
                 .filter_map(|&k| {
-                    crate::estimators::build(k, ctx.clone(), node.initial.clone(), node.policy, &e.params)
+                    let configured = e.configured.get(&k);
+                    crate::estimators::build(k, ctx.clone(), node.initial.clone(), node.policy, &e.params, configured)
                         .map(|est| (k, est))
                 })
                 .collect();

@@ -230,6 +230,9 @@ pub struct EstimatorsConfig {
     /// Message exchanges per step, each with its sub-deadline t_k + D(r+1)/L inside the step.
     pub rounds: usize,
     pub params: crate::estimators::Params,
+    /// The schemes a program registered, each set up from its own table (`[estimators.<name>]`, empty when the
+    /// file has none): every one the run holds, and any the file gives a table.
+    pub configured: std::collections::BTreeMap<crate::estimators::Kind, crate::estimators::Configured>,
     /// The fusion center of `centralized` and `centralized-net` (a sensing node); none without one.
     pub sink: Option<usize>,
     /// The faults of centralized-net's link to the sink from a node the scenario does not link to it.

@@ -128,6 +128,7 @@ pub const KEYS: &[KeyDoc] = &[
     k("estimators.rounds", INT, "", "1", "1 to 100", "Consensus rounds per step, each with its sub-deadline inside the step.", Some("0")),
     k("estimators.kcf_gamma", NUM, "", "1 / (1 + the most in-neighbours of a node)", NONNEG, "KCF's consensus gain γ (Olfati-Saber 2009).", Some("-1")),
     k("estimators.hcmci_omega", NUM, "", "N, the number of nodes", POS, "HCMCI's ω (Battistelli et al. 2015).", Some("0")),
+    k("estimators.<name>", "table", "", "empty", "the keys the registered scheme reads", "The own keys of a scheme a program registered (`[estimators.<name>]`), which it checks and reports by key (`estimators.<name>.<key>`); a table under any other name is refused.", None),
     k("estimators.sink", INT, "node id", "the first sensing node", "a sensing node's id", "The fusion center of both centralized schemes.", Some("999")),
     // [security]
     k("security.key_file", STR, "path", "none (unauthenticated)", "a key file of `simnet keygen`, relative to the topology file", "Every datagram sealed with this network key (AES-128-CCM, 8-byte tag).", Some("\"no-such.key\"")),
@@ -286,8 +287,19 @@ mod tests {
                 "`{key}` is accepted but not documented"
             );
         }
+        // A table named by a registry (`[estimators.<name>]`) is not among the parser's fields: the parser takes a
+        // table of any name there, and the validator refuses it, naming it, unless a program registered that name.
+        let named = ::toml::from_str::<super::super::toml::RawTopology>("[estimators.zz]\nq = 1\n");
+        assert!(named.is_ok(), "{named:?}");
+        let base_file = Scenario::from_toml(&base("estimators.run"), "base.toml").unwrap();
+        for name in ["zz", "kcf"] {
+            let refused = base_file
+                .set(&format!("estimators.{name}.q"), ::toml::Value::Integer(1))
+                .unwrap_err();
+            assert!(refused.to_string().contains(&format!("estimators.{name}")), "{refused}");
+        }
         for k in KEYS {
-            let table_itself = tables.iter().any(|(t, _)| *t == k.key);
+            let table_itself = tables.iter().any(|(t, _)| *t == k.key) || k.key == "estimators.<name>";
             assert!(
                 table_itself || accepted.contains(&k.key.to_string()),
                 "`{}` is documented but not accepted",

@@ -60,8 +60,7 @@ pub struct RawConsensus {
 }
 
 /// `[estimators]`: the distributed schemes run beside the node's two filters.
-#[derive(Debug, Serialize, Deserialize, Default, Clone)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Serialize, Default, Clone)]
 pub struct RawEstimators {
     /// Names from `simnet estimators`, or "all".
     pub run: Option<Vec<String>>,
@@ -70,6 +69,48 @@ pub struct RawEstimators {
     pub hcmci_omega: Option<f64>,
     /// The node id of both centralized schemes' fusion center.
     pub sink: Option<i64>,
+    /// `[estimators.<name>]`: the own table of a scheme a program registered (the validator names a table of any
+    /// other name).
+    #[serde(flatten)]
+    pub schemes: std::collections::BTreeMap<String, toml::Table>,
+}
+
+/// `[estimators]`'s own keys, unknown ones refused as in every other table.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct EstimatorKeys {
+    run: Option<Vec<String>>,
+    rounds: Option<u64>,
+    kcf_gamma: Option<f64>,
+    hcmci_omega: Option<f64>,
+    sink: Option<i64>,
+}
+
+/// Its keys as every table's (a misspelt one refused, naming those it takes), its sub-tables as the schemes'.
+impl<'de> Deserialize<'de> for RawEstimators {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<RawEstimators, D::Error> {
+        let mut table = toml::Table::deserialize(d)?;
+        let names: Vec<String> = table
+            .iter()
+            .filter(|(_, v)| v.is_table())
+            .map(|(k, _)| k.clone())
+            .collect();
+        let mut schemes = std::collections::BTreeMap::new();
+        for name in names {
+            if let Some(toml::Value::Table(t)) = table.remove(&name) {
+                schemes.insert(name, t);
+            }
+        }
+        let keys = EstimatorKeys::deserialize(toml::Value::Table(table)).map_err(serde::de::Error::custom)?;
+        Ok(RawEstimators {
+            run: keys.run,
+            rounds: keys.rounds,
+            kcf_gamma: keys.kcf_gamma,
+            hcmci_omega: keys.hcmci_omega,
+            sink: keys.sink,
+            schemes,
+        })
+    }
 }
 
 #[derive(Debug, Serialize, Deserialize, Default, Clone)]

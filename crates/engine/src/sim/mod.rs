@@ -16,17 +16,21 @@
 //! ```
 //!
 //! A scheme of your own is one [`crate::estimators::Estimator`] and one [`crate::estimators::register`]; a run then
-//! holds it like a built-in one (its figures in `summary.estimators`, its rounds on the wire). This one is the
-//! node's own Kalman filter, so it must match `independent` to the last digit:
+//! holds it like a built-in one (its figures in `summary.estimators`, its rounds on the wire), and a topology file
+//! gives its parameters in its own table, `[estimators.<name>]`, checked by key. This one is the node's own Kalman
+//! filter with a fading memory α ≥ 1 (P⁻ ← α P⁻ before each update: Anderson & Moore (1979) §6.2), so with its
+//! default α = 1 it must match `independent` to the last digit, and with α > 1 it must not:
 //!
 //! ```
 //! # extern crate simnet_engine as simnet;
+//! use std::sync::Arc;
 //! use simnet::estimate::{EstimateError, Gaussian, MissingChannels};
 //! use simnet::estimators::{register, Estimator, Kind, Message, Scheme, StepInput};
 //!
 //! struct Own {
 //!     g: Gaussian,
 //!     policy: MissingChannels,
+//!     fading: f64,
 //! }
 //!
 //! impl Estimator for Own {
@@ -47,26 +51,49 @@
 //!     }
 //!     fn finish(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
 //!         if let Some(m) = input.own {
-//!             self.g = input.update(&self.g, m, self.policy)?;
+//!             let faded = Gaussian { x: self.g.x.clone(), P: &self.g.P * self.fading };
+//!             self.g = input.update(&faded, m, self.policy)?;
 //!         }
 //!         Ok(())
 //!     }
 //! }
 //!
-//! let scheme = Scheme { name: "own", reference: "the node's own filter", messages: "none", parameters: "-" };
-//! let own = register(scheme, |_, g, policy, _| Box::new(Own { g, policy }))?;
+//! let scheme = Scheme {
+//!     name: "own",
+//!     reference: "the node's own filter with a fading memory",
+//!     messages: "none",
+//!     parameters: "estimators.own.fading (α ≥ 1, default 1)",
+//! };
+//! // Read once per scenario, problems named by key; then each node's instance.
+//! let own = register(scheme, |table, checks| {
+//!     for key in table.keys().filter(|k| *k != "fading") {
+//!         checks.bad(format!("estimators.own.{key}"), "unknown key (known: fading)");
+//!     }
+//!     let fading = table.get("fading").and_then(|v| v.as_float()).unwrap_or(1.0);
+//!     if !(1.0..=1e3).contains(&fading) {
+//!         checks.bad("estimators.own.fading", format!("must be 1 to 1000, got {fading}"));
+//!     }
+//!     Arc::new(move |_, g, policy| Box::new(Own { g, policy, fading }))
+//! })?;
 //! let scenario = simnet::Scenario::resolve("ring3")?.with(&simnet::Overrides {
 //!     duration_s: Some(3.0),
 //!     estimators: Some(vec![Kind::Independent, own]),
 //!     ..Default::default()
 //! })?;
-//! let summary = simnet::Sim::new(&scenario)?.run()?.summary();
-//! let (mine, theirs) = (&summary.estimators["own"], &summary.estimators["independent"]);
-//! assert_eq!(mine.nodes.len(), 3);
-//! for (a, b) in mine.nodes.iter().zip(&theirs.nodes) {
-//!     let (a, b) = (a.figures.mean_error.unwrap(), b.figures.mean_error.unwrap());
-//!     assert_eq!(a, b);
-//! }
+//! let errors = |s: &simnet::Scenario, name: &str| -> Result<Vec<f64>, Box<dyn std::error::Error>> {
+//!     let summary = simnet::Sim::new(s)?.run()?.summary();
+//!     Ok(summary.estimators[name].nodes.iter().map(|n| n.figures.mean_error.unwrap()).collect())
+//! };
+//! let independent = errors(&scenario, "independent")?;
+//! assert_eq!(independent.len(), 3);
+//! assert_eq!(errors(&scenario, "own")?, independent); // α = 1: the Kalman filter itself
+//! let faded = scenario.set("estimators.own.fading", toml::Value::Float(1.5))?; // a key like any other
+//! assert!(faded.to_toml().contains("[estimators.own]"));
+//! assert!(errors(&faded, "own")?.iter().zip(&independent).all(|(a, b)| a != b));
+//! let refused = scenario.set("estimators.own.fading", toml::Value::Float(0.5)).unwrap_err().to_string();
+//! assert!(refused.contains("estimators.own.fading"), "{refused}");
+//! let misspelt = scenario.set("estimators.own.fadign", toml::Value::Float(1.5)).unwrap_err().to_string();
+//! assert!(misspelt.contains("estimators.own.fadign"), "{misspelt}");
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!

@@ -310,14 +310,59 @@ impl Validator {
                 ),
             );
         }
+        let configured = self.configured(&run, &e.schemes);
         EstimatorsConfig {
             run,
             rounds,
             params: Params { kcf_gamma, hcmci_omega },
+            configured,
             sink: self.sink(e.sink, nodes, ids),
             star_link,
             weights: Arc::default(),
         }
+    }
+
+    /// The schemes a program registered, each set up from its own table (`[estimators.<name>]`): every one in `run`
+    /// (from an empty table when the file has none) and every one the file gives a table. A table of any other
+    /// name is refused, naming it.
+    fn configured(
+        &mut self,
+        run: &[crate::estimators::Kind],
+        given: &std::collections::BTreeMap<String, toml::Table>,
+    ) -> std::collections::BTreeMap<crate::estimators::Kind, crate::estimators::Configured> {
+        use crate::estimators::Kind;
+        let mut out = std::collections::BTreeMap::new();
+        for (name, table) in given {
+            let key = format!("estimators.{name}");
+            match Kind::from_name(name) {
+                Some(kind) if kind.takes_table() => {
+                    out.extend(kind.configure(table, &mut self.0).map(|c| (kind, c)));
+                }
+                Some(_) => self.bad(
+                    key,
+                    "only a scheme a program registered takes a table of its own; the built-in schemes' keys are \
+                     estimators.kcf_gamma and estimators.hcmci_omega",
+                ),
+                None => {
+                    let tables: Vec<&str> = Kind::all()
+                        .into_iter()
+                        .filter(|k| k.takes_table())
+                        .map(Kind::name)
+                        .collect();
+                    let tables = match tables.is_empty() {
+                        true => " (only a scheme a program registered does)".to_string(),
+                        false => format!(" (those that do: {})", tables.join(", ")),
+                    };
+                    self.bad(key, format!("no scheme of that name takes a table{tables}"))
+                }
+            }
+        }
+        for &kind in run.iter().filter(|k| k.takes_table()) {
+            if !out.contains_key(&kind) {
+                out.extend(kind.configure(&toml::Table::new(), &mut self.0).map(|c| (kind, c)));
+            }
+        }
+        out
     }
 
     /// The fusion center of both centralized schemes: `estimators.sink`, else the first sensing node (its IMU
