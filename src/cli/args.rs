@@ -69,6 +69,9 @@ pub struct RunArgs {
     /// Write summary.json, trace.csv, links.csv and SVG plots here.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// With --out: also write capture.csv, every datagram sent and every copy delivered (a tap on the medium).
+    #[arg(long)]
+    pub capture: bool,
     /// Print summary.json on stdout instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -259,7 +262,10 @@ mod tests {
             .filter(|l| RunOption::named(l).is_none() && !["help", "version"].contains(l))
             .collect();
         rest.sort();
-        assert_eq!(rest, ["format", "json", "out", "realtime", "set", "topology"]);
+        assert_eq!(
+            rest,
+            ["capture", "format", "json", "out", "realtime", "set", "topology"]
+        );
         for o in RUN_OPTIONS {
             assert!(
                 run.get_arguments().any(|a| a.get_long() == Some(o.name)),

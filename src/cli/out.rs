@@ -6,6 +6,8 @@ use super::*;
 
 /// Every sensing node's own measurements ([`crate::report::trace::MEASUREMENTS_HEADER`]).
 pub(super) const MEASUREMENTS: &str = "measurements.csv";
+/// Every datagram sent and every copy delivered (`--capture`, [`crate::report::capture`]).
+pub(super) const CAPTURE: &str = "capture.csv";
 /// Every distributed estimator's estimate at each node and step ([`crate::report::trace::ESTIMATORS_HEADER`]).
 pub(super) const ESTIMATORS: &str = "estimators.csv";
 /// The list of the files the last whole run wrote into a directory, and whether that set is complete.
@@ -40,7 +42,7 @@ fn check_dir(dir: &Path) -> Result<PathBuf, UsageError> {
 
 /// The files a whole run (`simnet run`, `simnet collect`) writes, whatever its options: with `imu-ID.csv` and the
 /// Parquet copies of the CSVs, the only names a run ever removes (and only when `.simnet-outputs` lists them).
-const RUN_FILES: [&str; 11] = [
+const RUN_FILES: [&str; 12] = [
     "summary.json",
     "trace.csv",
     "links.csv",
@@ -52,6 +54,7 @@ const RUN_FILES: [&str; 11] = [
     "report.html",
     MEASUREMENTS,
     ESTIMATORS,
+    CAPTURE,
 ];
 
 /// Whether `name` is a file a whole run may write.

@@ -4,6 +4,9 @@ use super::*;
 
 pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let parquet = args.format.check()? == Format::Parquet;
+    if args.capture && args.out.is_none() {
+        return Err(UsageError::Option("--capture: writes capture.csv, so it needs --out DIR".into()).into());
+    }
     let topo = Arc::new(args.topology()?);
     // A bad --out fails now, not after the run.
     let out_dir = args
@@ -14,7 +17,9 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let steps = topo.sim().steps();
     tracing::info!(topology = %topo.name(), seed = topo.sim().seed, steps, "starting");
     let progress = (!quiet && !args.json).then(|| progress_bar(steps));
+    let capture = args.capture.then(crate::medium::CaptureLog::new);
     let opts = RunOptions {
+        capture: capture.clone(),
         clock: if args.realtime { Clock::Realtime } else { Clock::Virtual },
         trace: out_dir
             .as_ref()
@@ -48,7 +53,7 @@ pub(super) fn run(args: &RunArgs, quiet: bool) -> anyhow::Result<ExitCode> {
     let mut failed = None;
     if let Some(d) = out_dir {
         shown = Some(d.dir.clone());
-        match write_run(d, &mut out, &s, &topo, parquet) {
+        match write_run(d, &mut out, &s, &topo, parquet, capture.as_ref()) {
             Ok(w) => wrote = w,
             // The table is still printed: a full disk loses the files, not the result (the directory is as it was).
             Err(e) => failed = Some(e),
@@ -75,6 +80,7 @@ fn write_run(
     s: &summary::Summary,
     topo: &Scenario,
     parquet: bool,
+    capture: Option<&crate::medium::CaptureLog>,
 ) -> anyhow::Result<Vec<String>> {
     // Each sensing node's IMU samples with the true pose (input for `simnet reconstruct`), streamed too.
     let imu = out.trace.as_ref().map(|t| t.imu_nodes()).unwrap_or_default();
@@ -116,6 +122,10 @@ fn write_run(
     wrote.push(MEASUREMENTS.into());
     if schemes.is_some() {
         wrote.push(ESTIMATORS.into());
+    }
+    if let Some(log) = capture {
+        std::fs::write(d.stage.join(CAPTURE), crate::report::capture::csv(&log.take(), topo))?;
+        wrote.push(CAPTURE.into());
     }
     if parquet {
         let copies = parquet_copies(&d.stage, &wrote)?;

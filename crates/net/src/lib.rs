@@ -47,6 +47,18 @@ pub enum NetError {
     Runtime(std::io::Error),
 }
 
+/// A worker's part of the medium, tapped when the run records a capture.
+fn tap(
+    medium: simnet_engine::medium::PairwiseMedium,
+    log: &Option<simnet_engine::medium::CaptureLog>,
+) -> simnet_engine::medium::Capture<simnet_engine::medium::PairwiseMedium> {
+    use simnet_engine::medium::Capture;
+    match log {
+        Some(log) => Capture::new(medium, log.clone()),
+        None => Capture::off(medium),
+    }
+}
+
 pub struct RunOptions {
     pub clock: Clock,
     /// Takes the per-step rows for `trace.csv` and the plots as the run goes (none: no rows are made).
@@ -60,6 +72,9 @@ pub struct RunOptions {
     pub progress: Option<Progress>,
     /// Receives the nodes' socket addresses once bound (tests use it to send foreign datagrams).
     pub on_bound: Option<oneshot::Sender<Vec<SocketAddr>>>,
+    /// Record every datagram sent and every copy delivered into this log (a tap on each worker's part of the
+    /// medium, [`simnet_engine::medium::Capture`]; it changes nothing it carries).
+    pub capture: Option<simnet_engine::medium::CaptureLog>,
 }
 
 impl Default for RunOptions {
@@ -71,6 +86,7 @@ impl Default for RunOptions {
             recv_buffer: socket::RECV_BUFFER,
             progress: None,
             on_bound: None,
+            capture: None,
         }
     }
 }

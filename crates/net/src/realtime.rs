@@ -16,7 +16,7 @@ use tokio::sync::{mpsc, watch};
 
 use super::collect::{blocks, observe, StepOut};
 use super::{NetError, RunOptions};
-use simnet_engine::medium::{Medium, PairwiseMedium};
+use simnet_engine::medium::{Capture, Medium, PairwiseMedium};
 use simnet_engine::node::{Node, NodeReport};
 use simnet_engine::report::summary::Schedule;
 use simnet_engine::scenario::Scenario;
@@ -78,7 +78,7 @@ struct WorkerEnd {
 struct Slot {
     node: Node,
     /// The node's out-links: what becomes of what it sends.
-    medium: PairwiseMedium,
+    medium: Capture<PairwiseMedium>,
     socket: UdpSocket,
 }
 
@@ -268,7 +268,7 @@ pub(super) async fn run(
             node.boot(epoch);
             slots.push(Slot {
                 node,
-                medium: topo.pairwise_medium([i]),
+                medium: crate::tap(topo.pairwise_medium([i]), &opts.capture),
                 socket,
             });
         }

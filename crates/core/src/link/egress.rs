@@ -135,9 +135,9 @@ impl Egress {
     }
 
     /// The next copy due at or before `now`, in delivery order.
-    pub fn poll_transmit(&mut self, now: Time) -> Option<Transmit> {
+    pub fn poll_transmit(&mut self, now: Time) -> Option<(Time, Transmit)> {
         if self.queue.peek().is_some_and(|Reverse(p)| p.at <= now) {
-            self.queue.pop().map(|Reverse(p)| p.tx)
+            self.queue.pop().map(|Reverse(p)| (p.at, p.tx))
         } else {
             None
         }

@@ -46,7 +46,8 @@
 //!                 continue;
 //!             }
 //!             for bytes in &tx.group {
-//!                 self.queue.push_back((tx.at + Duration::from_millis(4), Delivery { from, to, bytes: bytes.clone() }));
+//!                 let at = tx.at + Duration::from_millis(4);
+//!                 self.queue.push_back((at, Delivery { from, to, at, bytes: bytes.clone() }));
 //!             }
 //!         }
 //!     }
@@ -84,7 +85,11 @@
 //! assert_eq!(air.poll_delivery(1, ms(30)).map(|d| d.to), Some(2));
 //! ```
 
+mod capture;
+
 use bytes::Bytes;
+
+pub use capture::{Capture, CaptureLog, Captured, Event};
 
 use crate::link::{Egress, FaultSchedule, LinkCounters, Stream};
 use crate::time::Time;
@@ -119,6 +124,8 @@ pub struct Delivery {
     pub from: usize,
     /// The receiving node, by index.
     pub to: usize,
+    /// When it is due at the receiver (sent, plus the link's delay).
+    pub at: Time,
     /// The datagram as it arrives (a corrupted copy has a bit flipped).
     pub bytes: Bytes,
 }
@@ -134,6 +141,22 @@ pub trait Medium: Send + std::fmt::Debug {
     fn poll_timeout(&self, from: usize) -> Option<Time>;
     /// What each of `from`'s links carried, by receiver.
     fn counters(&self, from: usize) -> Vec<(usize, LinkCounters)>;
+}
+
+/// A boxed medium is a medium (so that a tap such as [`Capture`] can wrap one chosen at run time).
+impl<M: Medium + ?Sized> Medium for Box<M> {
+    fn transmit(&mut self, from: usize, tx: Transmission, faults: &FaultSchedule) {
+        (**self).transmit(from, tx, faults)
+    }
+    fn poll_delivery(&mut self, from: usize, now: Time) -> Option<Delivery> {
+        (**self).poll_delivery(from, now)
+    }
+    fn poll_timeout(&self, from: usize) -> Option<Time> {
+        (**self).poll_timeout(from)
+    }
+    fn counters(&self, from: usize) -> Vec<(usize, LinkCounters)> {
+        (**self).counters(from)
+    }
 }
 
 /// Each directed link deciding alone, from its rules and its seeded streams: one [`Egress`] per sender.
@@ -196,10 +219,11 @@ impl Medium for PairwiseMedium {
     }
 
     fn poll_delivery(&mut self, from: usize, now: Time) -> Option<Delivery> {
-        let t = self.sender_mut(from)?.poll_transmit(now)?;
+        let (at, t) = self.sender_mut(from)?.poll_transmit(now)?;
         Some(Delivery {
             from,
             to: t.to,
+            at,
             bytes: t.bytes,
         })
     }

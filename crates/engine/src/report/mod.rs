@@ -1,6 +1,7 @@
 //! Results: `summary.json`, the stdout table, `trace.csv`, `links.csv`, plots and `report.html`. Writers take
 //! `impl Write`.
 
+pub mod capture;
 pub mod html;
 pub mod outputs;
 #[cfg(feature = "parquet")]

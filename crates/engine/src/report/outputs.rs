@@ -86,6 +86,16 @@ const MEASUREMENTS: &[Field] = &[
     f("r", "R over those rows, row-major, separated by `;`."),
 ];
 
+const CAPTURE: &[Field] = &[
+    f("t", "When the datagram was sent, or when the copy was due at its receiver, s (whole nanoseconds)."),
+    f("event", "`sent` (handed to the medium) or `delivered` (a copy the medium delivered)."),
+    f("from", "The sending node's id."),
+    f("to", "The receiving node's id; empty for a broadcast as sent (each copy delivered names its receiver)."),
+    f("datagram", "The sender's number for the datagram (0, 1, … in sending order); on a `delivered` line the datagram it is a copy of, empty when its bytes match nothing the sender sent (a bit flipped on the way). A number sent with no `delivered` line to a receiver was lost to it; two lines, duplicated."),
+    f("bytes", "Its length, bytes."),
+    f("stream", "The link's stream that decided its fate: `measurement` (the measurements, with the round-0 messages beside them) or `round-R`; empty for a corrupted copy."),
+];
+
 const ESTIMATORS: &[Field] = &[
     f("step", "The step."),
     f("t", "Its time, s."),
@@ -151,6 +161,7 @@ pub const FILES: &[OutputFile] = &[
     OutputFile { name: "trace.csv", written: "run, collect", about: "One row per step and node filter, and per step the fused estimate; written row by row during the run (memory does not grow with its length). Fused rows have no node and fill the columns the fusion covers; `fused_median` rows come 10 steps after their step's node rows. Numbers are in their shortest round-trip form; empty = unknown.", columns: TRACE },
     OutputFile { name: "links.csv", written: "run, collect", about: "One row per directed link (the run's link table).", columns: LINKS },
     OutputFile { name: "measurements.csv", written: "run", about: "Every measurement each sensing node took, one line per node, step and channel, as it was taken (before any link decided its fate): enough to recompute any node's filter outside simnet.", columns: MEASUREMENTS },
+    OutputFile { name: "capture.csv", written: "run --capture", about: "Every datagram the nodes sent and every copy the medium delivered, in order of time: a packet capture at both ends of every link (a tap on the medium that changes nothing it carries). Memory grows with the run: about 100 bytes per datagram sent while the run goes.", columns: CAPTURE },
     OutputFile { name: "estimators.csv", written: "run, with distributed estimators", about: "Every distributed estimator's estimate per step and node.", columns: ESTIMATORS },
     OutputFile { name: "imu-ID.csv", written: "run, per simulated sensing node of a pose or attitude model", about: "The node's IMU samples and true pose, in the format simnet reads back (see Recordings); also streamed.", columns: IMU },
     OutputFile { name: "trajectory.svg", written: "run, collect", about: "Truth and estimates in the x–y plane at equal scale (pose); roll, pitch and yaw in three panels (attitude); the states (linear).", columns: &[] },

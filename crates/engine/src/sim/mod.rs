@@ -269,7 +269,7 @@ pub struct SimOptions {
     ///         };
     ///         for to in to {
     ///             *self.sent.entry((from, to)).or_default() += 1;
-    ///             self.due.extend(tx.group.iter().map(|bytes| Delivery { from, to, bytes: bytes.clone() }));
+    ///             self.due.extend(tx.group.iter().map(|bytes| Delivery { from, to, at: tx.at, bytes: bytes.clone() }));
     ///         }
     ///     }
     ///     fn poll_delivery(&mut self, from: usize, _now: Time) -> Option<Delivery> {
@@ -297,6 +297,9 @@ pub struct SimOptions {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub medium: Option<Box<dyn Medium>>,
+    /// Record every datagram sent and every copy delivered into this log ([`crate::medium::Capture`]: a tap on the
+    /// medium, which changes nothing it carries).
+    pub capture: Option<crate::medium::CaptureLog>,
 }
 
 /// The lockstep driver: [`Sim::step`] runs one step of every node, [`Sim::run`] the rest of the run.
@@ -333,10 +336,14 @@ impl Sim {
         if opts.record_lmi {
             nodes.iter_mut().for_each(Node::record_lmi);
         }
+        let medium = opts
+            .medium
+            .unwrap_or_else(|| Box::new(scenario.pairwise_medium(0..nodes.len())));
         Ok(Sim {
-            medium: opts
-                .medium
-                .unwrap_or_else(|| Box::new(scenario.pairwise_medium(0..nodes.len()))),
+            medium: match opts.capture {
+                Some(log) => Box::new(crate::medium::Capture::new(medium, log)),
+                None => medium,
+            },
             observer: (!opts.no_fusion).then(|| observer_for(&scenario, record)),
             scenario,
             nodes,

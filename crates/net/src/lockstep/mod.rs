@@ -381,7 +381,7 @@ pub(super) async fn run(
                 let mut outs: Vec<usize> = topo.out_links(i).map(|l| l.to).collect();
                 outs.sort_unstable();
                 Some(Slot {
-                    medium: topo.pairwise_medium([i]),
+                    medium: crate::tap(topo.pairwise_medium([i]), &opts.capture),
                     got: vec![0; ins.len()],
                     want: vec![None; ins.len()],
                     seen: vec![0; ins.len()],
