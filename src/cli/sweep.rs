@@ -90,14 +90,6 @@ impl Transport {
     }
 }
 
-fn now() -> String {
-    humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string()
-}
-
-fn cores() -> usize {
-    std::thread::available_parallelism().map_or(1, |n| n.get())
-}
-
 fn usage_or_run(e: CampaignError) -> anyhow::Error {
     if e.is_usage() {
         UsageError::Option(e.to_string()).into()
@@ -286,7 +278,7 @@ pub(super) fn wrote_line(dir: &Path, files: &[String], runs: usize) -> String {
 /// `sweep merge`: every shard directory's records into `out`, checked to be one campaign; the files once all runs are
 /// there.
 fn merge(dirs: &[PathBuf], out: Option<&Path>, format: Format, quiet: bool) -> anyhow::Result<ExitCode> {
-    let started = now();
+    let started = campaign::now();
     let mut plans = Vec::new();
     for d in dirs {
         let path = d.join("plan.json");
@@ -336,16 +328,12 @@ fn merge(dirs: &[PathBuf], out: Option<&Path>, format: Format, quiet: bool) -> a
     if !quiet {
         eprintln!("{copied} runs copied into {}", out.display());
     }
-    let me = ShardInfo {
+    let merger = campaign::Runner {
         shard: "merge".into(),
-        simnet: campaign::simnet_build(),
         command: std::env::args().collect(),
         transport: "-".into(),
-        started,
-        finished: now(),
-        cores: cores(),
-        ran: 0,
     };
+    let me = ShardInfo::of(merger, started, 0);
     match campaign::finish(&store, &file, &me) {
         Ok(done) => wrote(out, &file, done, format),
         Err(e @ CampaignError::Missing { .. }) => {

@@ -154,6 +154,11 @@ fn every_bad_input_exits_2_naming_it() {
     };
     let attacked = ring3_with("attacked.toml", "kind = \"forge\"\ntarget = 0\nclaim = 2\nbias = [1.0]");
     let flooded = ring3_with("flooded.toml", "kind = \"flood\"\ntarget = 0");
+    // A table for a scheme no one registered, its name long and ending in what must not be echoed.
+    let tabled = d.join("tabled.toml");
+    let ring3 = simnet::Scenario::resolve("ring3").unwrap().to_toml();
+    let long = format!("{}root:", "a".repeat(30));
+    std::fs::write(&tabled, format!("{ring3}\n[estimators.\"{long}\"]\nx = 1\n")).unwrap();
     let fifo = d.join("fifo.toml");
     let made_fifo = Command::new("mkfifo").arg(&fifo).status().is_ok_and(|s| s.success());
 
@@ -247,6 +252,10 @@ fn every_bad_input_exits_2_naming_it() {
         (vec!["validate".into(), s(&d)], "not a regular file (a directory)"),
         (vec!["validate".into(), s(&uses_passwd)], "not an IMU file"),
         (vec!["-t".into(), s(&passwd)], "TOML parse error at line 1"),
+        (
+            vec!["validate".into(), s(&tabled)],
+            "`estimators.aaaaaaaaaaaaaaaaaaaaaaaa…`: no scheme of that name takes a table",
+        ),
         (vec!["collect".into(), s(&slow), s(&b)], "step rate of 0 Hz"),
         (vec!["collect".into(), s(&zero), s(&b)], "not a regular file (a device)"),
         (vec!["collect".into(), s(&a)], "have no part: node-1.json"),

@@ -14,8 +14,9 @@
 //! | `outputs.rs` | the files a finished campaign writes from its records: tables, `sweep.svg`, `manifest.json`, `report.html` |
 //! | `stack.rs` | a Docker Swarm stack that runs the shards of a campaign as the tasks of one service |
 //!
-//! A campaign is run by [`run_missing`] with a function that makes a run's [`Summary`] from its scenario (in memory
-//! with [`in_memory`], or over sockets by the caller), then finished by [`outputs::finish`].
+//! A campaign is run by [`execute`] with a function that makes a run's [`Summary`] from its scenario (in memory
+//! with [`in_memory`], or over sockets by the caller): the runs missing from the store ([`run_missing`]), then the
+//! campaign's files once the store holds them all ([`finish`]).
 
 mod outputs;
 pub mod page;
@@ -295,22 +296,30 @@ pub fn execute(
 ) -> Executed {
     let started = now();
     let ran = run_missing(plan, runs, store, run, tick, stop);
-    let me = ShardInfo {
-        shard: who.shard,
-        simnet: simnet_build(),
-        command: who.command,
-        transport: who.transport,
-        started,
-        finished: now(),
-        cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
-        ran: ran.ran,
-    };
+    let me = ShardInfo::of(who, started, ran.ran);
     let finished = finish(store, &PlanFile::of(plan), &me);
     Executed { ran, finished }
 }
 
+impl ShardInfo {
+    /// The record of this process: `who` ran `ran` runs from `started` ([`now`]) until now, with this build of
+    /// simnet, on this machine's cores.
+    pub fn of(who: Runner, started: String, ran: usize) -> ShardInfo {
+        ShardInfo {
+            shard: who.shard,
+            simnet: simnet_build(),
+            command: who.command,
+            transport: who.transport,
+            started,
+            finished: now(),
+            cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            ran,
+        }
+    }
+}
+
 /// The wall clock's time, RFC 3339 to the second: when a shard started and finished (provenance, never a figure).
-fn now() -> String {
+pub fn now() -> String {
     humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string()
 }
 

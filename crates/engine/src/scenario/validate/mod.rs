@@ -333,7 +333,8 @@ impl Validator {
         use crate::estimators::Kind;
         let mut out = std::collections::BTreeMap::new();
         for (name, table) in given {
-            let key = format!("estimators.{name}");
+            // A crafted file's table name is echoed clipped, as every other name it gives.
+            let key = format!("estimators.{}", crate::text::clip(name));
             match Kind::from_name(name) {
                 Some(kind) if kind.takes_table() => {
                     out.extend(kind.configure(table, &mut self.0).map(|c| (kind, c)));
