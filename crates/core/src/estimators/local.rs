@@ -4,7 +4,7 @@ use super::registry::{Registration, Role, Scheme};
 use super::{Estimator, Message, StepInput};
 use crate::estimate::{EstimateError, Gaussian, MissingChannels};
 
-/// `independent` in the registry: the node runs it as its second filter beside `sequeira`.
+/// `independent` in the registry: the node runs it as its second filter beside `sequeira` ([`super::Sequeira`]).
 pub(super) const REGISTRATION: Registration = Registration {
     scheme: Scheme {
         name: "independent",
@@ -16,6 +16,7 @@ pub(super) const REGISTRATION: Registration = Registration {
 };
 
 /// The node's own filter alone: the baseline.
+#[derive(Debug, Clone)]
 pub struct Local {
     g: Gaussian,
     policy: MissingChannels,

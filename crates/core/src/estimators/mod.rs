@@ -38,6 +38,7 @@ mod kcf;
 mod local;
 mod message;
 mod registry;
+mod sequeira;
 #[cfg(test)]
 mod tests;
 
@@ -61,6 +62,7 @@ pub use message::{from_body, to_body, MessageError};
 pub use registry::{
     build, register, schemes, Builder, Configure, Configured, Kind, NodeBuilder, Params, RegisterError, Scheme,
 };
+pub use sequeira::{Guarded, Sequeira, SequeiraParams};
 
 /// What one node's estimator knows of the network.
 #[derive(Debug, Clone)]
@@ -292,6 +294,12 @@ pub struct StepInput<'a> {
     pub obs: &'a Observation,
     /// The node's own measurement of the step, if any arrived.
     pub own: Option<&'a Measurement>,
+    /// The step's measurements the node believes, its own among them, by source (sorted): what its links carried
+    /// by the step's deadline, less what the innovation gate left out. Empty where the driver hands none (the
+    /// observer's fusion centers take theirs as messages).
+    pub heard: &'a [(usize, &'a Measurement)],
+    /// The step's number (the LMI guard's bound grows with it, eq. (15)).
+    pub step: u64,
 }
 
 impl<'a> StepInput<'a> {

@@ -4,7 +4,7 @@
 
 use std::sync::{Arc, RwLock};
 
-use super::{centralized, ci, diffusion, hcmci, icf, kcf, local, Context, Estimator};
+use super::{centralized, ci, diffusion, hcmci, icf, kcf, local, sequeira, Context, Estimator};
 use crate::checks::Checks;
 use crate::estimate::{Gaussian, MissingChannels};
 
@@ -61,7 +61,8 @@ impl PartialEq for Configured {
 /// Who runs a scheme.
 #[derive(Clone, Copy)]
 pub(super) enum Role {
-    /// The node's own two filters (`independent`, `sequeira`), updated at the step's deadline.
+    /// The node's own two filters (`independent`: [`super::Local`], `sequeira`: [`super::Sequeira`]), finished at
+    /// the step's deadline with the measurements it heard.
     Filters,
     /// One fusion center, hosted by the observer (`centralized`, `centralized-net`).
     Center,
@@ -80,7 +81,7 @@ pub(super) struct Registration {
 /// The built-in schemes, in registry order.
 const BUILTIN: [&Registration; 9] = [
     &local::REGISTRATION,
-    &SEQUEIRA,
+    &sequeira::REGISTRATION,
     &centralized::REGISTRATION,
     &centralized::NET_REGISTRATION,
     &kcf::REGISTRATION,
@@ -89,17 +90,6 @@ const BUILTIN: [&Registration; 9] = [
     &diffusion::REGISTRATION,
     &ci::REGISTRATION,
 ];
-
-/// `sequeira`: its update lives with the node (the LMI guard needs the node's deadline and its sources' β).
-const SEQUEIRA: Registration = Registration {
-    scheme: Scheme {
-        name: "sequeira",
-        reference: "Sequeira (2023), Sensors 23(18) 7838: beta-weighted consensus, eqs. 5-10, LMI guard (17), (19)",
-        messages: "round 0: the measurement",
-        parameters: "consensus.beta0, consensus.self / neighbor or matrix, consensus.lmi",
-    },
-    role: Role::Filters,
-};
 
 /// The schemes a program registered, after the built-in ones.
 static ADDED: RwLock<Vec<&'static Registration>> = RwLock::new(Vec::new());

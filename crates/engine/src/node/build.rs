@@ -82,10 +82,10 @@ impl Node {
             due: super::clock::Due::Step(0),
         };
         node.initial = node.initial_estimate(0, 0);
-        node.filters = node.role.estimates().then(|| Filters {
-            networked: node.initial.clone(),
-            independent: node.initial.clone(),
-        });
+        node.filters = node
+            .role
+            .estimates()
+            .then(|| Filters::new(&node.topo, index, &node.initial, node.policy));
         if in_node {
             let ctx = schemes::context(&node.topo, index, &*node.model);
             let e = node.topo.estimators();

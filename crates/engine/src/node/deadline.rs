@@ -1,101 +1,96 @@
-//! The close of a step at its deadline: both filters (and the distributed estimators) updated with what arrived,
-//! scored, recorded.
+//! The close of a step at its deadline: both filters and the distributed estimators finish with what arrived,
+//! each one scored, and the step recorded.
 
 #[allow(unused_imports)]
 use super::*;
+use crate::estimators::{Estimator, Kind, StepInput};
 
 impl Node {
-    /// The deadline of step k: update both filters with what arrived, record metrics.
+    /// The deadline of step k: every estimator finishes with what arrived; the updates are scored and recorded.
     pub(super) fn handle_deadline(&mut self, k: u64) -> Option<StepEstimate> {
         let inbox = self.inbox.close(k, &self.in_sources)?;
         if let Some(f) = self.feed.as_mut().filter(|_| self.star_sink) {
             f.heard = Some(inbox.clone());
         }
-        let mut schemes = self.finish_schemes(k);
-        let filters = self.filters.as_mut()?;
-        let topo = &self.topo;
-        let c = topo.consensus();
-        let beta = c.beta.row(self.index);
-        let priors = filters.clone();
-
         // A neighbour's measurement too far from what this node predicts is left out (the innovation gate).
-        let gated: Vec<usize> = inbox
-            .iter()
-            .filter(|(_, p)| self.trust.gates(&*self.model, &self.obs, &priors.networked, p))
-            .map(|(s, _)| *s)
-            .collect();
+        let gated: Vec<usize> = match self.filters.as_ref().and_then(|f| f.networked.state()) {
+            Some(prior) => inbox
+                .iter()
+                .filter(|(_, p)| self.trust.gates(&*self.model, &self.obs, prior, p))
+                .map(|(s, _)| *s)
+                .collect(),
+            None => Vec::new(),
+        };
         for s in &gated {
             self.counters.gated += 1;
             self.inbox.rx.get_mut(*s).gated += 1;
         }
-        // Networked: consensus over own + received, in source order (deterministic sums).
+        // Own + received, in source order (deterministic sums).
         let mut used: Vec<(usize, &Measurement)> = Vec::new();
         if let Some(own) = self.inbox.own() {
             used.push((self.index, own));
         }
         used.extend(inbox.iter().filter(|(s, _)| !gated.contains(s)).map(|(s, p)| (*s, p)));
         used.sort_by_key(|(s, _)| *s);
-        let updated = filters::update(
-            &filters::Inputs {
-                model: &*self.model,
-                obs: &self.obs,
-                policy: self.policy,
-                consensus: c,
-                beta,
-                index: self.index,
-                k,
-            },
-            &priors,
-            &used,
-            self.probes.lmi.is_some(),
-        );
-        if let Some(terms) = updated.lmi {
-            match terms {
-                Ok(Some(terms)) => {
-                    let step = LmiStep {
-                        k,
-                        sources: used.iter().map(|(s, _)| *s).collect(),
-                        terms,
-                    };
-                    self.probes.each().for_each(|p| p.on_lmi(&step));
-                }
-                Ok(None) => {}
-                Err(e) => {
-                    self.counters.lmi_failures += 1;
-                    tracing::debug!(node = self.id, step = k, "LMI terms not computed: {e}");
-                }
+        let input = StepInput {
+            model: &*self.model,
+            obs: &self.obs,
+            own: self.inbox.own(),
+            heard: &used,
+            step: k,
+        };
+        let posts = match self.schemes.is_empty() {
+            true => None,
+            false => self.schemes.finish(k, &input, &self.wire),
+        };
+        let filters = self.filters.as_mut()?;
+        let priors = (filters.networked.state()?.clone(), filters.independent.state()?.clone());
+        filters.networked.record_terms(self.probes.lmi.is_some());
+        let networked = filters.networked.finish(&input);
+        let guarded = filters.networked.take_guarded();
+        let independent = filters.independent.finish(&input);
+        let feasible = guarded.as_ref().is_none_or(|g| g.feasible);
+        match guarded.and_then(|g| g.terms) {
+            Some(Ok(Some(terms))) => {
+                let step = LmiStep {
+                    k,
+                    sources: used.iter().map(|(s, _)| *s).collect(),
+                    terms,
+                };
+                self.probes.each().for_each(|p| p.on_lmi(&step));
             }
+            Some(Err(e)) => {
+                self.counters.lmi_failures += 1;
+                tracing::debug!(node = self.id, step = k, "LMI terms not computed: {e}");
+            }
+            Some(Ok(None)) | None => {}
         }
-        let feasible = updated.feasible;
         let truth = self.truth.state(&*self.model);
         // The sources' ids are for the probes (the trace's `received` column); none are built when there is no probe.
         let (received, own_only): (Vec<u32>, Vec<u32>) = if self.probes.is_empty() {
             Default::default()
         } else {
-            let r: Vec<u32> = used.iter().map(|(s, _)| topo.nodes()[*s].id).collect();
+            let r: Vec<u32> = used.iter().map(|(s, _)| self.topo.nodes()[*s].id).collect();
             let own = r.iter().copied().filter(|r| *r == self.id).collect();
             (r, own)
         };
-        let t = k as f64 * topo.sim().dt();
-        for (filter, post, prior, slot) in [
-            (
-                Filter::Networked,
-                updated.networked,
-                &priors.networked,
-                &mut filters.networked,
-            ),
+        let t = k as f64 * self.topo.sim().dt();
+        let both: [(Filter, &mut dyn Estimator, Gaussian, bool); 2] = [
+            (Filter::Networked, &mut filters.networked, priors.0, networked.is_err()),
             (
                 Filter::Independent,
-                updated.independent,
-                &priors.independent,
                 &mut filters.independent,
+                priors.1,
+                independent.is_err(),
             ),
-        ] {
-            // A failed update keeps stepping from the prior, so that the run finishes and the rest of the figures stand.
-            let (post, failed) = match post {
-                Ok(g) => (g, false),
-                Err(_) => (prior.clone(), true),
-            };
+        ];
+        for (filter, est, prior, failed) in both {
+            // A failed update keeps stepping from the prior (the estimator left it as it was), so that the run
+            // finishes and the rest of the figures stand; a posterior is brought back onto the model's manifold.
+            if !failed {
+                est.state_mut().into_iter().for_each(|g| input.model.normalize(g));
+            }
+            let Some(post) = est.state() else { continue };
             let networked = filter == Filter::Networked;
             let u = Update {
                 node: self.id,
@@ -103,26 +98,26 @@ impl Node {
                 t,
                 filter,
                 truth: &truth,
-                prior,
-                post: &post,
+                prior: &prior,
+                post,
                 failed,
                 feasible: !networked || feasible,
                 received: if networked { &received } else { &own_only },
             };
             let score = self.scorer.score(&u);
             self.probes.each().for_each(|p| p.on_update(&u, &score));
-            *slot = if post.x.iter().chain(post.P.iter()).all(|v| v.is_finite()) {
-                post
-            } else {
-                self.initial.clone()
-            };
+            if !post.x.iter().chain(post.P.iter()).all(|v| v.is_finite()) {
+                est.reset(self.initial.clone());
+            }
         }
+        let mut schemes = self.score_schemes(k, posts, &truth);
+        let filters = self.filters.as_ref()?;
         let run = &self.topo.estimators().run;
-        for (kind, g) in [
-            (crate::estimators::Kind::Independent, &filters.independent),
-            (crate::estimators::Kind::Sequeira, &filters.networked),
+        for (kind, est) in [
+            (Kind::Independent, &filters.independent as &dyn Estimator),
+            (Kind::Sequeira, &filters.networked),
         ] {
-            if run.contains(&kind) {
+            if let Some(g) = est.state().filter(|_| run.contains(&kind)) {
                 schemes.push((kind, g.x.clone()));
             }
         }
@@ -131,7 +126,7 @@ impl Node {
             step: k,
             truth,
             frame: self.truth.frame(),
-            networked: filters.networked.clone(),
+            networked: filters.networked.state()?.clone(),
             diverged: self.scorer.metrics(Filter::Networked).diverged,
             schemes,
         })

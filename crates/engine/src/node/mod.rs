@@ -44,7 +44,7 @@
 //! | `accessors.rs` | what drivers and the observer read and take from a node, its end-of-run report |
 //! | `wire.rs` | addressing and sealing: one broadcast, or a sealed copy per out-link; opening: what is accepted |
 //! | `inbox.rs` | step collection, the early buffer, receive counters |
-//! | `filters.rs` | the networked and independent filters' update over any [`crate::model::Model`] |
+//! | `filters.rs` | the node's two filters, `sequeira` and `independent`, as estimators |
 //! | `schemes.rs` | the distributed estimators beside them: each round's messages, what arrived, their traffic |
 //! | `session.rs` | neighbours heard from and the highest step they reported (the multi-host handshake) |
 //! | `hello.rs` | the handshake's datagrams: hellos out and in, probes of a neighbour's new address, earlier boots |
@@ -71,6 +71,7 @@ use std::sync::Arc;
 use nalgebra::{DMatrix, DVector};
 
 use crate::estimate::{Gaussian, MissingChannels, Observation};
+use crate::estimators::Estimator;
 pub use crate::imu_csv::ImuRow;
 pub use crate::link::Transmit;
 use crate::link::{NodeEvent, Stream};
@@ -271,8 +272,8 @@ impl Node {
             self.schemes.reset(&g);
             fresh = Some(g.clone());
             if let Some(f) = &mut self.filters {
-                f.networked = g.clone();
-                f.independent = g;
+                f.networked.reset(g.clone());
+                f.independent.reset(g);
             }
             self.last_imu = None;
         }
@@ -308,23 +309,21 @@ impl Node {
             });
         }
         if k > 0 && !restarted {
+            // Every estimator of the node predicts by its model, IMU and process noise.
+            let (model, Q) = (&self.model, &self.Q);
+            let predict = |g: &Gaussian| {
+                let mut p = model.predict(g, u.as_ref(), Q, dt);
+                if let Some(s) = &shift {
+                    p.x += s;
+                }
+                p
+            };
             if !self.schemes.is_empty() {
-                let (model, Q) = (&self.model, &self.Q);
-                self.schemes.predict(&|g: &Gaussian| {
-                    let mut p = model.predict(g, u.as_ref(), Q, dt);
-                    if let Some(s) = &shift {
-                        p.x += s;
-                    }
-                    p
-                });
+                self.schemes.predict(&predict);
             }
             if let Some(f) = &mut self.filters {
-                f.networked = self.model.predict(&f.networked, u.as_ref(), &self.Q, dt);
-                f.independent = self.model.predict(&f.independent, u.as_ref(), &self.Q, dt);
-                if let Some(s) = &shift {
-                    f.networked.x += s;
-                    f.independent.x += s;
-                }
+                f.networked.predict(&predict);
+                f.independent.predict(&predict);
             }
         }
         self.last_imu = imu;
@@ -335,7 +334,7 @@ impl Node {
             self.schemes.begin(
                 k,
                 at,
-                &schemes::input(&*self.model, &self.obs, own.as_ref()),
+                &schemes::input(&*self.model, &self.obs, own.as_ref(), k),
                 &self.wire,
             )
         };
@@ -351,7 +350,7 @@ impl Node {
             return;
         }
         let at = self.topo.round_end(k, r);
-        let input = schemes::input(&*self.model, &self.obs, self.inbox.own());
+        let input = schemes::input(&*self.model, &self.obs, self.inbox.own(), k);
         let out = self.schemes.close_round(k, r, at, &input, &self.wire);
         if out.is_empty() {
             return;

@@ -274,26 +274,35 @@ fn keep(list: &mut Vec<(usize, Message)>, from: usize, m: Message) {
     }
 }
 
-/// What a node hands its schemes: its model, observation and own measurement.
-pub(super) fn input<'a>(model: &'a dyn Model, obs: &'a Observation, own: Option<&'a Measurement>) -> StepInput<'a> {
-    StepInput { model, obs, own }
+/// What a node hands its schemes before the step's deadline (at its begin and its rounds' sub-deadlines): its
+/// model, observation and own measurement; the measurements heard come with the deadline.
+pub(super) fn input<'a>(
+    model: &'a dyn Model,
+    obs: &'a Observation,
+    own: Option<&'a Measurement>,
+    step: u64,
+) -> StepInput<'a> {
+    StepInput {
+        model,
+        obs,
+        own,
+        heard: &[],
+        step,
+    }
 }
 
 impl super::Node {
-    /// The distributed estimators' last round and posteriors of step k, scored at an estimating node; each one's
-    /// estimate, by kind.
-    pub(super) fn finish_schemes(&mut self, k: u64) -> Vec<(Kind, DVector<f64>)> {
-        if self.schemes.is_empty() {
-            return Vec::new();
-        }
-        let input = input(&*self.model, &self.obs, self.inbox.own());
-        let Some(posts) = self.schemes.finish(k, &input, &self.wire) else {
+    /// The distributed estimators' posteriors of step k ([`Schemes::finish`]), scored at an estimating node against
+    /// `truth`; each one's estimate, by kind.
+    pub(super) fn score_schemes(
+        &mut self,
+        k: u64,
+        posts: Option<Vec<(Gaussian, Gaussian, bool)>>,
+        truth: &DVector<f64>,
+    ) -> Vec<(Kind, DVector<f64>)> {
+        let Some(posts) = posts.filter(|_| self.role.estimates()) else {
             return Vec::new();
         };
-        if !self.role.estimates() {
-            return Vec::new();
-        }
-        let truth = self.truth.state(&*self.model);
         let t = k as f64 * self.topo.sim().dt();
         let kinds: Vec<_> = self.schemes.kinds().collect();
         kinds
@@ -305,7 +314,7 @@ impl super::Node {
                     step: k,
                     t,
                     filter: Filter::Scheme(kind),
-                    truth: &truth,
+                    truth,
                     prior: &prior,
                     post: &post,
                     failed,

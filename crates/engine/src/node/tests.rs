@@ -103,7 +103,7 @@ fn attitude_node_is_the_quaternion_ekf() {
         }
         let y = DVector::from_iterator(6, now.sample.accel.iter().chain(now.mag.unwrap().iter()).copied());
         ekf.update(&y, [true, true], &model).unwrap();
-        let f = &node.filters.as_ref().unwrap().independent;
+        let f = crate::estimators::Estimator::state(&node.filters.as_ref().unwrap().independent).unwrap();
         worst = worst.max((&f.x - DVector::from_column_slice(ekf.q.as_slice())).amax());
         worst = worst.max((&f.P - ekf.P()).amax() / ekf.P().amax());
     }

@@ -428,6 +428,8 @@ impl Reference {
             model: &*self.model,
             obs: &self.obs,
             own: center.own.as_ref(),
+            heard: &[],
+            step: center.step,
         };
         let messages: Vec<(usize, Message)> = messages
             .into_iter()

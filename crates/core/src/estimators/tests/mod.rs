@@ -122,6 +122,8 @@ impl Net {
                     model: &self.model,
                     obs: &self.obs,
                     own: m.as_ref(),
+                    heard: &[],
+                    step: k as u64,
                 })
                 .collect();
             for (i, e) in est.iter_mut().enumerate() {
@@ -394,6 +396,8 @@ fn information_across_plus_minus_pi_is_averaged_on_one_side() {
         model: &model,
         obs: &obs,
         own: None,
+        heard: &[],
+        step: 0,
     };
     let mut schemes: Vec<Box<dyn Estimator>> = vec![
         Box::new(Icf::new(ctx.clone(), g(PI - 0.01))),
@@ -457,6 +461,8 @@ fn a_neighbours_quaternion_counts_by_its_attitude_not_its_sign() {
         model: &model,
         obs: &obs,
         own: Some(m),
+        heard: &[],
+        step: 0,
     });
     // Node 0's posterior after two rounds with a neighbour that starts from `other`.
     let run = |name: &str, other: &Gaussian| {
@@ -482,4 +488,73 @@ fn a_neighbours_quaternion_counts_by_its_attitude_not_its_sign() {
         let own = run(name, &mine);
         assert!(!close(&a, &own, 1e-6), "{name}: the neighbour changed nothing");
     }
+}
+
+/// `sequeira` is eqs. (5)–(10) of Sequeira (2023), computed here with dense matrices and an explicit inverse:
+/// S = H P Hᵀ + R, K = P Hᵀ S⁻¹, z̃ⱼ = zⱼ − H x, z̃ = Σ βⱼ z̃ⱼ, x⁺ = x + K z̃, P̄ = Σ βⱼ z̃ⱼ z̃ⱼᵀ − z̃ z̃ᵀ,
+/// P⁺ = P − (1 − β₀) K S Kᵀ + K P̄ Kᵀ; a source without weight adds nothing; with the guard on and a bound no
+/// update meets ((17) with α tiny), the step is the node's own Kalman update, reported infeasible.
+#[test]
+fn sequeira_is_the_papers_consensus_update() {
+    let net = Net::rotating(vec![vec![1, 2], vec![0], vec![0]], vec![true; 3]);
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let mut draw = || DVector::from_fn(2, |_, _| rng.gen_range(-2.0..2.0));
+    let prior = Gaussian {
+        x: draw(),
+        P: DMatrix::from_row_slice(2, 2, &[1.5, 0.3, 0.3, 0.8]),
+    };
+    let z: Vec<Measurement> = (0..4)
+        .map(|_| Measurement {
+            z: draw(),
+            present: vec![true, true],
+        })
+        .collect();
+    // Node 0 hears itself and nodes 1, 2 and 3; node 3 has no weight in its row.
+    let heard: Vec<(usize, &Measurement)> = z.iter().enumerate().collect();
+    let (beta0, beta) = (0.1, vec![(0, 0.5), (1, 0.3), (2, 0.2)]);
+    let params = |guard: bool, alpha: f64| SequeiraParams {
+        index: 0,
+        beta0,
+        beta: beta.clone(),
+        alpha,
+        gamma: 0.0,
+        guard,
+        policy: POLICY,
+    };
+    let input = StepInput {
+        model: &net.model,
+        obs: &net.obs,
+        own: Some(&z[0]),
+        heard: &heard,
+        step: 7,
+    };
+    let (H, R) = (&net.obs.H, &net.obs.R);
+    let S = H * &prior.P * H.transpose() + R;
+    let K = &prior.P * H.transpose() * S.clone().try_inverse().unwrap();
+    let innov: Vec<DVector<f64>> = z[..3].iter().map(|m| &m.z - H * &prior.x).collect();
+    let zt: DVector<f64> = beta.iter().map(|(j, b)| &innov[*j] * *b).sum();
+    let Pbar: DMatrix<f64> = beta
+        .iter()
+        .map(|(j, b)| &innov[*j] * innov[*j].transpose() * *b)
+        .sum::<DMatrix<f64>>()
+        - &zt * zt.transpose();
+    let want = Gaussian {
+        x: &prior.x + &K * &zt,
+        P: &prior.P - &K * &S * K.transpose() * (1.0 - beta0) + &K * Pbar * K.transpose(),
+    };
+    let mut s = Sequeira::new(prior.clone(), params(false, 1.0));
+    s.finish(&input).unwrap();
+    assert!(
+        close(s.state().unwrap(), &want, 1e-12),
+        "{:?} against {want:?}",
+        s.state()
+    );
+    assert!(s.take_guarded().unwrap().feasible);
+
+    let mut guarded = Sequeira::new(prior.clone(), params(true, 1e-9));
+    guarded.finish(&input).unwrap();
+    let mut own = Local::new(prior, POLICY);
+    own.finish(&input).unwrap();
+    assert!(close(guarded.state().unwrap(), own.state().unwrap(), 1e-12));
+    assert!(!guarded.take_guarded().unwrap().feasible);
 }
