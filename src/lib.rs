@@ -40,6 +40,59 @@ pub use report::summary::Summary;
 pub fn cli_main() -> std::process::ExitCode {
     cli::main()
 }
+
+/// The `simnet` command line with `args`, the first the program's name, as the binary runs it (a usage error clap
+/// finds ends the process with exit 2, as the binary does). A program that registers estimators
+/// ([`estimators::register`]) or models ([`model::register`]) of its own and then hands its arguments here is the
+/// whole `simnet` command line with them: `--estimators`, `[estimators] run`, `simnet estimators`, `simnet node`.
+/// Every process of a multi-host run must be that program.
+///
+/// This one registers the node's own Kalman filter as `own` and runs ring3 over UDP with it, as
+/// `simnet run -t ring3 --estimators own` would; `own` is `independent` to the last digit:
+///
+/// ```
+/// use std::sync::Arc;
+/// use simnet::estimate::{EstimateError, Gaussian, MissingChannels};
+/// use simnet::estimators::{register, Estimator, Message, Scheme, StepInput};
+///
+/// struct Own { g: Gaussian, policy: MissingChannels }
+///
+/// impl Estimator for Own {
+///     fn name(&self) -> &'static str { "own" }
+///     fn state(&self) -> Option<&Gaussian> { Some(&self.g) }
+///     fn state_mut(&mut self) -> Option<&mut Gaussian> { Some(&mut self.g) }
+///     fn message(&self, _round: usize) -> Option<Message> { None }
+///     fn combine(&mut self, _: usize, _: &[(usize, &Message)], _: &StepInput<'_>) -> Result<(), EstimateError> {
+///         Ok(())
+///     }
+///     fn finish(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
+///         if let Some(m) = input.own {
+///             self.g = input.update(&self.g, m, self.policy)?;
+///         }
+///         Ok(())
+///     }
+/// }
+///
+/// let scheme = Scheme { name: "own", reference: "the own filter", messages: "none", parameters: "-" };
+/// register(scheme, |_, _| Arc::new(|_, g, policy| Box::new(Own { g, policy })))?;
+/// let out = std::env::temp_dir().join(format!("simnet-cli-with-{}", std::process::id()));
+/// let args = ["simnet", "run", "-q", "-t", "ring3", "--duration", "2", "--estimators", "independent,own", "--out"];
+/// let mut args: Vec<std::ffi::OsString> = args.iter().map(Into::into).collect();
+/// args.push(out.clone().into());
+/// assert_eq!(simnet::cli_main_with(args), std::process::ExitCode::SUCCESS);
+/// let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("summary.json"))?)?;
+/// let errors = |scheme: &str| -> Vec<f64> {
+///     let nodes = summary["estimators"][scheme]["nodes"].as_array().cloned().unwrap_or_default();
+///     nodes.iter().map(|n| n["mean_error"].as_f64().unwrap()).collect()
+/// };
+/// assert_eq!(errors("own").len(), 3);
+/// assert_eq!(errors("own"), errors("independent"));
+/// std::fs::remove_dir_all(&out)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn cli_main_with(args: Vec<std::ffi::OsString>) -> std::process::ExitCode {
+    cli::main_with(args)
+}
 pub use scenario::{LinkSpec, Overrides, Scenario, ScenarioBuilder};
 pub use sim::{RunResults, Sim};
 

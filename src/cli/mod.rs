@@ -183,13 +183,19 @@ fn init_tracing(verbose: u8, quiet: bool) {
 }
 
 pub fn main() -> ExitCode {
+    main_with(std::env::args_os().collect())
+}
+
+/// The command line with `args`, the first the program's name.
+pub fn main_with(args: Vec<std::ffi::OsString>) -> ExitCode {
+    let given = args.len() > 1;
     // An empty override (compose passes `${SIMNET_LOSS:-}`) means unset: the topology's own setting.
     for v in crate::compose::ENV {
         if std::env::var_os(v).is_some_and(|x| x.is_empty()) {
             std::env::remove_var(v);
         }
     }
-    let cli = Cli::parse_from(global_flags_after_subcommand(std::env::args_os().collect()));
+    let cli = Cli::parse_from(global_flags_after_subcommand(args));
     init_tracing(cli.verbose, cli.quiet);
     let result = match cli.command {
         Some(Command::Topologies) => list_topologies().map(|_| ExitCode::SUCCESS),
@@ -208,7 +214,7 @@ pub fn main() -> ExitCode {
         Some(Command::Reproduce(paper)) => reproduce::reproduce(&paper, cli.quiet),
         Some(Command::Reconstruct(args)) => reconstruct::reconstruct(&args),
         None if cli.run.topology.is_some() => run(&cli.run, cli.quiet),
-        None if std::env::args_os().len() > 1 => Err(UsageError::Option(
+        None if given => Err(UsageError::Option(
             "a run needs --topology NAME|PATH (`simnet topologies` lists the built-ins)".into(),
         )
         .into()),

@@ -83,6 +83,7 @@ pub fn to_body(m: &Message) -> Result<Body, MessageError> {
             x: g.x.iter().copied().collect(),
             sym: upper(&g.P),
         },
+        Message::Own(bytes) => Body::Own(bytes.to_vec()),
     })
 }
 
@@ -129,5 +130,6 @@ pub fn from_body(b: &Body, states: usize, rows: usize) -> Result<Message, Messag
                 P: symmetric(n, sym),
             })
         }
+        Body::Own(bytes) => Message::Own(bytes::Bytes::copy_from_slice(bytes)),
     })
 }

@@ -282,6 +282,9 @@ pub enum Message {
     },
     /// An estimate (KCF's prior, diffusion's combine step, CI).
     Estimate(Gaussian),
+    /// Bytes in a format the scheme itself writes and reads (a registered scheme's own encoding: quantised values,
+    /// a compressed state, anything): they travel as they are, at least one byte; the receiving scheme decodes them.
+    Own(bytes::Bytes),
 }
 
 /// What a node hands its estimators each step: its model, the observation (a template whose H the model linearises,

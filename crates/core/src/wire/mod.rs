@@ -4,7 +4,8 @@
 //! | header: magic u16 | version u8 | kind u8 | flags u8 | scheme u8 | src u32 | dst u32 | seq u32 |
 //! |         pertains u64 ns | sent u64 ns |                                     (postcard varints)
 //! | payload: rows u64 (bit i = row i present) | values: [f64] (one per present row)     |
-//! |       or round u8 | body: a measurement, information pair(s) or estimate           |
+//! |       or round u8 | body: a measurement, information pair(s), estimate, or bytes    |
+//! |                           in a format the scheme owns                               |
 //! | crc32 (4 bytes, little endian) of all bytes above                                   |
 //! ```
 //! The header says who sent a datagram to whom ([`BROADCAST`]: every node that hears it), its place in the
@@ -41,7 +42,7 @@ pub use frame::{Frame, FrameView, FrameWriter, Nack, MAX_FRAME};
 /// The first two bytes of every datagram: "SN".
 pub const MAGIC: u16 = 0x534E; // "SN"
 /// The datagram format's version; a datagram of another version is refused.
-pub const VERSION: u8 = 4;
+pub const VERSION: u8 = 5;
 /// Fits any MTU.
 pub const MAX_DATAGRAM: usize = 1200;
 /// Rows of one measurement (the `rows` bitmask is 64 bits wide).
@@ -254,6 +255,9 @@ pub enum Body {
         /// P's upper triangle, row by row.
         sym: Vec<f64>,
     },
+    /// Bytes in a format the scheme owns ([`crate::estimators::Message::Own`]): the wire checks only that there are
+    /// some; the scheme decodes them, and a body it cannot read is its failed update.
+    Own(Vec<u8>),
 }
 
 impl Body {
@@ -281,6 +285,8 @@ impl Body {
                 pair(*n, &measurement.0, &measurement.1)
             }
             Body::Estimate { n, x, sym } => pair(*n, sym, x),
+            Body::Own(bytes) if bytes.is_empty() => Err(WireError::Invalid("a scheme's own body of no bytes")),
+            Body::Own(_) => Ok(()),
         }
     }
 }

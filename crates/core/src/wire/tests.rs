@@ -57,6 +57,13 @@ fn fuzz_seeds_are_current_datagrams() {
                 },
             },
         },
+        Datagram {
+            header: Header::round(2, BROADCAST, 7, 9, at(10), at(10)),
+            payload: Payload::Round {
+                round: 1,
+                body: Body::Own(vec![0, 0, 128, 63, 0, 0, 0, 64]),
+            },
+        },
     ];
     let mut seeds: Vec<(String, Vec<u8>)> = datagrams
         .iter()
@@ -250,12 +257,57 @@ fn round_messages_round_trip_and_are_checked() {
             rows: 0b11,
             values: vec![1.0],
         },
+        Body::Own(Vec::new()),
     ] {
         let d = Datagram {
             header: Header::round(1, 2, 5, 3, at(77), at(77)),
             payload: Payload::Round { round: 0, body: bad },
         };
         assert!(matches!(d.encode(), Err(WireError::Invalid(_))), "{d:?}");
+    }
+}
+
+/// A scheme's own bytes travel as they are: its encoding is the header, the round, the bytes' length as a varint
+/// and the bytes, then the checksum; too many for a datagram are refused.
+#[test]
+fn a_schemes_own_bytes_travel_as_they_are() {
+    let header = Header::round(1, 2, 5, 9, at(77), at(77));
+    let clear = Datagram {
+        header,
+        payload: Payload::Hello {
+            running: None,
+            run: 0,
+            boot: 0,
+            echo: 0,
+            probe: 0,
+            answer: 0,
+        },
+    };
+    // The header's length, from a payload of known length: Hello with six zero fields is 1 (variant) + 6 bytes.
+    let head = postcard::to_allocvec(&clear.header).unwrap().len();
+    for n in [1usize, 127, 128, 1000] {
+        let body: Vec<u8> = (0..n).map(|i| (i * 7 % 251) as u8).collect();
+        let d = Datagram {
+            header,
+            payload: Payload::Round {
+                round: 1,
+                body: Body::Own(body.clone()),
+            },
+        };
+        let varint = if n < 128 { 1 } else { 2 };
+        // payload variant, round, body variant, length, bytes; then the CRC.
+        let want = head + 1 + 1 + 1 + varint + n + CRC_LEN;
+        match d.encode() {
+            Ok(bytes) => {
+                assert_eq!(bytes.len(), want, "{n} bytes");
+                assert_eq!(Datagram::decode(&bytes).unwrap(), d);
+                assert_eq!(Datagram::encoded_len(&d.header, &d.payload).unwrap(), want);
+            }
+            Err(e) => {
+                assert!(want > MAX_DATAGRAM, "{n} bytes refused: {e}");
+                assert_eq!(e, WireError::TooLong(want));
+            }
+        }
     }
 }
 
