@@ -78,10 +78,11 @@ def test_tables_are_typed_frames():
     assert list(t.columns[:4]) == ["step", "t", "node", "estimator"]
     assert t["step"].dtype == np.int64 and t["node"].dtype == "Int64"
     assert t["error"].dtype == np.float64 and t["feasible"].dtype == "boolean"
-    assert set(t["estimator"]) == {"networked", "independent", "fused", "fused_median"}
-    # Every step of every node, networked and independent.
+    assert set(t["estimator"]) == {"networked", "independent", "kcf", "fused", "fused_median"}
+    # Every step of every node: networked, independent and each estimator run.
     steps = r.summary["steps"]
-    assert (t["estimator"] == "networked").sum() == 3 * steps
+    for name in ["networked", "independent", "kcf"]:
+        assert (t["estimator"] == name).sum() == 3 * steps, name
     links = r.links
     assert len(links) == 6 and links["sent"].dtype == np.int64
     np.testing.assert_allclose(links["loss_rate"], 1 - links["delivered"] / links["sent"], atol=1e-12)

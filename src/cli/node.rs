@@ -268,7 +268,7 @@ pub(super) fn collect(args: &CollectArgs) -> anyhow::Result<ExitCode> {
     } = read_parts(&args.dirs).map_err(|e| UsageError::Option(e.to_string()))?;
     let (s, mut observer) = merge(&parts, &estimates).map_err(|e| UsageError::Option(e.to_string()))?;
     let d = RunDir::open(args.out.as_deref().unwrap_or(&args.dirs[0]), &[])?;
-    rows.sort_by_key(|r| (r.step, r.node, !r.networked));
+    rows.sort_by_key(|r| (r.step, r.node, r.filter));
     let dt = 1.0 / s.rate_hz;
     let mut rec = TraceWriter::new(columns, observer.layout(), dt, s.steps).to_writer(d.create("trace.csv")?);
     // Fused rows go after the node rows of their step.

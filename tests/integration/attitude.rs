@@ -78,7 +78,9 @@ fn run_in_memory(topo: Scenario, steps: u64, imu_dir: Option<&std::path::Path>) 
 }
 
 fn estimates(r: &(NodeReport, Vec<TraceRow>)) -> Vec<&TraceRow> {
-    r.1.iter().filter(|t| t.networked).collect()
+    r.1.iter()
+        .filter(|t| t.filter == simnet::observe::Filter::Networked)
+        .collect()
 }
 
 fn largest_gap(a: &(NodeReport, Vec<TraceRow>), b: &(NodeReport, Vec<TraceRow>)) -> f64 {

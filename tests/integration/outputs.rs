@@ -303,6 +303,75 @@ fn result_files_say_how_they_were_made_and_their_counts_add_up() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// Every distributed estimator of a run has its rows in `trace.csv`, one per node and step, from which its figures in
+/// `summary.json` are recomputed: per node, the mean error and the mean NEES over the steps after the burn-in.
+#[test]
+fn every_scheme_has_its_rows_in_trace_csv() {
+    let d = tmp("scheme-rows");
+    let o = simnet()
+        .args([
+            "-t",
+            "rgg50",
+            "--estimators",
+            "kcf,ci",
+            "--rounds",
+            "2",
+            "--loss",
+            "0.1",
+        ])
+        .args(["--duration", "3", "-q", "--out"])
+        .arg(&d)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s: serde_json::Value = serde_json::from_slice(&std::fs::read(d.join("summary.json")).unwrap()).unwrap();
+    let (steps, burn_in) = (s["steps"].as_u64().unwrap(), s["burn_in_steps"].as_u64().unwrap());
+    let trace = std::fs::read_to_string(d.join("trace.csv")).unwrap();
+    let mut lines = trace.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    // (scheme, node) → (rows, Σ error, Σ NEES, counted) after the burn-in.
+    let mut by: std::collections::BTreeMap<(String, u64), (u64, f64, f64, u64)> = Default::default();
+    for line in lines {
+        let f: Vec<&str> = line.split(',').collect();
+        let scheme = f[col("estimator")];
+        if !["kcf", "ci"].contains(&scheme) {
+            continue;
+        }
+        assert_eq!(f[col("received")], "", "{line}");
+        let e = by
+            .entry((scheme.to_string(), f[col("node")].parse().unwrap()))
+            .or_default();
+        e.0 += 1;
+        if f[col("step")].parse::<u64>().unwrap() >= burn_in {
+            e.1 += f[col("error")].parse::<f64>().unwrap();
+            e.2 += f[col("nees")].parse::<f64>().unwrap();
+            e.3 += 1;
+        }
+    }
+    assert_eq!(by.len(), 2 * 50, "a row set per scheme and node");
+    for ((scheme, node), (rows, error, nees, n)) in &by {
+        assert_eq!(*rows, steps, "{scheme} node {node}");
+        let reported = s["estimators"][scheme.as_str()]["nodes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|r| r["id"] == *node)
+            .unwrap();
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1e-12);
+        let (mean, nees_mean) = (error / *n as f64, nees / *n as f64);
+        assert!(
+            close(mean, reported["mean_error"].as_f64().unwrap()),
+            "{scheme} node {node}: {mean} vs {reported}"
+        );
+        assert!(
+            close(nees_mean, reported["nees_mean"].as_f64().unwrap()),
+            "{scheme} node {node}: {nees_mean} vs {reported}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 /// What the command line says: range errors for negative values, what is missing, warnings, counted nouns.
 #[test]
 fn the_command_line_says_what_is_wrong() {

@@ -206,7 +206,7 @@ fn linear_nees_is_in_its_chi_square_band() {
         let id = t.nodes()[1].id;
         let row = rows
             .iter()
-            .find(|row| row.step == step && row.networked && row.node == id)
+            .find(|row| row.step == step && row.filter == simnet::observe::Filter::Networked && row.node == id)
             .unwrap();
         sum += row.nees;
     }

@@ -104,7 +104,7 @@ pub(super) async fn observe(
                 }
                 step.measurements.sort_by_key(|m| m.node);
                 t.measurements(&step.measurements);
-                step.rows.sort_by_key(|r| (r.node, !r.networked));
+                step.rows.sort_by_key(|r| (r.node, r.filter));
                 t.rows(step.rows);
                 t.fused(observer.drain_rows());
                 t.estimators(&observer.drain_estimator_rows());

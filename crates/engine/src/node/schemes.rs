@@ -293,7 +293,7 @@ pub(super) fn input<'a>(
 
 impl super::Node {
     /// The distributed estimators' posteriors of step k ([`Schemes::finish`]), scored at an estimating node against
-    /// `truth`; each one's estimate, by kind.
+    /// `truth` and handed to its probes (`trace.csv`'s rows of each scheme); each one's estimate, by kind.
     pub(super) fn score_schemes(
         &mut self,
         k: u64,
@@ -309,7 +309,7 @@ impl super::Node {
             .into_iter()
             .zip(posts)
             .map(|(kind, (prior, post, failed))| {
-                self.scorer.score(&Update {
+                let u = Update {
                     node: self.id,
                     step: k,
                     t,
@@ -320,7 +320,9 @@ impl super::Node {
                     failed,
                     feasible: true,
                     received: &[],
-                });
+                };
+                let score = self.scorer.score(&u);
+                self.probes.each().for_each(|p| p.on_update(&u, &score));
                 (kind, post.x)
             })
             .collect()

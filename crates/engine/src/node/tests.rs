@@ -55,7 +55,7 @@ fn an_added_probe_sees_what_the_trace_records() {
     let rows: Vec<_> = nodes[1]
         .take_trace()
         .iter()
-        .map(|r| (r.step, r.networked, r.error, r.trace_p_post))
+        .map(|r| (r.step, r.filter == Filter::Networked, r.error, r.trace_p_post))
         .collect();
     assert_eq!(rows.len(), 400);
     assert_eq!(*seen.lock().unwrap(), rows);

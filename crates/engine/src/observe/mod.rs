@@ -24,15 +24,36 @@ pub use fusion::{FusedRow, Observer, StepEstimate};
 pub use recorders::{ImuRecorder, LmiRecorder, LmiStep, MeasurementRecorder, MeasurementRow, TraceRecorder, TraceRow};
 pub use scorer::Scorer;
 
-/// Which of a node's two filters.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Which of a node's estimators: its two filters, or a distributed estimator of the run. Ordered as `trace.csv`
+/// lists a node's rows of a step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Filter {
     /// Consensus over whatever arrived (Sequeira 2023).
     Networked,
     /// The node's own measurement only: the baseline.
     Independent,
-    /// A distributed estimator of the run ([`crate::estimators::Kind`]); not handed to probes.
+    /// A distributed estimator of the run ([`crate::estimators::Kind`]).
     Scheme(crate::estimators::Kind),
+}
+
+impl Filter {
+    /// Its name in `trace.csv`'s `estimator` column: `networked`, `independent`, or the scheme's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Filter::Networked => "networked",
+            Filter::Independent => "independent",
+            Filter::Scheme(kind) => kind.name(),
+        }
+    }
+
+    /// The estimator `trace.csv` names `name` (none for a fused row, or a scheme this process does not know).
+    pub fn from_name(name: &str) -> Option<Filter> {
+        match name {
+            "networked" => Some(Filter::Networked),
+            "independent" => Some(Filter::Independent),
+            _ => crate::estimators::Kind::from_name(name).map(Filter::Scheme),
+        }
+    }
 }
 
 /// One filter's update at the deadline of one step, as probes see it.
@@ -49,9 +70,10 @@ pub struct Update<'a> {
     /// The posterior; the prior carried on when the update `failed`.
     pub post: &'a Gaussian,
     pub failed: bool,
-    /// (17) and (19) held (always true for the independent filter).
+    /// (17) and (19) held (always true but for the networked filter).
     pub feasible: bool,
-    /// Ids of the sources whose measurements the update used (left empty when the node has no probe).
+    /// Ids of the sources whose measurements the update used (left empty when the node has no probe, and for a
+    /// distributed estimator, whose messages are not measurements).
     pub received: &'a [u32],
 }
 

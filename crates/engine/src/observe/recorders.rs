@@ -13,7 +13,8 @@ pub struct TraceRow {
     pub step: u64,
     pub t: f64,
     pub node: u32,
-    pub networked: bool,
+    /// Which of the node's estimators.
+    pub filter: Filter,
     pub truth: Vec<f64>,
     pub est: Vec<f64>,
     pub trace_p_prior: f64,
@@ -56,7 +57,7 @@ impl Probe for TraceRecorder {
             step: u.step,
             t: u.t,
             node: u.node,
-            networked: u.filter == Filter::Networked,
+            filter: u.filter,
             truth: self.model.reported(u.truth),
             est: self.model.reported(&u.post.x),
             trace_p_prior: s.trace_p_prior,

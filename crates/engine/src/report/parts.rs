@@ -143,10 +143,8 @@ pub fn read_trace(r: impl BufRead, file: &str) -> Result<(Vec<String>, Vec<Trace
             return Err(bad(i + 2, format!("expected {fields} fields, got {}", f.len())));
         }
         // Fused rows are recomputed from the estimates.
-        let networked = match f[3] {
-            "networked" => true,
-            "independent" => false,
-            _ => continue,
+        let Some(filter) = crate::observe::Filter::from_name(f[3]) else {
+            continue;
         };
         let num = |s: &str| -> Result<f64, PartError> {
             if s.is_empty() {
@@ -162,7 +160,7 @@ pub fn read_trace(r: impl BufRead, file: &str) -> Result<(Vec<String>, Vec<Trace
             step: f[0].parse().map_err(|_| bad(i + 2, "bad step".into()))?,
             t: num(f[1])?,
             node: f[2].parse().map_err(|_| bad(i + 2, "bad node".into()))?,
-            networked,
+            filter,
             truth: vals(4, 4 + cols)?,
             est: vals(4 + cols, 4 + 2 * cols)?,
             var: vals(4 + 2 * cols, tail)?,

@@ -2,15 +2,17 @@
 //! rows the plots draw (every step up to [`PLOT_STEPS`] steps, every k-th step beyond).
 //!
 //! Columns: `step,t,node,estimator,true_*,est_*,var_*,error,trace_p_prior,trace_p_post,received,feasible,nees,diverged`.
-//! `estimator` is `networked`, `independent`, `fused` (covariance intersection, ω = 0.5) or `fused_median` (its
-//! 20-sample centred median, pose only); fused rows have no node and fill only the columns the fusion covers
-//! (position for pose). `var_*` is the posterior variance of each column, `error` the step's error figure. Numbers
+//! `estimator` is `networked`, `independent`, a distributed estimator the run holds (`kcf`, `ci`, …: its update at
+//! that node, `received` empty), `fused` (covariance intersection, ω = 0.5) or `fused_median` (its 20-sample
+//! centred median, pose only); fused rows have no node and fill only the columns the fusion covers (position for
+//! pose). `var_*` is the posterior variance of each column, `error` the step's error figure. Numbers
 //! are written in their shortest round-trip form; a missing value is an empty cell.
 
 use std::io::{self, Write};
 
 use crate::node::TraceRow;
 use crate::observe::fusion::FusedRow;
+use crate::observe::Filter;
 
 /// The columns of `measurements.csv`: `rows`, `values` and `r` (R over those rows, row-major) are `;`-separated.
 pub const MEASUREMENTS_HEADER: &str = "step,t,node,channel,rows,values,r";
@@ -256,8 +258,10 @@ impl TraceWriter {
             }
             self.write(|w| w.write_all(text.as_bytes()));
         }
+        // The plots draw the node's two filters; the schemes' figures have plots of their own.
         let stride = self.stride;
-        self.kept.extend(rows.into_iter().filter(|r| r.step % stride == 0));
+        let drawn = |r: &TraceRow| r.step.is_multiple_of(stride) && !matches!(r.filter, Filter::Scheme(_));
+        self.kept.extend(rows.into_iter().filter(drawn));
     }
 
     /// Fused rows as the observer finishes them.
@@ -336,13 +340,7 @@ impl TraceWriter {
 fn row_text(text: &mut String, r: &TraceRow) {
     use std::fmt::Write as _;
     let t = num((r.t * 1e9).round() / 1e9);
-    let _ = write!(
-        text,
-        "{},{t},{},{}",
-        r.step,
-        r.node,
-        if r.networked { "networked" } else { "independent" }
-    );
+    let _ = write!(text, "{},{t},{},{}", r.step, r.node, r.filter.name());
     for v in r.truth.iter().chain(&r.est).chain(&r.var) {
         let _ = write!(text, ",{}", num(*v));
     }

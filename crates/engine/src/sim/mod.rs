@@ -419,7 +419,7 @@ impl Sim {
             o.push(estimates);
         }
         if let Some(t) = self.trace.as_mut() {
-            rows.sort_by_key(|r| (r.node, !r.networked));
+            rows.sort_by_key(|r| (r.node, r.filter));
             t.rows(rows);
             if let Some(o) = self.observer.as_mut() {
                 t.fused(o.drain_rows());

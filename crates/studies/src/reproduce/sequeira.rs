@@ -20,6 +20,7 @@ use crate::protocol::{run_in_memory, with_protocol};
 use simnet_engine::estimate::{eigenvalues, Gaussian};
 use simnet_engine::model::Pose;
 use simnet_engine::motion::Trajectory;
+use simnet_engine::observe::Filter;
 use simnet_engine::report::plot;
 use simnet_engine::rng;
 use simnet_engine::scenario::{Overrides, Scenario};
@@ -112,7 +113,14 @@ fn errors(r: &RunResult) -> (f64, f64, Vec<f64>) {
 fn error_series(r: &RunResult, id: u32, networked: bool) -> Vec<(f64, f64)> {
     r.rows
         .iter()
-        .filter(|row| row.node == id && row.networked == networked)
+        .filter(|row| {
+            let filter = if networked {
+                Filter::Networked
+            } else {
+                Filter::Independent
+            };
+            row.node == id && row.filter == filter
+        })
         .map(|row| {
             let e = (0..3).map(|i| (row.truth[i] - row.est[i]).powi(2)).sum::<f64>().sqrt();
             (row.t, e)

@@ -191,7 +191,12 @@ impl Series<'_> {
 fn series(rows: &[TraceRow]) -> Vec<Series<'_>> {
     let mut m: BTreeMap<(u32, bool), Vec<&TraceRow>> = BTreeMap::new();
     for r in rows {
-        m.entry((r.node, !r.networked)).or_default().push(r);
+        let networked = match r.filter {
+            crate::observe::Filter::Networked => true,
+            crate::observe::Filter::Independent => false,
+            crate::observe::Filter::Scheme(_) => continue,
+        };
+        m.entry((r.node, !networked)).or_default().push(r);
     }
     m.into_iter()
         .map(|((node, ind), rows)| Series {
