@@ -394,3 +394,55 @@ fn realtime_runs_every_round() {
         assert!(e.mean_error.is_some_and(f64::is_finite), "{name}");
     }
 }
+
+/// Each scheme's `fused_error` is the covariance intersection (ω = 0.5) of its node estimates at each step after
+/// the burn-in, scored against the truth and averaged: recomputed here from every node's posterior (handed to a
+/// probe on each node) with the cascade written out in information form — Y = ω Y_acc + (1 − ω) P_b⁻¹,
+/// x = Y⁻¹ (ω Y_acc x_acc + (1 − ω) P_b⁻¹ x_b), node by node in index order.
+#[test]
+fn each_schemes_fused_error_is_the_covariance_intersection_of_its_nodes() {
+    use nalgebra::{DMatrix, DVector};
+    use simnet::observe::{Filter, Probe, Score, Update};
+    type Posts = Arc<Mutex<BTreeMap<(u64, usize), (DVector<f64>, DMatrix<f64>, DVector<f64>)>>>;
+    struct Keep(usize, Posts);
+    impl Probe for Keep {
+        fn on_update(&mut self, u: &Update<'_>, _: &Score) {
+            if u.filter == Filter::Scheme(Kind::Ci) {
+                let v = (u.post.x.clone(), u.post.P.clone(), u.truth.clone());
+                self.1.lock().unwrap().insert((u.step, self.0), v);
+            }
+        }
+    }
+    let s = common::topology("rgg50", all(2, lossy(0.2, 3, 4.0)));
+    let posts: Posts = Arc::default();
+    let mut sim = simnet::Sim::new(&s).unwrap();
+    for i in 0..s.nodes().len() {
+        sim.add_probe(i, Box::new(Keep(i, posts.clone()))).unwrap();
+    }
+    let summary = sim.run().unwrap().summary();
+    let burn_in = s.sim().burn_in_steps();
+    let posts = posts.lock().unwrap();
+    let (mut sum, mut n) = (0.0, 0u64);
+    for step in burn_in..s.sim().steps() {
+        let nodes: Vec<_> = (0..s.nodes().len()).filter_map(|i| posts.get(&(step, i))).collect();
+        let Some(((x0, p0, truth), rest)) = nodes.split_first() else {
+            continue;
+        };
+        let (mut x, mut y) = (x0.clone(), p0.clone().try_inverse().unwrap());
+        for (xb, pb, _) in rest {
+            let yb = pb.clone().try_inverse().unwrap();
+            let fused = &y * 0.5 + &yb * 0.5;
+            x = fused.clone().try_inverse().unwrap() * (&y * &x * 0.5 + &yb * xb * 0.5);
+            y = fused;
+        }
+        sum += (&x - truth).norm();
+        n += 1;
+    }
+    let want = sum / n as f64;
+    let got = summary.estimators["ci"].fused_error.unwrap();
+    assert!(
+        (got - want).abs() <= 1e-9 * want,
+        "fused_error {got}, recomputed {want}"
+    );
+    assert!(summary.estimators["centralized"].fused_error.is_none());
+}

@@ -4,6 +4,7 @@
 #[allow(unused_imports)]
 use super::*;
 use crate::estimators::{Estimator, Kind, StepInput};
+use crate::observe::SchemeEstimate;
 
 impl Node {
     /// The deadline of step k: every estimator finishes with what arrived; the updates are scored and recorded.
@@ -118,7 +119,11 @@ impl Node {
             (Kind::Sequeira, &filters.networked),
         ] {
             if let Some(g) = est.state().filter(|_| run.contains(&kind)) {
-                schemes.push((kind, g.x.clone()));
+                schemes.push(SchemeEstimate {
+                    kind,
+                    x: g.x.clone(),
+                    P: Some(g.P.clone()),
+                });
             }
         }
         Some(StepEstimate {

@@ -9,7 +9,7 @@ use nalgebra::DVector;
 use crate::estimate::{EstimateError, Gaussian, Observation};
 use crate::estimators::{from_body, to_body, Estimator, Kind, Message, StepInput};
 use crate::model::{Measurement, Model};
-use crate::observe::{Filter, Update};
+use crate::observe::{Filter, SchemeEstimate, Update};
 use crate::scenario::Scenario;
 use crate::time::Time;
 use crate::wire::{Body, Datagram, Header, Payload, BROADCAST};
@@ -299,7 +299,7 @@ impl super::Node {
         k: u64,
         posts: Option<Vec<(Gaussian, Gaussian, bool)>>,
         truth: &DVector<f64>,
-    ) -> Vec<(Kind, DVector<f64>)> {
+    ) -> Vec<SchemeEstimate> {
         let Some(posts) = posts.filter(|_| self.role.estimates()) else {
             return Vec::new();
         };
@@ -323,7 +323,11 @@ impl super::Node {
                 };
                 let score = self.scorer.score(&u);
                 self.probes.each().for_each(|p| p.on_update(&u, &score));
-                (kind, post.x)
+                SchemeEstimate {
+                    kind,
+                    x: post.x,
+                    P: Some(post.P),
+                }
             })
             .collect()
     }

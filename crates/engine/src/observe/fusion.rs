@@ -22,7 +22,17 @@ pub struct StepEstimate {
     pub networked: Gaussian,
     pub diverged: bool,
     /// Each distributed estimator's estimate, by kind (the run's order).
-    pub schemes: Vec<(crate::estimators::Kind, DVector<f64>)>,
+    pub schemes: Vec<SchemeEstimate>,
+}
+
+/// One distributed estimator's estimate at a node.
+#[derive(Debug, Clone, PartialEq)]
+#[allow(non_snake_case)]
+pub struct SchemeEstimate {
+    pub kind: crate::estimators::Kind,
+    pub x: DVector<f64>,
+    /// Its covariance; none where it is not known (a part `simnet collect` reads back carries the estimate only).
+    pub P: Option<nalgebra::DMatrix<f64>>,
 }
 
 /// The trace-optimal cascade runs a line search per stage; above this many nodes it is skipped.

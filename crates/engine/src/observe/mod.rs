@@ -20,7 +20,7 @@ use nalgebra::DVector;
 use crate::estimate::Gaussian;
 use crate::imu_csv::ImuRow;
 
-pub use fusion::{FusedRow, Observer, StepEstimate};
+pub use fusion::{FusedRow, Observer, SchemeEstimate, StepEstimate};
 pub use recorders::{ImuRecorder, LmiRecorder, LmiStep, MeasurementRecorder, MeasurementRow, TraceRecorder, TraceRow};
 pub use scorer::Scorer;
 

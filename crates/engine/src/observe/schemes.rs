@@ -10,6 +10,7 @@ use std::sync::Arc;
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
+use crate::estimate::fusion::Omega;
 use crate::estimate::{Gaussian, Observation};
 use crate::estimators::{Centralized, Context, Estimator, Kind, Message, StepInput};
 use crate::link::{Egress, Link, Stream};
@@ -68,6 +69,9 @@ pub struct Agreement {
     pub disagreement: Option<f64>,
     /// Mean over the counted steps of the median-over-nodes error.
     pub median_error: Option<f64>,
+    /// Mean over the counted steps of the error of the nodes' estimates fused by covariance intersection (ω = 0.5,
+    /// as the two filters' `fused`); none where the covariances are not known.
+    pub fused_error: Option<f64>,
 }
 
 #[derive(Default)]
@@ -76,6 +80,8 @@ struct Sums {
     median: f64,
     n_median: u64,
     n: u64,
+    fused: f64,
+    n_fused: u64,
 }
 
 pub struct SchemeObserver {
@@ -129,10 +135,21 @@ impl SchemeObserver {
         let Some(first) = estimates.first() else { return };
         let (step, truth) = (first.step, &first.truth);
         let mut by_kind: BTreeMap<Kind, Vec<Vec<f64>>> = BTreeMap::new();
+        // Each scheme's node estimates with their covariances, while every node's is known.
+        let mut gaussians: BTreeMap<Kind, Option<Vec<Gaussian>>> = BTreeMap::new();
         let known = self.layout.error_rows.iter().all(|&i| truth[i].is_finite());
         let t = self.layout.pick(truth);
         for e in estimates {
-            for (k, x) in &e.schemes {
+            for s in &e.schemes {
+                let (k, x) = (&s.kind, &s.x);
+                let g = gaussians.entry(*k).or_insert_with(|| Some(Vec::new()));
+                match (g.as_mut(), &s.P) {
+                    (Some(gs), Some(P)) => gs.push(Gaussian {
+                        x: x.clone(),
+                        P: P.clone(),
+                    }),
+                    _ => *g = None,
+                }
                 let values = self.layout.pick(x);
                 if self.record {
                     self.node_rows.push(EstimatorRow {
@@ -158,6 +175,25 @@ impl SchemeObserver {
                 crate::stats::median(&errs)
             });
             self.record(step, kind, median, dis);
+        }
+        if step < self.burn_in || !known {
+            return;
+        }
+        for (kind, gs) in gaussians {
+            let Some(mut gs) = gs.filter(|gs| !gs.is_empty()) else {
+                continue;
+            };
+            self.layout.align(&mut gs);
+            let fused = crate::estimate::fusion::cascade(&gs, Omega::Fixed(0.5), &self.layout.angle_states);
+            if let Some(e) = fused
+                .ok()
+                .and_then(|f| self.layout.error(truth, &f.x))
+                .filter(|e| e.is_finite())
+            {
+                let s = self.sums.entry(kind).or_default();
+                s.fused += e;
+                s.n_fused += 1;
+            }
         }
     }
 
@@ -243,6 +279,7 @@ impl SchemeObserver {
         Agreement {
             disagreement: mean(s.disagreement, s.n),
             median_error: mean(s.median, s.n_median),
+            fused_error: mean(s.fused, s.n_fused),
         }
     }
 

@@ -237,6 +237,7 @@ pub const SUMMARY: &[Field] = &[
     f("estimators.*.median_error", "The median over nodes."),
     f("estimators.*.ratio_to_centralized", "Its mean error / the centralized reference's."),
     f("estimators.*.disagreement", "The mean spread of the nodes' estimates."),
+    f("estimators.*.fused_error", "The mean error, after the burn-in, of the nodes' estimates fused by covariance intersection (ω = 0.5), as `fused` for the two filters; null for the fusion centers and for `simnet collect` (a part carries no scheme's covariance)."),
     f("estimators.*.diverged", "Nodes whose estimate diverged."),
     f("estimators.*.messages", "Messages it sent."),
     f("estimators.*.bytes", "Bytes it sent."),

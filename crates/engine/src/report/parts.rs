@@ -13,6 +13,7 @@ use crate::estimate::Gaussian;
 use crate::node::{StepEstimate, TraceRow};
 use crate::observe::fusion::Observer;
 use crate::observe::schemes::SchemeObserver;
+use crate::observe::SchemeEstimate;
 
 #[derive(Debug, thiserror::Error)]
 pub enum PartError {
@@ -36,9 +37,9 @@ pub fn write_estimates(w: &mut impl Write, estimates: &[StepEstimate]) -> io::Re
         for v in e.truth.iter().chain(e.networked.x.iter()).chain(e.networked.P.iter()) {
             write!(w, ",{v:e}")?;
         }
-        for (kind, x) in &e.schemes {
-            write!(w, ",{}", kind.name())?;
-            for v in x.iter() {
+        for s in &e.schemes {
+            write!(w, ",{}", s.kind.name())?;
+            for v in s.x.iter() {
                 write!(w, ",{v:e}")?;
             }
         }
@@ -98,7 +99,11 @@ pub fn read_estimates(r: impl BufRead, node: usize, file: &str) -> Result<Vec<St
             let kind = crate::estimators::Kind::from_name(g[0])
                 .ok_or_else(|| bad(i + 1, &format!("`{}` is not an estimator", g[0])))?;
             let x: Vec<f64> = g[1..].iter().map(|s| num(s)).collect::<Result<_, _>>()?;
-            schemes.push((kind, DVector::from_vec(x)));
+            schemes.push(SchemeEstimate {
+                kind,
+                x: DVector::from_vec(x),
+                P: None,
+            });
         }
         out.push(StepEstimate {
             node,
@@ -234,7 +239,7 @@ pub fn merge(
     for (id, es) in estimates {
         if let Some(e) = es
             .iter()
-            .find(|e| e.networked.x.len() != n || e.truth.len() != n || e.schemes.iter().any(|(_, x)| x.len() != n))
+            .find(|e| e.networked.x.len() != n || e.truth.len() != n || e.schemes.iter().any(|s| s.x.len() != n))
         {
             return Err(PartError::Mismatch(format!(
                 "node {id}'s estimates of step {} have {} states, the run's have {n}",
@@ -391,6 +396,7 @@ fn merge_estimators(parts: &[Summary], schemes: Option<&SchemeObserver>) -> BTre
             median_error: None,
             ratio_to_centralized: None,
             disagreement: None,
+            fused_error: None,
             diverged: 0,
             messages: 0,
             bytes: 0,
@@ -521,10 +527,13 @@ mod tests {
                 P: DMatrix::from_row_slice(2, 2, &[0.5, 0.1, 0.1, 0.25]),
             },
             diverged: false,
-            schemes: vec![
-                (Kind::Icf, DVector::from_vec(vec![1.0 / 3.0, 1e-300])),
-                (Kind::Ci, DVector::from_vec(vec![-7.0, 2.0])),
-            ],
+            schemes: [(Kind::Icf, vec![1.0 / 3.0, 1e-300]), (Kind::Ci, vec![-7.0, 2.0])]
+                .map(|(kind, x)| SchemeEstimate {
+                    kind,
+                    x: DVector::from_vec(x),
+                    P: None,
+                })
+                .to_vec(),
         };
         let mut buf = Vec::new();
         write_estimates(&mut buf, std::slice::from_ref(&e)).unwrap();

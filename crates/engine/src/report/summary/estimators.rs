@@ -28,6 +28,10 @@ pub struct EstimatorSummary {
     pub ratio_to_centralized: Option<f64>,
     /// Mean over the counted steps of the mean distance of the node estimates from their average.
     pub disagreement: Option<f64>,
+    /// Mean over the counted steps of the error of the node estimates fused by covariance intersection (ω = 0.5,
+    /// as `fused` of the two filters); none for the fusion centers and where covariances are not known.
+    #[serde(default)]
+    pub fused_error: Option<f64>,
     /// Nodes that diverged.
     pub diverged: usize,
     /// Messages (one per out-link and round) and bytes the nodes sent for this estimator; the measurements of
@@ -98,6 +102,7 @@ impl EstimatorSummary {
                     median_error: agreement.median_error,
                     ratio_to_centralized: None,
                     disagreement: (!kind.is_center()).then_some(agreement.disagreement).flatten(),
+                    fused_error: (!kind.is_center()).then_some(agreement.fused_error).flatten(),
                     diverged: nodes.iter().filter(|n| n.figures.diverged).count(),
                     messages,
                     bytes,
