@@ -275,6 +275,21 @@ fn a_sweep_over_udp_gives_the_records_of_memory() {
     a.extend(["--transport".into(), "udp".into()]);
     sweep(&a);
     assert_eq!(read(&udp, "runs.csv"), read(&mem, "runs.csv"));
+    // Each scheme's fused error is a figure of every run; the fusion centers have none.
+    let runs = read(&mem, "runs.csv");
+    let header: Vec<&str> = runs.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| *h == name)
+            .unwrap_or_else(|| panic!("no {name}"))
+    };
+    for line in runs.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let fused: f64 = f[col("kcf.fused_error")].parse().unwrap();
+        assert!(fused.is_finite() && fused > 0.0, "{line}");
+        assert_eq!(f[col("centralized.fused_error")], "", "{line}");
+    }
     for d in [mem, udp] {
         let _ = std::fs::remove_dir_all(d);
     }

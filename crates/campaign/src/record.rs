@@ -8,12 +8,13 @@ use serde::{Deserialize, Serialize};
 use simnet_engine::Summary;
 
 /// The figures of one estimator in one run.
-pub const ESTIMATOR_METRICS: [&str; 10] = [
+pub const ESTIMATOR_METRICS: [&str; 11] = [
     "mean_error",
     "median_error",
     "ratio_to_centralized",
     "rms_error",
     "disagreement",
+    "fused_error",
     "trace_p",
     "nees",
     "diverged",
@@ -72,6 +73,7 @@ impl RunRecord {
                     ("ratio_to_centralized".to_string(), e.ratio_to_centralized),
                     ("rms_error".to_string(), over_nodes(&|f| f.rms_error)),
                     ("disagreement".to_string(), e.disagreement),
+                    ("fused_error".to_string(), e.fused_error),
                     ("trace_p".to_string(), over_nodes(&|f| f.mean_trace_p_post)),
                     ("nees".to_string(), over_nodes(&|f| f.nees_mean)),
                     ("diverged".to_string(), Some(e.diverged as f64)),

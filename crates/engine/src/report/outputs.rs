@@ -152,7 +152,7 @@ const RUNS: &[Field] = &[
     f("arrival_rate", "The mean arrival rate over every link."),
     f("fused_error", "The fused (covariance intersection) estimate's mean error."),
     f("socket_losses", "Frames of the virtual clock lost in the socket layer."),
-    f("ESTIMATOR.*", "Per estimator: mean_error, median_error, ratio_to_centralized, rms_error, disagreement, trace_p, nees, diverged, messages, bytes (as in summary.json)."),
+    f("ESTIMATOR.*", "Per estimator: mean_error, median_error, ratio_to_centralized, rms_error, disagreement, fused_error, trace_p, nees, diverged, messages, bytes (as in summary.json)."),
 ];
 
 /// Every file a run (`simnet run`, `simnet collect`), a node (`simnet node --out`) and a sweep write.
