@@ -95,9 +95,7 @@ impl Context {
     }
 
     fn weight(&self, j: usize) -> f64 {
-        self.weights
-            .binary_search_by_key(&j, |(s, _)| *s)
-            .map_or(0.0, |i| self.weights[i].1)
+        weight_in(&self.weights, j)
     }
 
     /// How a neighbour's estimate `x` is brought to the node's side of its estimate `about`: on a double cover the
@@ -147,6 +145,11 @@ enum Move {
 
 /// One node's consensus weights to its neighbours (sorted by node index), and to itself.
 pub type Weights = (Vec<(usize, f64)>, f64);
+
+/// The weight of column `j` in a sparse row sorted by column (0 when absent).
+pub fn weight_in(row: &[(usize, f64)], j: usize) -> f64 {
+    row.binary_search_by_key(&j, |(c, _)| *c).map_or(0.0, |i| row[i].1)
+}
 
 /// Metropolis–Hastings weights (Xiao, Boyd & Lall 2005): πᵢⱼ = 1 / (1 + max(dᵢ, dⱼ)) to each neighbour j,
 /// πᵢᵢ = 1 − Σⱼ πᵢⱼ; doubly stochastic on an undirected graph, so that consensus converges to the average.

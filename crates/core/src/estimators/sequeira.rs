@@ -40,9 +40,7 @@ pub struct SequeiraParams {
 
 impl SequeiraParams {
     fn weight(&self, j: usize) -> f64 {
-        self.beta
-            .binary_search_by_key(&j, |(s, _)| *s)
-            .map_or(0.0, |i| self.beta[i].1)
+        super::weight_in(&self.beta, j)
     }
 }
 

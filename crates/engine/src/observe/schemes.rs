@@ -135,20 +135,24 @@ impl SchemeObserver {
         let Some(first) = estimates.first() else { return };
         let (step, truth) = (first.step, &first.truth);
         let mut by_kind: BTreeMap<Kind, Vec<Vec<f64>>> = BTreeMap::new();
+        let known = self.layout.error_rows.iter().all(|&i| truth[i].is_finite());
+        // The fused error counts after the burn-in only: before it, nothing is copied for fusion.
+        let fuse = known && step >= self.burn_in;
         // Each scheme's node estimates with their covariances, while every node's is known.
         let mut gaussians: BTreeMap<Kind, Option<Vec<Gaussian>>> = BTreeMap::new();
-        let known = self.layout.error_rows.iter().all(|&i| truth[i].is_finite());
         let t = self.layout.pick(truth);
         for e in estimates {
             for s in &e.schemes {
                 let (k, x) = (&s.kind, &s.x);
-                let g = gaussians.entry(*k).or_insert_with(|| Some(Vec::new()));
-                match (g.as_mut(), &s.P) {
-                    (Some(gs), Some(P)) => gs.push(Gaussian {
-                        x: x.clone(),
-                        P: P.clone(),
-                    }),
-                    _ => *g = None,
+                if fuse {
+                    let g = gaussians.entry(*k).or_insert_with(|| Some(Vec::new()));
+                    match (g.as_mut(), &s.P) {
+                        (Some(gs), Some(P)) => gs.push(Gaussian {
+                            x: x.clone(),
+                            P: P.clone(),
+                        }),
+                        _ => *g = None,
+                    }
                 }
                 let values = self.layout.pick(x);
                 if self.record {
@@ -175,9 +179,6 @@ impl SchemeObserver {
                 crate::stats::median(&errs)
             });
             self.record(step, kind, median, dis);
-        }
-        if step < self.burn_in || !known {
-            return;
         }
         for (kind, gs) in gaussians {
             let Some(mut gs) = gs.filter(|gs| !gs.is_empty()) else {

@@ -31,6 +31,7 @@ use std::fmt;
 use std::sync::Arc;
 use std::time::Duration;
 
+use crate::estimators::weight_in;
 use crate::imu_csv::ImuRecording;
 use crate::link::{FaultSchedule, LinkConfig};
 use crate::model::ModelConfig;
@@ -202,11 +203,6 @@ impl Beta {
     pub fn row(&self, i: usize) -> &[(usize, f64)] {
         self.rows.get(i).map_or(&[], Vec::as_slice)
     }
-}
-
-/// The weight of column `j` in a sparse row (0 when absent).
-pub fn weight_in(row: &[(usize, f64)], j: usize) -> f64 {
-    row.binary_search_by_key(&j, |(c, _)| *c).map_or(0.0, |i| row[i].1)
 }
 
 #[derive(Debug, Clone, PartialEq)]
