@@ -709,7 +709,7 @@ fn node_processes_run_a_network_and_collect_merges_it() {
 
 /// Three `simnet node` processes on loopback running ICF and KCF over two consensus rounds: every node sends each
 /// round's ICF message (and KCF's round 0) on both out-links in every step it ran, and `collect` joins the nodes'
-/// figures of each estimator, with the median error and disagreement from their estimates files.
+/// figures of each estimator, with the median error, disagreement and fused error from their estimates files.
 #[test]
 fn node_processes_run_the_distributed_estimators() {
     let d = tmp("hosts-estimators");
@@ -745,7 +745,7 @@ fn node_processes_run_the_distributed_estimators() {
         let e = &v["estimators"][name];
         assert_eq!(e["messages"].as_u64(), Some(steps_run * rounds * 2), "{name}: {e}");
         // From the nodes' estimates files, step by step.
-        for f in ["median_error", "disagreement"] {
+        for f in ["median_error", "disagreement", "fused_error"] {
             assert!(
                 e[f].as_f64().is_some_and(|x| x.is_finite() && x >= 0.0),
                 "{name}.{f}: {e}"

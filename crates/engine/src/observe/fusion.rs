@@ -31,7 +31,7 @@ pub struct StepEstimate {
 pub struct SchemeEstimate {
     pub kind: crate::estimators::Kind,
     pub x: DVector<f64>,
-    /// Its covariance; none where it is not known (a part `simnet collect` reads back carries the estimate only).
+    /// Its covariance; none where it is not known (a part of an earlier build that `simnet collect` reads back carries the estimate only).
     pub P: Option<nalgebra::DMatrix<f64>>,
 }
 

@@ -27,10 +27,14 @@ pub enum PartError {
     Io { file: String, source: io::Error },
 }
 
-/// `estimates-<id>.csv`: step, frame, truth, x and P (row-major) of the networked filter, then the name and x of
-/// each distributed estimator the node ran.
+/// The first line of `estimates-<id>.csv`: each estimator's group holds its covariance (a file whose first line
+/// is another holds x alone, as an earlier build wrote it).
+const ESTIMATES_HEADER: &str = "# step,frame,n,truth[n],x[n],P[n*n][,estimator,x[n],P[n*n]]...";
+
+/// `estimates-<id>.csv`: step, frame, truth, x and P (column-major) of the networked filter, then the name, x and P
+/// of each distributed estimator the node ran (P `nan` where it is not known).
 pub fn write_estimates(w: &mut impl Write, estimates: &[StepEstimate]) -> io::Result<()> {
-    writeln!(w, "# step,frame,n,truth[n],x[n],P[n*n][,estimator,x[n]]...")?;
+    writeln!(w, "{ESTIMATES_HEADER}")?;
     for e in estimates {
         let n = e.networked.x.len();
         write!(w, "{},{},{}", e.step, e.frame, n)?;
@@ -41,6 +45,10 @@ pub fn write_estimates(w: &mut impl Write, estimates: &[StepEstimate]) -> io::Re
             write!(w, ",{}", s.kind.name())?;
             for v in s.x.iter() {
                 write!(w, ",{v:e}")?;
+            }
+            match &s.P {
+                Some(P) => P.iter().try_for_each(|v| write!(w, ",{v:e}"))?,
+                None => (0..n * n).try_for_each(|_| write!(w, ",nan"))?,
             }
         }
         writeln!(w)?;
@@ -54,8 +62,13 @@ pub fn read_estimates(r: impl BufRead, node: usize, file: &str) -> Result<Vec<St
         message: format!("line {line}: {m}"),
     };
     let mut out = Vec::new();
+    // Whether each estimator's group carries its covariance: so from this build on (its first line says).
+    let mut with_p = false;
     for (i, line) in r.lines().enumerate() {
         let line = line.map_err(|e| bad(i + 1, &e.to_string()))?;
+        if i == 0 && line == ESTIMATES_HEADER {
+            with_p = true;
+        }
         if line.starts_with('#') || line.is_empty() {
             continue;
         }
@@ -73,10 +86,11 @@ pub fn read_estimates(r: impl BufRead, node: usize, file: &str) -> Result<Vec<St
         }
         let given = int(f[2])?;
         // Bounded by the line before it is squared: a damaged file gets an error, not an overflow. The estimators
-        // follow in groups of a name and n values.
+        // follow in groups of a name, n values and, with `with_p`, n² more.
+        let group = |n: usize| 1 + n + if with_p { n * n } else { 0 };
         let fits = |n: usize| {
             let filter = 3 + 2 * n + n * n;
-            f.len() >= filter && (f.len() - filter).is_multiple_of(n + 1)
+            f.len() >= filter && (f.len() - filter).is_multiple_of(group(n))
         };
         let n = match usize::try_from(given) {
             Ok(n) if n <= f.len() && fits(n) => n,
@@ -86,7 +100,7 @@ pub fn read_estimates(r: impl BufRead, node: usize, file: &str) -> Result<Vec<St
                     &format!(
                         "expected {} fields for n = {n}, and {} more per estimator",
                         3 + 2 * n + n * n,
-                        n + 1
+                        group(n)
                     ),
                 ));
             }
@@ -95,14 +109,17 @@ pub fn read_estimates(r: impl BufRead, node: usize, file: &str) -> Result<Vec<St
         let filter_end = 3 + 2 * n + n * n;
         let v: Vec<f64> = f[3..filter_end].iter().map(|s| num(s)).collect::<Result<_, _>>()?;
         let mut schemes = Vec::new();
-        for g in f[filter_end..].chunks(n + 1) {
+        for g in f[filter_end..].chunks(group(n)) {
             let kind = crate::estimators::Kind::from_name(g[0])
                 .ok_or_else(|| bad(i + 1, &format!("`{}` is not an estimator", g[0])))?;
-            let x: Vec<f64> = g[1..].iter().map(|s| num(s)).collect::<Result<_, _>>()?;
+            let v: Vec<f64> = g[1..].iter().map(|s| num(s)).collect::<Result<_, _>>()?;
+            // A covariance written as `nan` throughout was not known.
+            let P =
+                (v.len() > n && v[n..].iter().any(|p| !p.is_nan())).then(|| DMatrix::from_column_slice(n, n, &v[n..]));
             schemes.push(SchemeEstimate {
                 kind,
-                x: DVector::from_vec(x),
-                P: None,
+                x: DVector::from_column_slice(&v[..n]),
+                P,
             });
         }
         out.push(StepEstimate {
@@ -411,7 +428,7 @@ fn merge_estimators(parts: &[Summary], schemes: Option<&SchemeObserver>) -> BTre
     for (name, e) in out.iter_mut() {
         if let (Some(o), Some(kind)) = (schemes, crate::estimators::Kind::from_name(name)) {
             let a = o.agreement(kind);
-            (e.median_error, e.disagreement) = (a.median_error, a.disagreement);
+            (e.median_error, e.disagreement, e.fused_error) = (a.median_error, a.disagreement, a.fused_error);
         }
         e.nodes.sort_by_key(|n| n.id);
         let errors: Vec<f64> = e.nodes.iter().filter_map(|n| n.figures.mean_error).collect();
@@ -506,6 +523,15 @@ mod tests {
                 .to_string();
             assert!(e.contains("line 1") && e.contains(says), "{text:?}: {e}");
         }
+        // Under this build's first line, each estimator's group holds its covariance as well.
+        let e = read_estimates(
+            format!("{ESTIMATES_HEADER}\n0,0,1,1.5,2,0.25,icf,3\n").as_bytes(),
+            0,
+            "estimates-0.csv",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("line 2") && e.contains("and 3 more per estimator"), "{e}");
         let ok = read_estimates("0,0,1,1.5,2,0.25\n".as_bytes(), 0, "e.csv").unwrap();
         assert_eq!(
             (ok[0].truth[0], ok[0].networked.x[0], ok[0].networked.P[(0, 0)]),
@@ -513,7 +539,8 @@ mod tests {
         );
     }
 
-    /// The estimators' estimates travel through the file unchanged.
+    /// The estimators' estimates and covariances travel through the file unchanged (a covariance not known stays
+    /// unknown); a file of an earlier build, with x alone, is read with none.
     #[test]
     fn estimates_round_trip_with_the_estimators() {
         use crate::estimators::Kind;
@@ -527,13 +554,18 @@ mod tests {
                 P: DMatrix::from_row_slice(2, 2, &[0.5, 0.1, 0.1, 0.25]),
             },
             diverged: false,
-            schemes: [(Kind::Icf, vec![1.0 / 3.0, 1e-300]), (Kind::Ci, vec![-7.0, 2.0])]
-                .map(|(kind, x)| SchemeEstimate {
-                    kind,
-                    x: DVector::from_vec(x),
+            schemes: vec![
+                SchemeEstimate {
+                    kind: Kind::Icf,
+                    x: DVector::from_vec(vec![1.0 / 3.0, 1e-300]),
+                    P: Some(DMatrix::from_row_slice(2, 2, &[2.0, -0.5, -0.5, 1.0 / 7.0])),
+                },
+                SchemeEstimate {
+                    kind: Kind::Ci,
+                    x: DVector::from_vec(vec![-7.0, 2.0]),
                     P: None,
-                })
-                .to_vec(),
+                },
+            ],
         };
         let mut buf = Vec::new();
         write_estimates(&mut buf, std::slice::from_ref(&e)).unwrap();
@@ -545,5 +577,8 @@ mod tests {
             (e.step, e.frame, &e.truth, &e.networked.x, &e.networked.P)
         );
         assert_eq!(b.schemes, e.schemes);
+        let earlier = "# step,frame,n,truth[n],x[n],P[n*n][,estimator,x[n]]...\n7,1,1,1,0.9,0.5,icf,0.25\n";
+        let back = read_estimates(earlier.as_bytes(), 0, "e.csv").unwrap();
+        assert_eq!((back[0].schemes[0].x[0], &back[0].schemes[0].P), (0.25, &None));
     }
 }
