@@ -35,7 +35,9 @@ pub fn effective_observation(
 
 /// Linear prediction: x⁺ = A x, P⁺ = A P Aᵀ + Q.
 pub fn predict(g: &Gaussian, A: &DMatrix<f64>, Q: &DMatrix<f64>) -> Gaussian {
-    let mut P = A * &g.P * A.transpose() + Q;
+    // A P Aᵀ + Q in one pass over Q's copy, with no temporary matrix.
+    let mut P = Q.clone();
+    P.quadform_tr(1.0, A, &g.P, 1.0);
     super::symmetrize(&mut P);
     Gaussian { x: A * &g.x, P }
 }

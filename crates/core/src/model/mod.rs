@@ -126,6 +126,12 @@ impl Measurement {
         }
     }
 
+    /// No row present again (its buffers kept for another step).
+    pub fn clear(&mut self) {
+        self.z.fill(0.0);
+        self.present.fill(false);
+    }
+
     /// Merge rows; false when every row was already there (a duplicate).
     pub fn merge(&mut self, rows: u64, values: &[f64]) -> bool {
         let mut new = false;

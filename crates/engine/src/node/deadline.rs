@@ -11,7 +11,7 @@ impl Node {
     pub(super) fn handle_deadline(&mut self, k: u64) -> Option<StepEstimate> {
         let inbox = self.inbox.close(k, &self.in_sources)?;
         if let Some(f) = self.feed.as_mut().filter(|_| self.star_sink) {
-            f.heard = Some(inbox.clone());
+            f.heard = Some(inbox.iter().cloned().collect());
         }
         // A neighbour's measurement too far from what this node predicts is left out (the innovation gate).
         let gated: Vec<usize> = match self.filters.as_ref().and_then(|f| f.networked.state()) {
@@ -111,6 +111,7 @@ impl Node {
                 est.reset(self.initial.clone());
             }
         }
+        self.inbox.recycle(inbox);
         let mut schemes = self.score_schemes(k, posts, &truth);
         let filters = self.filters.as_ref()?;
         let run = &self.topo.estimators().run;

@@ -1,8 +1,6 @@
 //! Step collection: the measurements of the open step, by source, and a bounded buffer of measurements for steps
 //! this node has not reached yet (a peer whose clock runs ahead). Receive-side counters per source.
 
-use std::collections::BTreeMap;
-
 use crate::model::Measurement;
 use crate::observe::metrics::RxBySource;
 use crate::wire::sequence::Sequence;
@@ -28,9 +26,14 @@ pub(super) struct Inbox {
     /// The step whose measurements are being collected.
     open: Option<u64>,
     own: Option<Measurement>,
-    from: BTreeMap<usize, Measurement>,
+    /// The open step's measurements by source (sorted); a closed step's come back ([`Inbox::recycle`]), so that a
+    /// step allocates none.
+    from: Vec<(usize, Measurement)>,
+    spare: Vec<Measurement>,
     /// (step, source, rows, values) of measurements for later steps.
     early: Vec<(u64, usize, u64, Vec<f64>)>,
+    /// `early`'s other buffer: a step's opening sorts the held measurements from one into the other.
+    early_back: Vec<(u64, usize, u64, Vec<f64>)>,
     /// Receive counters, by source node index.
     pub rx: RxBySource,
     /// The numbers seen on each link in, by (source, broadcast or addressed to this node), sorted.
@@ -53,8 +56,10 @@ impl Inbox {
             m,
             open: None,
             own: None,
-            from: BTreeMap::new(),
+            from: Vec::new(),
+            spare: Vec::new(),
             early: Vec::new(),
+            early_back: Vec::new(),
             rx: RxBySource::for_sources(sources),
             seqs: Vec::new(),
         }
@@ -97,15 +102,25 @@ impl Inbox {
     /// The node is down: nothing is collected.
     pub fn close_down(&mut self) {
         self.open = None;
-        self.from.clear();
+        self.spare.extend(self.from.drain(..).map(|(_, m)| m));
+    }
+
+    /// A closed step's measurements, back for the next steps.
+    pub fn recycle(&mut self, mut from: Vec<(usize, Measurement)>) {
+        self.spare.extend(from.drain(..).map(|(_, m)| m));
+        if self.from.is_empty() && from.capacity() > self.from.capacity() {
+            self.from = from;
+        }
     }
 
     /// Collect for step `k`, the node's own measurement `own`; measurements held for `k` are collected now.
     pub fn open(&mut self, k: u64, own: Option<Measurement>) {
         self.open = Some(k);
-        self.from.clear();
+        self.spare.extend(self.from.drain(..).map(|(_, m)| m));
         self.own = own;
-        for (step, src, rows, values) in std::mem::take(&mut self.early) {
+        std::mem::swap(&mut self.early, &mut self.early_back);
+        let mut held = std::mem::take(&mut self.early_back);
+        for (step, src, rows, values) in held.drain(..) {
             if step == k {
                 self.collect(src, rows, &values);
             } else if step > k {
@@ -114,6 +129,7 @@ impl Inbox {
                 self.rx.get_mut(src).late += 1;
             }
         }
+        self.early_back = held;
     }
 
     pub fn own(&self) -> Option<&Measurement> {
@@ -139,18 +155,30 @@ impl Inbox {
     }
 
     fn collect(&mut self, src: usize, rows: u64, values: &[f64]) {
-        let m = self.m;
-        let entry = self.from.entry(src).or_insert_with(|| Measurement::empty(m));
-        if entry.merge(rows, values) {
+        let i = match self.from.binary_search_by_key(&src, |(s, _)| *s) {
+            Ok(i) => i,
+            Err(i) => {
+                let m = match self.spare.pop() {
+                    Some(mut m) => {
+                        m.clear();
+                        m
+                    }
+                    None => Measurement::empty(self.m),
+                };
+                self.from.insert(i, (src, m));
+                i
+            }
+        };
+        if self.from[i].1.merge(rows, values) {
             self.rx.get_mut(src).delivered += 1;
         } else {
             self.rx.get_mut(src).duplicates += 1;
         }
     }
 
-    /// Close step `k`: what arrived from each source, counting the steps of `expected` sources that missed it.
-    /// `None` when `k` is not the open step.
-    pub fn close(&mut self, k: u64, expected: &[usize]) -> Option<BTreeMap<usize, Measurement>> {
+    /// Close step `k`: what arrived from each source (by source), counting the steps of `expected` sources that
+    /// missed it. `None` when `k` is not the open step.
+    pub fn close(&mut self, k: u64, expected: &[usize]) -> Option<Vec<(usize, Measurement)>> {
         if self.open != Some(k) {
             return None;
         }
@@ -158,7 +186,7 @@ impl Inbox {
         let from = std::mem::take(&mut self.from);
         for &j in expected {
             self.rx.get_mut(j).steps += 1;
-            if !from.contains_key(&j) {
+            if from.binary_search_by_key(&j, |(s, _)| *s).is_err() {
                 self.rx.get_mut(j).missing_steps += 1;
             }
         }

@@ -47,7 +47,7 @@ pub fn write_estimates(w: &mut impl Write, estimates: &[StepEstimate]) -> io::Re
                 write!(w, ",{v:e}")?;
             }
             match &s.P {
-                Some(P) => P.iter().try_for_each(|v| write!(w, ",{v:e}"))?,
+                Some(cov) => cov.iter().try_for_each(|v| write!(w, ",{v:e}"))?,
                 None => (0..n * n).try_for_each(|_| write!(w, ",nan"))?,
             }
         }
@@ -114,12 +114,12 @@ pub fn read_estimates(r: impl BufRead, node: usize, file: &str) -> Result<Vec<St
                 .ok_or_else(|| bad(i + 1, &format!("`{}` is not an estimator", g[0])))?;
             let v: Vec<f64> = g[1..].iter().map(|s| num(s)).collect::<Result<_, _>>()?;
             // A covariance written as `nan` throughout was not known.
-            let P =
+            let cov =
                 (v.len() > n && v[n..].iter().any(|p| !p.is_nan())).then(|| DMatrix::from_column_slice(n, n, &v[n..]));
             schemes.push(SchemeEstimate {
                 kind,
                 x: DVector::from_column_slice(&v[..n]),
-                P,
+                P: cov,
             });
         }
         out.push(StepEstimate {
