@@ -340,7 +340,9 @@ impl Datagram {
     pub fn encode_parts(header: &Header, payload: &Payload) -> Result<Bytes, WireError> {
         header.validate(0)?;
         validate_payload(header, payload)?;
-        let mut buf = postcard::to_allocvec(&(header, payload)).map_err(|e| WireError::Malformed(e.to_string()))?;
+        // Room for a typical datagram from the start: growing from empty costs a node-step several reallocations.
+        let mut buf = postcard::to_extend(&(header, payload), Vec::with_capacity(128))
+            .map_err(|e| WireError::Malformed(e.to_string()))?;
         let crc = crc32fast::hash(&buf);
         buf.extend_from_slice(&crc.to_le_bytes());
         if buf.len() > MAX_DATAGRAM {

@@ -407,6 +407,10 @@ impl Scenario {
 
     /// Index of the node whose file id is `id`.
     pub fn index_of(&self, id: u32) -> Option<usize> {
+        // Most networks number their nodes by index: found without hashing.
+        if self.nodes.get(id as usize).is_some_and(|n| n.id == id) {
+            return Some(id as usize);
+        }
         self.by_id.get(&id).copied()
     }
     /// Directed links into node `i`.
