@@ -316,18 +316,18 @@ impl<'a> StepInput<'a> {
     where
         'a: 'b,
     {
-        if self.model.fixed_observation() {
-            return (Cow::Borrowed(self.obs), Cow::Borrowed(m));
-        }
+        // One rule for every model: what `linearize_at` hands back borrowed is used as it is.
         let (obs, mut z) = self.model.linearize_at(self.obs, about, &[&m.z]);
-        let z = z.pop().map_or_else(|| m.z.clone(), Cow::into_owned);
-        (
-            obs,
-            Cow::Owned(Measurement {
-                z,
-                present: m.present.clone(),
-            }),
-        )
+        match z.pop() {
+            Some(Cow::Owned(z)) => (
+                obs,
+                Cow::Owned(Measurement {
+                    z,
+                    present: m.present.clone(),
+                }),
+            ),
+            Some(Cow::Borrowed(_)) | None => (obs, Cow::Borrowed(m)),
+        }
     }
 
     /// The Kalman update of `g` with `m` (Joseph form), linearised about `g`.

@@ -87,10 +87,6 @@ impl Sensing for Attitude {
 
     /// The EKF's first-order expansion h(q) ≈ h(q̂) + C (q − q̂), i.e. H = C and z − (h(q̂) − C q̂), so that the
     /// linear (consensus) update sees the innovation z − h(q̂).
-    fn fixed_observation(&self) -> bool {
-        false
-    }
-
     fn linearize_at<'a>(
         &self,
         template: &'a Observation,

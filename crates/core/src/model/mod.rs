@@ -272,13 +272,8 @@ pub trait Sensing {
     /// [`Sensing::linearize_at`]'s).
     fn observation(&self) -> Observation;
 
-    /// H and R do not depend on the prior (the distributed schemes use them as they are).
-    fn fixed_observation(&self) -> bool {
-        true
-    }
-
-    /// The observation about `prior` and the measurements in its coordinates: as they are, unless the model is
-    /// non-linear.
+    /// The observation about `prior` and the measurements in its coordinates: as they are (borrowed), unless the
+    /// model is non-linear. Every estimator takes H and z from here, so a model that linearises says so here alone.
     fn linearize_at<'a>(
         &self,
         template: &'a Observation,

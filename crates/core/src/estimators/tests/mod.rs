@@ -9,6 +9,7 @@ use super::*;
 use crate::estimate::MissingChannels;
 
 mod accuracy;
+mod linearised;
 
 const POLICY: MissingChannels = MissingChannels::Drop;
 
