@@ -25,7 +25,7 @@
 //! | [`wire`] | the datagram format: postcard + CRC-32, checked decode; authenticated frames (AES-128-CCM); a link's sequence gaps as its receiver counts them |
 //! | [`medium`] | what carries a node's transmissions to their receivers: the [`medium::Medium`] trait, and [`medium::PairwiseMedium`] (every directed link deciding alone, split by sender) |
 //! | [`link`] | per-datagram rules (outage, Bernoulli / Gilbert–Elliott loss, duplication, delay and jitter, corruption), the egress queue, fault schedules |
-//! | [`estimators`] | the distributed schemes behind one [`estimators::Estimator`] trait — independent, centralized, KCF, ICF, HCMCI, diffusion, CI — per node, one message per round; the registry by name and the wire form of their messages |
+//! | [`estimators`] | the distributed schemes behind one [`estimators::Estimator`] trait — sequeira (the node's networked filter), independent, centralized, KCF, ICF, HCMCI, diffusion, CI — per node, one message per round; the registry by name and the wire form of their messages |
 //! | [`attack`] | the adversary model of `[[attack]]`: forge, tamper, replay, flood on the air in front of a node, false data from a compromised one |
 //!
 //! Dependencies point down the table's order and never back up (`model` uses `estimate`, `imu_csv`, `checks`,

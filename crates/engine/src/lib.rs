@@ -17,7 +17,7 @@
 //! | [`world`] (core) | where every node is at every time (fixed, or mounted on a moving body): [`Scenario::world`] |
 //! | [`sensor`] (core) | accelerometer/gyro (noise, bias, Wiener drift), magnetometer, pose fixes, linear measurements |
 //! | [`estimate`] (core) | pure maths: Kalman prediction/update, per-channel inflation, consensus (eqs. 5–10), LMI checks (17, 19), covariance intersection; the quaternion attitude EKF and the multiplicative one, Madgwick and Mahony, the rigid-pair EKF, the FEM boundary-value solver |
-//! | [`estimators`] (core) | the distributed schemes behind one [`estimators::Estimator`] trait and one open registry — independent, centralized, KCF, ICF, HCMCI, diffusion, CI — pure, per node, one message per round; the node runs them over L consensus rounds |
+//! | [`estimators`] (core) | the distributed schemes behind one [`estimators::Estimator`] trait and one open registry — sequeira (the node's networked filter), independent, centralized, KCF, ICF, HCMCI, diffusion, CI — pure, per node, one message per round; the node runs them over L consensus rounds |
 //! | [`time`] (core) | simulated time in whole nanoseconds: what every datagram's header stamps (the time it pertains to, the time it was sent) |
 //! | [`wire`] (core) | the datagram format: a header that says who sent what to whom, when, for which scheme; postcard + CRC-32, checked decode |
 //! | [`medium`] (core) | what carries the nodes' datagrams: the [`medium::Medium`] trait a driver hands every transmission to, and [`medium::PairwiseMedium`], the scenario's directed links (built by [`Scenario::pairwise_medium`], split by sender for the UDP drivers) |
