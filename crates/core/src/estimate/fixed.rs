@@ -1,24 +1,85 @@
-//! The Kalman and consensus updates on stack matrices, for the sizes simnet's models use (pose 9 states × 6 rows,
-//! attitude 4 × 6, scalar 1 × 1): no allocation inside but the posterior's, and loops the compiler unrolls. The
-//! dynamic entry points ([`super::kalman_update`], [`super::consensus_update`]) call these when the sizes are in the
-//! table and every row is kept (R diagonal, or every row present); the formulas are the same, and the tests check
-//! both paths agree to rounding.
+//! The Kalman and consensus updates, the fixed-ω fusion cascade and NEES on stack matrices: no allocation inside
+//! but the posterior's, and loops the compiler unrolls. The sizes come from the models: simnet's own (pose 9 states
+//! × 6 rows, attitude 4 × 6, scalar 1 × 1) are built in, and a program's model gets the same path for its sizes by
+//! one [`register`]`(`[`Size::of`]`::<N, M>())`. The dynamic entry points ([`super::kalman_update`],
+//! [`super::consensus_update`], [`super::fusion::cascade`], [`super::nees`]) call these when the sizes are covered
+//! and every row is kept (R diagonal, or every row present); the formulas are the same, and the tests check both
+//! paths agree to rounding.
+
+use std::sync::RwLock;
 
 use nalgebra::{Cholesky, DMatrix, DVector, SMatrix, SVector};
 
 use super::types::{ConsensusOutcome, Gaussian, Observation, Source};
 use super::EstimateError;
 
-/// Run `$f::<N, M>($args)` for the sizes in the table, `None` for any other.
-macro_rules! by_size {
-    ($n:expr, $m:expr, $f:ident($($a:expr),*)) => {
-        match ($n, $m) {
-            (9, 6) => Some($f::<9, 6>($($a),*)),
-            (4, 6) => Some($f::<4, 6>($($a),*)),
-            (1, 1) => Some($f::<1, 1>($($a),*)),
-            _ => None,
+type Joseph = fn(&Gaussian, &Observation, &DVector<f64>, &[bool], f64) -> Result<Gaussian, EstimateError>;
+type Consensus =
+    fn(&Gaussian, &Observation, f64, &[Source<'_>], &[bool], f64, f64) -> Result<ConsensusOutcome, EstimateError>;
+type Cascade = fn(&[Gaussian], f64, &[bool]) -> Result<Gaussian, EstimateError>;
+type Nees = fn(&Gaussian, &DVector<f64>, &[bool]) -> Option<f64>;
+
+/// The stack kernels of one model size: `states` states, `rows` measurement rows.
+#[derive(Clone, Copy)]
+pub struct Size {
+    /// n, the state's size.
+    pub states: usize,
+    /// m, the measurement's rows.
+    pub rows: usize,
+    joseph: Joseph,
+    consensus: Consensus,
+    cascade: Cascade,
+    nees: Nees,
+}
+
+impl std::fmt::Debug for Size {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Size({} × {})", self.states, self.rows)
+    }
+}
+
+impl Size {
+    /// The kernels of a model with `N` states and `M` measurement rows, compiled for those sizes.
+    pub const fn of<const N: usize, const M: usize>() -> Size {
+        Size {
+            states: N,
+            rows: M,
+            joseph: joseph::<N, M>,
+            consensus: consensus::<N, M>,
+            cascade: cascade_fixed::<N>,
+            nees: nees_fixed::<N>,
         }
-    };
+    }
+}
+
+/// simnet's own models' sizes: pose, attitude, scalar.
+const BUILT_IN: [Size; 3] = [Size::of::<9, 6>(), Size::of::<4, 6>(), Size::of::<1, 1>()];
+
+/// The sizes programs registered (looked up after the built-in ones, which need no lock).
+static REGISTERED: RwLock<Vec<Size>> = RwLock::new(Vec::new());
+
+/// Give a model of `size.states` states and `size.rows` rows the stack path (once is enough; again changes
+/// nothing).
+pub fn register(size: Size) {
+    if covers(size.states, size.rows) {
+        return;
+    }
+    if let Ok(mut r) = REGISTERED.write() {
+        r.push(size);
+    }
+}
+
+/// Whether `states` × `rows` has the stack path.
+pub fn covers(states: usize, rows: usize) -> bool {
+    find(|s| s.states == states && s.rows == rows).is_some()
+}
+
+fn find(like: impl Fn(&Size) -> bool) -> Option<Size> {
+    BUILT_IN
+        .iter()
+        .find(|s| like(s))
+        .copied()
+        .or_else(|| REGISTERED.read().ok()?.iter().find(|s| like(s)).copied())
 }
 
 /// A column-major slice copied to the stack (one memcpy; nalgebra's `from_column_slice` goes element by element).
@@ -141,7 +202,8 @@ pub(super) fn kalman_update(
     if z.len() != obs.dim() || present.len() != obs.dim() || prior.x.len() != obs.H.ncols() {
         return None;
     }
-    by_size!(obs.H.ncols(), obs.dim(), joseph(prior, obs, z, present, lambda))
+    let (n, m) = (obs.H.ncols(), obs.dim());
+    find(|s| s.states == n && s.rows == m).map(|s| (s.joseph)(prior, obs, z, present, lambda))
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -201,23 +263,9 @@ pub(super) fn consensus_update(
     if prior.x.len() != obs.H.ncols() || sources.iter().any(|s| s.z.len() != m || s.present.len() != m) {
         return None;
     }
-    by_size!(
-        obs.H.ncols(),
-        m,
-        consensus(prior, obs, beta0, sources, present_any, lambda, scale)
-    )
-}
-
-/// The size of a state the table covers, `None` for any other.
-macro_rules! by_states {
-    ($n:expr, $f:ident($($a:expr),*)) => {
-        match $n {
-            9 => Some($f::<9>($($a),*)),
-            4 => Some($f::<4>($($a),*)),
-            1 => Some($f::<1>($($a),*)),
-            _ => None,
-        }
-    };
+    let n = obs.H.ncols();
+    find(|s| s.states == n && s.rows == m)
+        .map(|s| (s.consensus)(prior, obs, beta0, sources, present_any, lambda, scale))
 }
 
 fn information<const N: usize>(P: &DMatrix<f64>, what: &'static str) -> Result<SMatrix<f64, N, N>, EstimateError> {
@@ -279,7 +327,7 @@ fn cascade_fixed<const N: usize>(
     Ok(gaussian(&x, &P))
 }
 
-/// [`cascade_fixed`] where every estimate has a state size in the table.
+/// [`cascade_fixed`] where every estimate has a state size with the stack path.
 pub(super) fn cascade(
     estimates: &[Gaussian],
     omega: f64,
@@ -289,7 +337,7 @@ pub(super) fn cascade(
     if estimates.iter().any(|e| e.x.len() != n || e.P.shape() != (n, n)) || angle_states.len() != n {
         return None;
     }
-    by_states!(n, cascade_fixed(estimates, omega, angle_states))
+    find(|s| s.states == n).map(|s| (s.cascade)(estimates, omega, angle_states))
 }
 
 fn nees_fixed<const N: usize>(g: &Gaussian, truth: &DVector<f64>, angle_states: &[bool]) -> Option<f64> {
@@ -307,13 +355,13 @@ fn nees_fixed<const N: usize>(g: &Gaussian, truth: &DVector<f64>, angle_states: 
     v.is_finite().then_some(v)
 }
 
-/// [`super::nees`] on the stack, where the state size is in the table.
+/// [`super::nees`] on the stack, where the state size has the stack path.
 pub(super) fn nees(g: &Gaussian, truth: &DVector<f64>, angle_states: &[bool]) -> Option<Option<f64>> {
     let n = g.x.len();
     if truth.len() != n || g.P.shape() != (n, n) || angle_states.len() != n {
         return None;
     }
-    by_states!(n, nees_fixed(g, truth, angle_states))
+    find(|s| s.states == n).map(|s| (s.nees)(g, truth, angle_states))
 }
 
 #[cfg(test)]
@@ -334,13 +382,17 @@ mod tests {
         (&a.x - &b.x).amax() < 1e-11 * scale && (&a.P - &b.P).amax() < 1e-11 * scale
     }
 
-    /// Both paths of the Kalman and consensus updates agree to rounding on every size of the table, with rows
-    /// missing from some sources, angle rows, and several sources.
+    /// Both paths of the Kalman and consensus updates agree to rounding on every built-in size and on one a program
+    /// registers, with rows missing from some sources, angle rows, and several sources.
     #[test]
     fn the_stack_kernels_are_the_dynamic_ones() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
         let mut checked = 0;
-        for &(n, m) in &[(9usize, 6usize), (4, 6), (1, 1)] {
+        // A size no built-in model has, as a program's model registers it.
+        assert!(!super::covers(5, 3));
+        super::register(super::Size::of::<5, 3>());
+        assert!(super::covers(5, 3) && !super::covers(5, 2));
+        for &(n, m) in &[(9usize, 6usize), (4, 6), (1, 1), (5, 3)] {
             for _ in 0..200 {
                 let prior = Gaussian {
                     x: DVector::from_fn(n, |_, _| rng.gen_range(-2.0..2.0)),
@@ -390,15 +442,16 @@ mod tests {
                 checked += 1;
             }
         }
-        assert!(checked > 550, "{checked} consensus cases");
+        assert!(checked > 730, "{checked} consensus cases");
     }
 
     /// The information-form cascade is the chain of pairwise intersections, and the stack NEES is eᵀ P⁻¹ e by an
-    /// explicit inverse, to rounding, on every size of the table.
+    /// explicit inverse, to rounding, on every built-in state size and on one a program registers.
     #[test]
     fn the_stack_cascade_and_nees_are_the_dynamic_ones() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
-        for &n in &[9usize, 4, 1] {
+        super::register(super::Size::of::<7, 2>());
+        for &n in &[9usize, 4, 1, 7] {
             let angles: Vec<bool> = (0..n).map(|i| n == 9 && i >= 6).collect();
             for _ in 0..100 {
                 let count = rng.gen_range(1..12);

@@ -10,7 +10,7 @@ pub mod attitude;
 pub mod bounds;
 pub mod bvp;
 pub mod consensus;
-mod fixed;
+pub mod fixed;
 pub mod fusion;
 pub mod kalman;
 pub mod mekf;

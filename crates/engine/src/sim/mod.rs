@@ -176,6 +176,10 @@
 //!     }
 //! }
 //!
+//! // Its size, 4 states × 2 rows, gets the stack kernels as simnet's own models' sizes have them.
+//! simnet::estimate::fixed::register(simnet::estimate::fixed::Size::of::<4, 2>());
+//! assert!(simnet::estimate::fixed::covers(4, 2));
+//!
 //! register(Registration {
 //!     name: "track",
 //!     about: "a node in the plane, constant velocity, from position fixes",
