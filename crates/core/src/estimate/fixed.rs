@@ -59,7 +59,8 @@ const BUILT_IN: [Size; 3] = [Size::of::<9, 6>(), Size::of::<4, 6>(), Size::of::<
 static REGISTERED: RwLock<Vec<Size>> = RwLock::new(Vec::new());
 
 /// Give a model of `size.states` states and `size.rows` rows the stack path (once is enough; again changes
-/// nothing).
+/// nothing). Meant for small models: every matrix of the kernels lives on the stack (an n × n one is 8n² bytes), so
+/// a state of a few dozen rows is better left to the dynamic path.
 pub fn register(size: Size) {
     if covers(size.states, size.rows) {
         return;
