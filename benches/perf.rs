@@ -855,7 +855,7 @@ fn main() {
     let att_obs = att.observation();
     let ekf = time_per_call(|| {
         let p = att.predict(black_box(&ga), Some(&step.interval), &Rg, 0.01);
-        let (obs, z) = att.linearize_at(&att_obs, &p, &[&y]);
+        let (obs, z) = att.linearize_at(&att_obs, &p, simnet::model::Site { node: 0 }, &[&y]);
         let (obs, z) = (obs.into_owned(), z[0].clone().into_owned());
         black_box(kalman_update(&p, &obs, &z, &step.present, MissingChannels::Inflate(1e3)).unwrap());
     });

@@ -71,7 +71,7 @@ impl Estimator for F32 {
     }
     fn finish(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
         if let Some(m) = input.own {
-            self.g = input.update(&self.g, m, self.policy)?;
+            self.g = input.update(&self.g, input.node, m, self.policy)?;
         }
         Ok(())
     }

@@ -446,3 +446,64 @@ fn each_schemes_fused_error_is_the_covariance_intersection_of_its_nodes() {
     );
     assert!(summary.estimators["centralized"].fused_error.is_none());
 }
+
+/// A model whose nodes observe differently (here each reads its own row of the state, so h depends on who measured)
+/// is refused by name: every node runs sequeira, whose gain is one for every source.
+#[test]
+fn a_model_whose_nodes_observe_differently_is_refused_by_name() {
+    use std::sync::Arc;
+
+    use nalgebra::{DMatrix, DVector};
+    use simnet::estimate::Observation;
+    use simnet::model::{register, Kind, Linear, Observed, Registration, Sensed, Sensing, Site, TrajectoryView, Truth};
+    use simnet::sensor::Sensor;
+
+    #[derive(Debug)]
+    struct OwnRow;
+    impl Sensing for OwnRow {
+        fn observation(&self) -> Observation {
+            Observation {
+                H: DMatrix::from_row_slice(1, 2, &[1.0, 0.0]),
+                R: DMatrix::identity(1, 1),
+                angle_rows: vec![false],
+                channel_of_row: vec![0],
+            }
+        }
+        fn observes_alike(&self) -> bool {
+            false
+        }
+        fn sense(&self, _: &mut Sensor, _: &Truth, _: Site, _: f64) -> Sensed {
+            Sensed::default()
+        }
+    }
+    register(Registration {
+        name: "own-row",
+        about: "each node reads its own row of a two-state linear system",
+        error_text: Kind::Linear.error_text(),
+        view: TrajectoryView::Plane,
+        build: Some(|_, _| {
+            let eye = DMatrix::<f64>::identity(2, 2);
+            let base = Linear::new(
+                eye.clone(),
+                eye.clone(),
+                eye.clone(),
+                eye.clone(),
+                DVector::zeros(2),
+                eye,
+            );
+            Arc::new(Observed {
+                base: Arc::new(base),
+                sensing: OwnRow,
+            })
+        }),
+    })
+    .unwrap();
+    let file = "[model]\nkind = \"own-row\"\n[[node]]\n[[node]]\n[[edge]]\nnodes = [0, 1]\n";
+    let e = simnet::Scenario::from_toml(file, "own-row.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("model.kind") && e.contains("sequeira") && e.contains("eqs. (5)–(10)"),
+        "{e}"
+    );
+}

@@ -139,8 +139,13 @@ impl Sensor {
 
     /// y = C x + v, v ~ N(0, R) with `r_chol` the lower Cholesky factor of R.
     pub fn linear(&mut self, c: &DMatrix<f64>, r_chol: &DMatrix<f64>, x: &DVector<f64>) -> DVector<f64> {
-        let n = DVector::from_fn(c.nrows(), |_, _| self.rng.sample::<f64, _>(StandardNormal));
-        c * x + r_chol * n
+        c * x + self.noise(r_chol)
+    }
+
+    /// v ~ N(0, R), `r_chol` the lower Cholesky factor of R: the noise on a measurement h(x) + v of any h.
+    pub fn noise(&mut self, r_chol: &DMatrix<f64>) -> DVector<f64> {
+        let n = DVector::from_fn(r_chol.nrows(), |_, _| self.rng.sample::<f64, _>(StandardNormal));
+        r_chol * n
     }
 }
 

@@ -38,6 +38,14 @@ pub enum EstimateError {
         /// Where.
         what: &'static str,
     },
+    #[error("{scheme} cannot run this model: {why}")]
+    /// A scheme whose equations do not hold for the model.
+    Unsupported {
+        /// The scheme.
+        scheme: &'static str,
+        /// What of the model its equations exclude.
+        why: &'static str,
+    },
     #[error("dimension mismatch: {what}")]
     /// Sizes that do not fit together.
     Dimension {

@@ -43,7 +43,8 @@ pub struct Centralized {
     /// The center's filter; `None` at a node that only reports.
     g: Option<Gaussian>,
     own: Option<Measurement>,
-    received: Vec<Measurement>,
+    /// What arrived, by source.
+    received: Vec<(usize, Measurement)>,
 }
 
 impl Centralized {
@@ -81,9 +82,9 @@ impl Estimator for Centralized {
     }
     fn combine(&mut self, round: usize, arrived: &[(usize, &Message)], _: &StepInput<'_>) -> Result<(), EstimateError> {
         if round == 0 && self.g.is_some() {
-            for (_, m) in arrived {
+            for (s, m) in arrived {
                 if let Message::Measurement(m) = m {
-                    self.received.push(m.clone());
+                    self.received.push((*s, m.clone()));
                 }
             }
         }
@@ -94,8 +95,9 @@ impl Estimator for Centralized {
         let n = prior.x.len();
         let mut Y = Info::of(prior)?.Y;
         let mut innovation = nalgebra::DVector::zeros(n);
-        for m in self.own.iter().chain(&self.received) {
-            let info = input.information(prior, m)?;
+        let own = self.own.iter().map(|m| (self.ctx.index, m));
+        for (s, m) in own.chain(self.received.iter().map(|(s, m)| (*s, m))) {
+            let info = input.information(prior, s, m)?;
             innovation += &info.y - &info.Y * &prior.x;
             Y += info.Y;
         }

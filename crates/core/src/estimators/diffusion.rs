@@ -65,8 +65,8 @@ impl Diffusion {
         }
         all.sort_by_key(|(s, _)| *s);
         let mut psi = self.g.clone();
-        for (_, m) in all {
-            psi = input.update(&psi, m, self.policy)?;
+        for (s, m) in all {
+            psi = input.update(&psi, s, m, self.policy)?;
         }
         self.g = psi;
         self.adapted = true;

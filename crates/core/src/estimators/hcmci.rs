@@ -65,7 +65,7 @@ impl Estimator for Hcmci {
     fn begin(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
         self.prior = Info::of(&self.g)?;
         self.measurement = match input.own {
-            Some(m) => input.information(&self.g, m)?,
+            Some(m) => input.information(&self.g, input.node, m)?,
             None => Info::zero(self.g.x.len()),
         };
         Ok(())

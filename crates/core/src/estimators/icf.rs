@@ -57,7 +57,7 @@ impl Estimator for Icf {
     fn begin(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
         let mut v = Info::of(&self.g)?.scaled(1.0 / self.ctx.nodes as f64);
         if let Some(m) = input.own {
-            v.add(1.0, &input.information(&self.g, m)?);
+            v.add(1.0, &input.information(&self.g, input.node, m)?);
         }
         self.v = v;
         Ok(())

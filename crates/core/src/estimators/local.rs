@@ -37,7 +37,7 @@ pub(super) fn own_update(
     policy: MissingChannels,
 ) -> Result<Gaussian, EstimateError> {
     match input.own {
-        Some(m) => input.update(g, m, policy),
+        Some(m) => input.update(g, input.node, m, policy),
         None => Ok(g.clone()),
     }
 }

@@ -49,7 +49,7 @@ use nalgebra::{DMatrix, DVector};
 use crate::estimate::{
     cholesky, kalman_update, symmetrize, wrap_rows, EstimateError, Gaussian, MissingChannels, Observation,
 };
-use crate::model::{Measurement, Model};
+use crate::model::{Measurement, Model, Site};
 
 pub use centralized::Centralized;
 pub use ci::Ci;
@@ -62,7 +62,7 @@ pub use message::{from_body, to_body, MessageError};
 pub use registry::{
     build, register, schemes, Builder, Configure, Configured, Kind, NodeBuilder, Params, RegisterError, Scheme,
 };
-pub use sequeira::{Guarded, Sequeira, SequeiraParams};
+pub use sequeira::{Guarded, Sequeira, SequeiraParams, NOT_ALIKE};
 
 /// What one node's estimator knows of the network.
 #[derive(Debug, Clone)]
@@ -298,6 +298,8 @@ pub struct StepInput<'a> {
     pub model: &'a dyn Model,
     /// The step's observation (H, R).
     pub obs: &'a Observation,
+    /// The node whose step it is, by index: the site of its own measurement.
+    pub node: usize,
     /// The node's own measurement of the step, if any arrived.
     pub own: Option<&'a Measurement>,
     /// The step's measurements the node believes, its own among them, by source (sorted): what its links carried
@@ -309,15 +311,20 @@ pub struct StepInput<'a> {
 }
 
 impl<'a> StepInput<'a> {
-    /// The observation of `m` about the estimate `about`, and `m` in its coordinates: as they are for a linear
-    /// observation; for a non-linear one h(x) ≈ h(x̂) + H (x − x̂) about x̂ = `about` ([`crate::model::Sensing::linearize_at`]),
-    /// so that a linear update sees the innovation z − h(x̂).
-    pub fn about<'b>(&'b self, about: &Gaussian, m: &'b Measurement) -> (Cow<'b, Observation>, Cow<'b, Measurement>)
+    /// The observation of `m`, taken by node `source`, about the estimate `about`, and `m` in its coordinates: as
+    /// they are for a linear observation every node shares; otherwise h(x, source) ≈ h(x̂) + H (x − x̂) about
+    /// x̂ = `about` ([`crate::model::Sensing::linearize_at`]), so that a linear update sees the innovation z − h(x̂).
+    pub fn about<'b>(
+        &'b self,
+        source: usize,
+        about: &Gaussian,
+        m: &'b Measurement,
+    ) -> (Cow<'b, Observation>, Cow<'b, Measurement>)
     where
         'a: 'b,
     {
         // One rule for every model: what `linearize_at` hands back borrowed is used as it is.
-        let (obs, mut z) = self.model.linearize_at(self.obs, about, &[&m.z]);
+        let (obs, mut z) = self.model.linearize_at(self.obs, about, Site { node: source }, &[&m.z]);
         match z.pop() {
             Some(Cow::Owned(z)) => (
                 obs,
@@ -330,15 +337,21 @@ impl<'a> StepInput<'a> {
         }
     }
 
-    /// The Kalman update of `g` with `m` (Joseph form), linearised about `g`.
-    pub fn update(&self, g: &Gaussian, m: &Measurement, policy: MissingChannels) -> Result<Gaussian, EstimateError> {
-        let (obs, m) = self.about(g, m);
+    /// The Kalman update of `g` with `m`, taken by node `source` (Joseph form), linearised about `g`.
+    pub fn update(
+        &self,
+        g: &Gaussian,
+        source: usize,
+        m: &Measurement,
+        policy: MissingChannels,
+    ) -> Result<Gaussian, EstimateError> {
+        let (obs, m) = self.about(source, g, m);
         kalman_update(g, &obs, &m.z, &m.present, policy)
     }
 
-    /// The information of `m` ([`Info::of_measurement`]), linearised about `about`.
-    pub fn information(&self, about: &Gaussian, m: &Measurement) -> Result<Info, EstimateError> {
-        let (obs, m) = self.about(about, m);
+    /// The information of `m`, taken by node `source` ([`Info::of_measurement`]), linearised about `about`.
+    pub fn information(&self, about: &Gaussian, source: usize, m: &Measurement) -> Result<Info, EstimateError> {
+        let (obs, m) = self.about(source, about, m);
         Info::of_measurement(&obs, &m, &about.x)
     }
 }

@@ -151,7 +151,7 @@ pub enum RegisterError {
 ///     }
 ///     fn finish(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
 ///         if let Some(m) = input.own {
-///             self.g = input.update(&self.g, m, self.policy)?;
+///             self.g = input.update(&self.g, input.node, m, self.policy)?;
 ///         }
 ///         Ok(())
 ///     }

@@ -7,6 +7,11 @@ use nalgebra::DVector;
 use super::registry::{Registration, Role, Scheme};
 use super::{Estimator, Message, StepInput};
 use crate::estimate::{guarded_update, EstimateError, Gaussian, LmiTerms, MissingChannels, Source};
+use crate::model::Site;
+
+/// Why a model whose nodes observe differently is refused: eqs. (5)–(10) form one gain K from one H for every source.
+pub const NOT_ALIKE: &str =
+    "Sequeira (2023) eqs. (5)–(10) form one gain from one h for every source, and this model's nodes observe differently (Sensing::observes_alike)";
 
 /// `sequeira` in the registry: the node runs it as its networked filter, over the measurements its links carry.
 pub(super) const REGISTRATION: Registration = Registration {
@@ -108,8 +113,17 @@ impl Estimator for Sequeira {
     fn finish(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
         let p = &self.params;
         let prior = &self.g;
+        if !input.model.observes_alike() {
+            return Err(EstimateError::Unsupported {
+                scheme: "sequeira",
+                why: NOT_ALIKE,
+            });
+        }
         let zs: Vec<&DVector<f64>> = input.heard.iter().map(|(_, m)| &m.z).collect();
-        let (obs, z) = input.model.linearize_at(input.obs, prior, &zs);
+        // Every node observes alike: the node's own site linearises every source's measurement.
+        let (obs, z) = input
+            .model
+            .linearize_at(input.obs, prior, Site { node: input.node }, &zs);
         let sources: Vec<Source<'_>> = input
             .heard
             .iter()

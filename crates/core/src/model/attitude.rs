@@ -7,7 +7,7 @@ use std::borrow::Cow;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector4};
 
 use super::{
-    stacked, Dynamics, FusionLayout, GroundTruth, ImuRow, Manifold, Measurement, Report, Sensed, Sensing, Truth,
+    stacked, Dynamics, FusionLayout, GroundTruth, ImuRow, Manifold, Measurement, Report, Sensed, Sensing, Site, Truth,
 };
 use crate::estimate::attitude::{from_euler, level, measurement, predict, to_euler};
 use crate::estimate::{Gaussian, Observation};
@@ -91,6 +91,7 @@ impl Sensing for Attitude {
         &self,
         template: &'a Observation,
         prior: &Gaussian,
+        _site: Site,
         z: &[&'a DVector<f64>],
     ) -> (Cow<'a, Observation>, Vec<Cow<'a, DVector<f64>>>) {
         let (h, C) = measurement(&quaternion(&prior.x), &self.gravity(), &self.field());
@@ -104,7 +105,7 @@ impl Sensing for Attitude {
 
     /// The accelerometer and magnetometer, simulated or recorded (a recording without a magnetometer sends the
     /// accelerometer channel only).
-    fn sense(&self, sensor: &mut Sensor, truth: &Truth, t: f64) -> Sensed {
+    fn sense(&self, sensor: &mut Sensor, truth: &Truth, _site: Site, t: f64) -> Sensed {
         if let Some((rec, i)) = truth.recording() {
             let Some(sample) = rec.imu.get(i).copied() else {
                 return Sensed::default();

@@ -5,7 +5,7 @@
 
 use nalgebra::{DMatrix, DVector, Vector3};
 
-use super::{Dynamics, FusionLayout, GroundTruth, Manifold, Measurement, Report, Sensed, Sensing, Truth};
+use super::{Dynamics, FusionLayout, GroundTruth, Manifold, Measurement, Report, Sensed, Sensing, Site, Truth};
 use crate::estimate::{Gaussian, Observation};
 use crate::imu_csv::StepRecording;
 use crate::motion::Trajectory;
@@ -109,7 +109,7 @@ impl Sensing for Linear {
     }
 
     /// y = C x + v.
-    fn sense(&self, sensor: &mut Sensor, truth: &Truth, _t: f64) -> Sensed {
+    fn sense(&self, sensor: &mut Sensor, truth: &Truth, _site: Site, _t: f64) -> Sensed {
         let (Some(x), Some(r_chol)) = (truth.linear_state(), self.R_chol.as_ref()) else {
             return Sensed::default();
         };

@@ -7,11 +7,14 @@
 //! (x⁺ = A x + w, y = C x + v, the setting of Sinopoli et al. (2004)).
 //!
 //! Everything that depends on which model a scenario runs is a method of [`Model`]; the rest of simnet holds a
-//! `&dyn Model` and never asks which one it is.
+//! `&dyn Model` and never asks which one it is. A measurement's observation may depend on who took it ([`Site`]: a
+//! range from where each node stands); [`Observed`] gives a model's dynamics, truth and report another
+//! [`Sensing`].
 #![allow(non_snake_case)]
 
 pub mod attitude;
 pub mod linear;
+mod observed;
 mod parse;
 pub mod pose;
 mod registry;
@@ -32,6 +35,7 @@ use crate::sensor::{ImuInterval, ImuSample, Sensor, SensorProfile};
 
 pub use attitude::Attitude;
 pub use linear::Linear;
+pub use observed::Observed;
 pub use parse::RawModel;
 pub use parse::{matrix_rows, parse, to_raw};
 pub use pose::Pose;
@@ -266,25 +270,104 @@ pub trait Dynamics {
     fn predict(&self, g: &Gaussian, imu: Option<&ImuInterval>, noise: &DMatrix<f64>, dt: f64) -> Gaussian;
 }
 
-/// What a node measures: the observation (H, R, channels), its linearisation about a prior, and the sampling of a step's IMU and measurement.
+/// Who took a measurement: the context an observation h(x, site) may depend on beyond the state. Every node of
+/// simnet's built-in models observes alike (one h for all); a model whose nodes observe from where each stands — a
+/// range from node `node` to a body whose position is in the state, or to another node — reads it here, and says so
+/// with [`Sensing::observes_alike`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Site {
+    /// The node that took the measurement, by index.
+    pub node: usize,
+}
+
+/// What a node measures: the observation (H, R, channels), its linearisation about a prior, and the sampling of a
+/// step's IMU and measurement.
+///
+/// A model whose nodes observe differently gives each [`Site`] its own h. Here every node measures its range to a
+/// body at x = (p_x, p_y) from where it stands, h(x, site) = ‖x − a_site‖, linearised about the prior as an EKF does:
+///
+/// ```
+/// use std::borrow::Cow;
+/// use nalgebra::{DMatrix, DVector};
+/// use simnet_core::estimate::{Gaussian, Observation};
+/// use simnet_core::model::{Sensed, Sensing, Site, Truth};
+/// use simnet_core::sensor::Sensor;
+///
+/// struct Ranges {
+///     /// Where each node stands.
+///     at: Vec<[f64; 2]>,
+/// }
+///
+/// impl Sensing for Ranges {
+///     fn observation(&self) -> Observation {
+///         Observation {
+///             H: DMatrix::zeros(1, 2),
+///             R: DMatrix::from_element(1, 1, 0.01),
+///             angle_rows: vec![false],
+///             channel_of_row: vec![0],
+///         }
+///     }
+///     fn observes_alike(&self) -> bool {
+///         false
+///     }
+///     /// h(x) ≈ h(x̂) + H (x − x̂), H = (x̂ − a)ᵀ / ‖x̂ − a‖: the innovation z − h(x̂) for a linear update.
+///     fn linearize_at<'a>(
+///         &self,
+///         template: &'a Observation,
+///         prior: &Gaussian,
+///         site: Site,
+///         z: &[&'a DVector<f64>],
+///     ) -> (Cow<'a, Observation>, Vec<Cow<'a, DVector<f64>>>) {
+///         let a = DVector::from_column_slice(&self.at[site.node]);
+///         let d = &prior.x - a;
+///         let h = d.norm();
+///         let H = DMatrix::from_row_slice(1, 2, &[d[0] / h, d[1] / h]);
+///         let offset = h - (&H * &prior.x)[0];
+///         let obs = Observation { H, ..template.clone() };
+///         (Cow::Owned(obs), z.iter().map(|z| Cow::Owned(z.add_scalar(-offset))).collect())
+///     }
+///     fn sense(&self, _: &mut Sensor, _: &Truth, _: Site, _: f64) -> Sensed {
+///         Sensed::default()
+///     }
+/// }
+///
+/// let ranges = Ranges { at: vec![[0.0, 0.0], [10.0, 0.0]] };
+/// let prior = Gaussian { x: DVector::from_vec(vec![3.0, 4.0]), P: DMatrix::identity(2, 2) };
+/// let z = DVector::from_vec(vec![5.0]);
+/// let template = ranges.observation();
+/// // Node 0 at the origin sees the body 5 m away along (0.6, 0.8); node 1 sees it along (−7, 4)/√65.
+/// let (obs, zs) = ranges.linearize_at(&template, &prior, Site { node: 0 }, &[&z]);
+/// assert!((obs.H[(0, 0)] - 0.6).abs() < 1e-12 && (obs.H[(0, 1)] - 0.8).abs() < 1e-12);
+/// assert!((zs[0][0] - 5.0).abs() < 1e-12, "h(x̂) − H x̂ = 0 from the origin");
+/// let (obs, _) = ranges.linearize_at(&template, &prior, Site { node: 1 }, &[&z]);
+/// assert!((obs.H[(0, 0)] + 7.0 / 65f64.sqrt()).abs() < 1e-12);
+/// ```
 pub trait Sensing {
-    /// The observation: H, R and the channel of each row (for the attitude model a template whose H is
+    /// The observation: H, R and the channel of each row (for a non-linear model a template whose H is
     /// [`Sensing::linearize_at`]'s).
     fn observation(&self) -> Observation;
 
-    /// The observation about `prior` and the measurements in its coordinates: as they are (borrowed), unless the
-    /// model is non-linear. Every estimator takes H and z from here, so a model that linearises says so here alone.
+    /// Whether every node observes by one h, so that a measurement reads the same whoever took it (the default).
+    /// The β-weighted consensus of Sequeira (2023), eqs. (5)–(10), forms one gain for every source and needs it.
+    fn observes_alike(&self) -> bool {
+        true
+    }
+
+    /// The observation of the measurements `z` that node `site` took, about `prior`, and the measurements in its
+    /// coordinates: as they are (borrowed), unless the model is non-linear or its nodes observe differently. Every
+    /// estimator takes H and z from here, so a model that linearises says so here alone.
     fn linearize_at<'a>(
         &self,
         template: &'a Observation,
         _prior: &Gaussian,
+        _site: Site,
         z: &[&'a DVector<f64>],
     ) -> (Cow<'a, Observation>, Vec<Cow<'a, DVector<f64>>>) {
         (Cow::Borrowed(template), z.iter().map(|z| Cow::Borrowed(*z)).collect())
     }
 
-    /// This step's IMU sample and the node's own measurement.
-    fn sense(&self, sensor: &mut Sensor, truth: &Truth, t: f64) -> Sensed;
+    /// This step's IMU sample and the measurement node `site` takes at `t`.
+    fn sense(&self, sensor: &mut Sensor, truth: &Truth, site: Site, t: f64) -> Sensed;
 }
 
 /// Where the state lives: rows that are angles, the return to a unit quaternion, the sign of a double cover.

@@ -3,7 +3,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, Vector3};
 
-use super::{Dynamics, FusionLayout, GroundTruth, ImuRow, Manifold, Measurement, Report, Sensed, Sensing, Truth};
+use super::{Dynamics, FusionLayout, GroundTruth, ImuRow, Manifold, Measurement, Report, Sensed, Sensing, Site, Truth};
 use crate::estimate::{wrap_rows, Gaussian, Observation};
 use crate::geom::{euler_rates, euler_rates_jacobian, rotation, rotation_partials, wrap_angle, GRAVITY};
 use crate::motion::PoseTruth;
@@ -111,7 +111,7 @@ impl Sensing for Pose {
 
     /// A simulated IMU and pose fix; or a recorded IMU's row, with pose fixes simulated from its reference columns
     /// (a channel the file lacks is missing).
-    fn sense(&self, sensor: &mut Sensor, truth: &Truth, t: f64) -> Sensed {
+    fn sense(&self, sensor: &mut Sensor, truth: &Truth, _site: Site, t: f64) -> Sensed {
         if let Some((rec, i)) = truth.recording() {
             let Some(sample) = rec.imu.get(i).copied() else {
                 return Sensed::default();

@@ -17,7 +17,7 @@ impl Node {
         let gated: Vec<usize> = match self.filters.as_ref().and_then(|f| f.networked.state()) {
             Some(prior) => inbox
                 .iter()
-                .filter(|(_, p)| self.trust.gates(&*self.model, &self.obs, prior, p))
+                .filter(|(s, p)| self.trust.gates(&*self.model, &self.obs, prior, Site { node: *s }, p))
                 .map(|(s, _)| *s)
                 .collect(),
             None => Vec::new(),
@@ -36,6 +36,7 @@ impl Node {
         let input = StepInput {
             model: &*self.model,
             obs: &self.obs,
+            node: self.index,
             own: self.inbox.own(),
             heard: &used,
             step: k,

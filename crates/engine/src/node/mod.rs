@@ -76,7 +76,7 @@ pub use crate::imu_csv::ImuRow;
 pub use crate::link::Transmit;
 use crate::link::{NodeEvent, Stream};
 use crate::medium::{Dest, Medium, Transmission};
-use crate::model::{Measurement, Model, Truth};
+use crate::model::{Measurement, Model, Site, Truth};
 use crate::observe::{
     Filter, ImuRecorder, LmiRecorder, MeasurementRecorder, Probe, Probes, Scorer, TraceRecorder, Update,
 };
@@ -334,7 +334,7 @@ impl Node {
             self.schemes.begin(
                 k,
                 at,
-                &schemes::input(&*self.model, &self.obs, own.as_ref(), k),
+                &schemes::input(&*self.model, &self.obs, self.index, own.as_ref(), k),
                 &self.wire,
             )
         };
@@ -350,7 +350,7 @@ impl Node {
             return;
         }
         let at = self.topo.round_end(k, r);
-        let input = schemes::input(&*self.model, &self.obs, self.inbox.own(), k);
+        let input = schemes::input(&*self.model, &self.obs, self.index, self.inbox.own(), k);
         let out = self.schemes.close_round(k, r, at, &input, &self.wire);
         if out.is_empty() {
             return;
@@ -365,7 +365,7 @@ impl Node {
         let Some(sensor) = self.sensor.as_mut() else {
             return (None, None);
         };
-        let sensed = self.model.sense(sensor, &self.truth, t);
+        let sensed = self.model.sense(sensor, &self.truth, Site { node: self.index }, t);
         if let Some(row) = &sensed.row {
             self.probes.each().for_each(|p| p.on_imu(row));
         }

@@ -275,16 +275,18 @@ fn keep(list: &mut Vec<(usize, Message)>, from: usize, m: Message) {
 }
 
 /// What a node hands its schemes before the step's deadline (at its begin and its rounds' sub-deadlines): its
-/// model, observation and own measurement; the measurements heard come with the deadline.
+/// model, observation, index and own measurement; the measurements heard come with the deadline.
 pub(super) fn input<'a>(
     model: &'a dyn Model,
     obs: &'a Observation,
+    node: usize,
     own: Option<&'a Measurement>,
     step: u64,
 ) -> StepInput<'a> {
     StepInput {
         model,
         obs,
+        node,
         own,
         heard: &[],
         step,

@@ -9,7 +9,7 @@ use nalgebra::DVector;
 use super::Node;
 use crate::attack::{Air, Attack, AttackKind, Injection, Tally};
 use crate::estimate::{Gaussian, Observation};
-use crate::model::{Measurement, Model};
+use crate::model::{Measurement, Model, Site};
 use crate::scenario::Scenario;
 use crate::time::Time;
 
@@ -64,21 +64,27 @@ impl Trust {
         self.tallies.iter().map(|(i, t)| (*i, *t)).collect()
     }
 
-    /// Whether the gate leaves `m` out of an update from `prior`: its normalised innovation squared
+    /// Whether the gate leaves `m`, taken at `site`, out of an update from `prior`: its normalised innovation squared
     /// νᵀS⁻¹ν, S = HPHᵀ + R over the rows present, exceeds the χ² quantile of as many degrees of freedom.
-    pub fn gates(&self, model: &dyn Model, obs: &Observation, prior: &Gaussian, m: &Measurement) -> bool {
+    pub fn gates(&self, model: &dyn Model, obs: &Observation, prior: &Gaussian, site: Site, m: &Measurement) -> bool {
         let Some(q) = &self.gate else { return false };
-        match nis(model, obs, prior, m) {
+        match nis(model, obs, prior, site, m) {
             Some((d2, dof)) => q.get(dof).is_some_and(|q| d2 > *q),
             None => false,
         }
     }
 }
 
-/// The normalised innovation squared of `m` against `prior`, and its degrees of freedom (none when no row is
+/// The normalised innovation squared of `m`, taken at `site`, against `prior`, and its degrees of freedom (none when no row is
 /// present or S is not positive definite).
-pub(super) fn nis(model: &dyn Model, obs: &Observation, prior: &Gaussian, m: &Measurement) -> Option<(f64, usize)> {
-    let (o, z) = model.linearize_at(obs, prior, &[&m.z]);
+pub(super) fn nis(
+    model: &dyn Model,
+    obs: &Observation,
+    prior: &Gaussian,
+    site: Site,
+    m: &Measurement,
+) -> Option<(f64, usize)> {
+    let (o, z) = model.linearize_at(obs, prior, site, &[&m.z]);
     let rows: Vec<usize> = (0..o.dim()).filter(|&r| m.present[r]).collect();
     if rows.is_empty() {
         return None;

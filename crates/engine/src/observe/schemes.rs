@@ -465,6 +465,7 @@ impl Reference {
         let input = StepInput {
             model: &*self.model,
             obs: &self.obs,
+            node: self.center,
             own: center.own.as_ref(),
             heard: &[],
             step: center.step,

@@ -52,7 +52,7 @@
 //!     fn finish(&mut self, input: &StepInput<'_>) -> Result<(), EstimateError> {
 //!         if let Some(m) = input.own {
 //!             let faded = Gaussian { x: self.g.x.clone(), P: &self.g.P * self.fading };
-//!             self.g = input.update(&faded, m, self.policy)?;
+//!             self.g = input.update(&faded, input.node, m, self.policy)?;
 //!         }
 //!         Ok(())
 //!     }
@@ -143,7 +143,7 @@
 //!             channel_of_row: vec![0; 2],
 //!         }
 //!     }
-//!     fn sense(&self, sensor: &mut Sensor, truth: &Truth, _t: f64) -> Sensed {
+//!     fn sense(&self, sensor: &mut Sensor, truth: &Truth, _site: Site, _t: f64) -> Sensed {
 //!         let Some(now) = truth.motion_now() else { return Sensed::default() };
 //!         let x = DVector::from_row_slice(&[now.p.x, now.p.y, now.v.x, now.v.y]);
 //!         let z = sensor.linear(&DMatrix::identity(2, 4), &(DMatrix::identity(2, 2) * self.r.sqrt()), &x);

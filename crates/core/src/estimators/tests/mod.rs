@@ -119,9 +119,11 @@ impl Net {
         for (k, step) in zs.iter().enumerate() {
             let inputs: Vec<StepInput<'_>> = step
                 .iter()
-                .map(|m| StepInput {
+                .enumerate()
+                .map(|(node, m)| StepInput {
                     model: &self.model,
                     obs: &self.obs,
+                    node,
                     own: m.as_ref(),
                     heard: &[],
                     step: k as u64,
@@ -396,6 +398,7 @@ fn information_across_plus_minus_pi_is_averaged_on_one_side() {
     let input = StepInput {
         model: &model,
         obs: &obs,
+        node: 0,
         own: None,
         heard: &[],
         step: 0,
@@ -458,9 +461,10 @@ fn a_neighbours_quaternion_counts_by_its_attitude_not_its_sign() {
             _ => Box::new(Ci::new(ctx(index), g, POLICY)),
         }
     };
-    let inputs = [&z0, &z1].map(|m| StepInput {
+    let inputs = [(0, &z0), (1, &z1)].map(|(node, m)| StepInput {
         model: &model,
         obs: &obs,
+        node,
         own: Some(m),
         heard: &[],
         step: 0,
@@ -525,6 +529,7 @@ fn sequeira_is_the_papers_consensus_update() {
     let input = StepInput {
         model: &net.model,
         obs: &net.obs,
+        node: 0,
         own: Some(&z[0]),
         heard: &heard,
         step: 7,

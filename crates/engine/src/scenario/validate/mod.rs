@@ -84,6 +84,18 @@ impl Validator {
                 ),
             );
         }
+        if !model.get().observes_alike() {
+            // Every node's networked filter is sequeira, whose gain is one for every source.
+            self.bad(
+                "model.kind",
+                format!(
+                    "model `{}` observes differently at each node, and every node runs sequeira: {}; \
+                     a run of it is not supported yet (its distributed estimators run from the library's Estimator API)",
+                    model.kind(),
+                    crate::estimators::NOT_ALIKE
+                ),
+            );
+        }
 
         // Nodes.
         if raw.node.is_empty() {
