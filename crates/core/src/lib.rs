@@ -21,7 +21,7 @@
 //! | [`time`] | simulated time: whole nanoseconds since the run began, a step's time and back |
 //! | [`imu_csv`] | recorded IMU files from their text: simnet's columns, and makers' layouts through `imu_csv::layout` |
 //! | [`checks`] | the validator's shared checks: each problem keyed, a usable default returned |
-//! | [`model`] | the estimation models: [`model::Model`] = [`model::Dynamics`] + [`model::Sensing`] + [`model::Manifold`] + [`model::GroundTruth`] + [`model::Report`] — pose, attitude (quaternion EKF), linear, and any a program registers ([`model::register`]) |
+//! | [`model`] | the estimation models: [`model::Model`] = [`model::Dynamics`] + [`model::Sensing`] + [`model::Manifold`] + [`model::GroundTruth`] + [`model::Report`] — pose, attitude (quaternion EKF), linear, and any a program registers ([`model::register`]); an observation may depend on the [`model::Site`] that measured |
 //! | [`wire`] | the datagram format: postcard + CRC-32, checked decode; authenticated frames (AES-128-CCM); a link's sequence gaps as its receiver counts them |
 //! | [`medium`] | what carries a node's transmissions to their receivers: the [`medium::Medium`] trait, and [`medium::PairwiseMedium`] (every directed link deciding alone, split by sender) |
 //! | [`link`] | per-datagram rules (outage, Bernoulli / Gilbert–Elliott loss, duplication, delay and jitter, corruption), the egress queue, fault schedules |

@@ -72,10 +72,11 @@ impl LmiTerms {
         }
         let (H, R, keep) = effective_observation(obs, &present_any, policy);
         let P = &prior.P;
-        let S = &H * P * H.transpose() + &R; // (5)
+        let HP = &H * P;
+        let S = &HP * H.transpose() + &R; // (5)
         let chol = cholesky(&S, "innovation covariance S")?;
-        let K = chol.solve(&(&H * P)).transpose(); // (6)
-                                                   // (10): per-source innovations on the kept rows, zero where the source lacks the row.
+        let K = chol.solve(&HP).transpose(); // (6)
+                                             // (10): per-source innovations on the kept rows, zero where the source lacks the row.
         let kz = sources
             .iter()
             .map(|(z, present)| {

@@ -163,12 +163,14 @@ impl<const N: usize, const M: usize> Terms<N, M> {
     #[inline]
     fn gain(&self) -> Result<(SMatrix<f64, M, M>, SMatrix<f64, N, M>), EstimateError> {
         let what = "innovation covariance S";
-        let S = self.H * self.P * self.H.transpose() + self.R;
+        // H P once: S and K both start from it (the same products, so the same bits, as computing it twice).
+        let HP = self.H * self.P;
+        let S = HP * self.H.transpose() + self.R;
         if S.iter().any(|v| !v.is_finite()) {
             return Err(EstimateError::NonFinite { what });
         }
         let chol = Cholesky::new(S).ok_or(EstimateError::NotPositiveDefinite { what })?;
-        Ok((S, chol.solve(&(self.H * self.P)).transpose()))
+        Ok((S, chol.solve(&HP).transpose()))
     }
 }
 

@@ -75,10 +75,11 @@ pub(super) fn joseph(
     let full = obs.innovation(z, &prior.x);
     let nu = DVector::from_iterator(keep.len(), keep.iter().map(|&i| if present[i] { full[i] } else { 0.0 }));
     let P = &prior.P;
-    let S = &H * P * H.transpose() + &R;
+    let HP = &H * P;
+    let S = &HP * H.transpose() + &R;
     let chol = cholesky(&S, "innovation covariance S")?;
     // K = P Hᵀ S⁻¹, computed as (S⁻¹ H P)ᵀ since S and P are symmetric.
-    let K = chol.solve(&(&H * P)).transpose();
+    let K = chol.solve(&HP).transpose();
     let x = &prior.x + &K * nu;
     let n = P.nrows();
     let IKH = DMatrix::identity(n, n) - &K * &H;
