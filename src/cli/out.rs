@@ -331,6 +331,12 @@ pub(super) fn write_files(
     summary::write_links(&mut buf, &s.links)?;
     d.put("links.csv", &buf)?;
     let title = |what: &str| format!("{} — {what} ({})", s.topology, conditions(s));
+    // A model whose nodes observe differently runs no networked filter: the plots show the independent ones.
+    let (compared, against) = if s.nodes.iter().any(|n| n.networked.is_some()) {
+        ("networked vs independent", "networked against independent")
+    } else {
+        ("independent filters", "independent filters")
+    };
     let burn_in_s = s.burn_in_steps as f64 * dt;
     let faults = s.settings.as_ref().map_or(&[][..], |x| &x.faults[..]);
     let mut plots: Vec<Plot> = vec![
@@ -341,21 +347,21 @@ pub(super) fn write_files(
         ),
         (
             "error.svg",
-            "error over time, networked against independent".into(),
+            format!("error over time, {against}"),
             plot::error(
                 rows,
                 fused,
                 dt,
                 burn_in_s,
                 s.model,
-                &title("error, networked vs independent"),
+                &title(&format!("error, {compared}")),
                 faults,
             )?,
         ),
         (
             "trace_p.svg",
-            "trace of the covariance, networked against independent".into(),
-            plot::trace_p(rows, dt, burn_in_s, &title("trace P, networked vs independent"), faults)?,
+            format!("trace of the covariance, {against}"),
+            plot::trace_p(rows, dt, burn_in_s, &title(&format!("trace P, {compared}")), faults)?,
         ),
     ];
     plots.extend(extra);

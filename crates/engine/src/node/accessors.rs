@@ -76,7 +76,11 @@ impl Node {
             index: self.index,
             id: self.id,
             role: self.role,
-            networked: est.then(|| self.scorer.metrics(Filter::Networked).clone()),
+            networked: self
+                .filters
+                .as_ref()
+                .is_some_and(|f| f.networked.is_some())
+                .then(|| self.scorer.metrics(Filter::Networked).clone()),
             independent: est.then(|| self.scorer.metrics(Filter::Independent).clone()),
             schemes: if est {
                 self.scorer.scheme_metrics().to_vec()

@@ -13,8 +13,13 @@ impl Node {
         if let Some(f) = self.feed.as_mut().filter(|_| self.star_sink) {
             f.heard = Some(inbox.iter().cloned().collect());
         }
-        // A neighbour's measurement too far from what this node predicts is left out (the innovation gate).
-        let gated: Vec<usize> = match self.filters.as_ref().and_then(|f| f.networked.state()) {
+        // A neighbour's measurement too far from what this node predicts is left out (the innovation gate): the
+        // networked filter's prior, or the node's own where the model leaves it no networked filter.
+        let prior = self
+            .filters
+            .as_ref()
+            .and_then(|f| f.networked.as_ref().map_or(f.independent.state(), |n| n.state()));
+        let gated: Vec<usize> = match prior {
             Some(prior) => inbox
                 .iter()
                 .filter(|(s, p)| self.trust.gates(&*self.model, &self.obs, prior, Site { node: *s }, p))
@@ -46,10 +51,18 @@ impl Node {
             false => self.schemes.finish(k, &input, &self.wire),
         };
         let filters = self.filters.as_mut()?;
-        let priors = (filters.networked.state()?.clone(), filters.independent.state()?.clone());
-        filters.networked.record_terms(self.probes.lmi.is_some());
-        let networked = filters.networked.finish(&input);
-        let guarded = filters.networked.take_guarded();
+        let priors = (
+            filters.networked.as_ref().and_then(|n| n.state()).cloned(),
+            filters.independent.state()?.clone(),
+        );
+        let (networked, guarded) = match filters.networked.as_mut() {
+            Some(n) => {
+                n.record_terms(self.probes.lmi.is_some());
+                let r = n.finish(&input);
+                (Some(r), n.take_guarded())
+            }
+            None => (None, None),
+        };
         let independent = filters.independent.finish(&input);
         let feasible = guarded.as_ref().is_none_or(|g| g.feasible);
         match guarded.and_then(|g| g.terms) {
@@ -77,16 +90,18 @@ impl Node {
             (r, own)
         };
         let t = k as f64 * self.topo.sim().dt();
-        let both: [(Filter, &mut dyn Estimator, Gaussian, bool); 2] = [
-            (Filter::Networked, &mut filters.networked, priors.0, networked.is_err()),
-            (
-                Filter::Independent,
-                &mut filters.independent,
-                priors.1,
-                independent.is_err(),
-            ),
-        ];
-        for (filter, est, prior, failed) in both {
+        let networked = match (filters.networked.as_mut(), priors.0, networked) {
+            (Some(n), Some(prior), Some(r)) => Some((Filter::Networked, n as &mut dyn Estimator, prior, r.is_err())),
+            _ => None,
+        };
+        let independent = Some((
+            Filter::Independent,
+            &mut filters.independent as &mut dyn Estimator,
+            priors.1,
+            independent.is_err(),
+        ));
+        let both = [networked, independent];
+        for (filter, est, prior, failed) in both.into_iter().flatten() {
             // A failed update keeps stepping from the prior (the estimator left it as it was), so that the run
             // finishes and the rest of the figures stand; a posterior is brought back onto the model's manifold.
             if !failed {
@@ -117,10 +132,10 @@ impl Node {
         let filters = self.filters.as_ref()?;
         let run = &self.topo.estimators().run;
         for (kind, est) in [
-            (Kind::Independent, &filters.independent as &dyn Estimator),
-            (Kind::Sequeira, &filters.networked),
+            (Kind::Independent, Some(&filters.independent as &dyn Estimator)),
+            (Kind::Sequeira, filters.networked.as_ref().map(|n| n as &dyn Estimator)),
         ] {
-            if let Some(g) = est.state().filter(|_| run.contains(&kind)) {
+            if let Some(g) = est.and_then(|e| e.state()).filter(|_| run.contains(&kind)) {
                 schemes.push(SchemeEstimate {
                     kind,
                     x: g.x.clone(),
@@ -133,7 +148,7 @@ impl Node {
             step: k,
             truth,
             frame: self.truth.frame(),
-            networked: filters.networked.state()?.clone(),
+            networked: filters.networked.as_ref().and_then(|n| n.state()).cloned(),
             diverged: self.scorer.metrics(Filter::Networked).diverged,
             schemes,
         })

@@ -1,7 +1,9 @@
 //! A node's two filters fed by the same IMU, both [`crate::estimators::Estimator`]s: the networked one
 //! ([`Sequeira`]: consensus over whatever arrived, LMI-guarded) and the independent twin that uses only the node's
 //! own measurement ([`Local`]), the baseline of Sequeira (2023). The node drives them as it drives every scheme
-//! (predict, reset, finish at the step's deadline); it scores them as `networked` and `independent`.
+//! (predict, reset, finish at the step's deadline); it scores them as `networked` and `independent`. A model whose
+//! nodes observe differently ([`crate::model::Sensing::observes_alike`]) has no networked filter: Sequeira's eqs.
+//! (5)–(10) form one gain from one h for every source.
 
 use crate::estimate::{Gaussian, MissingChannels};
 use crate::estimators::{Local, Sequeira, SequeiraParams};
@@ -10,7 +12,8 @@ use crate::scenario::Scenario;
 /// The filters of an estimating node.
 #[derive(Clone)]
 pub(super) struct Filters {
-    pub networked: Sequeira,
+    /// None where the model's nodes observe differently.
+    pub networked: Option<Sequeira>,
     pub independent: Local,
 }
 
@@ -28,7 +31,11 @@ impl Filters {
             policy,
         };
         Filters {
-            networked: Sequeira::new(initial.clone(), params),
+            networked: topo
+                .model()
+                .get()
+                .observes_alike()
+                .then(|| Sequeira::new(initial.clone(), params)),
             independent: Local::new(initial.clone(), policy),
         }
     }

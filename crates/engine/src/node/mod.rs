@@ -272,7 +272,9 @@ impl Node {
             self.schemes.reset(&g);
             fresh = Some(g.clone());
             if let Some(f) = &mut self.filters {
-                f.networked.reset(g.clone());
+                if let Some(n) = &mut f.networked {
+                    n.reset(g.clone());
+                }
                 f.independent.reset(g);
             }
             self.last_imu = None;
@@ -322,7 +324,9 @@ impl Node {
                 self.schemes.predict(&predict);
             }
             if let Some(f) = &mut self.filters {
-                f.networked.predict(&predict);
+                if let Some(n) = &mut f.networked {
+                    n.predict(&predict);
+                }
                 f.independent.predict(&predict);
             }
         }

@@ -19,7 +19,8 @@ pub struct StepEstimate {
     pub truth: DVector<f64>,
     /// The coordinate frame of `truth` and `networked` (see `Truth::frame`).
     pub frame: u64,
-    pub networked: Gaussian,
+    /// The networked filter's estimate (none where the model's nodes observe differently: no such filter).
+    pub networked: Option<Gaussian>,
     pub diverged: bool,
     /// Each distributed estimator's estimate, by kind (the run's order).
     pub schemes: Vec<SchemeEstimate>,
@@ -146,7 +147,7 @@ impl Observer {
         if let Some(s) = self.schemes.as_mut() {
             s.push(&estimates);
         }
-        estimates.retain(|e| !e.diverged);
+        estimates.retain(|e| !e.diverged && e.networked.is_some());
         let Some(first) = estimates.first() else { return };
         // The truth of the first node that knows it (a recording without reference columns does not).
         let scored = estimates
@@ -156,7 +157,7 @@ impl Observer {
         let (step, frame, truth) = (first.step, scored.frame, scored.truth.clone());
         let counted = step >= self.burn_in;
         self.nodes = self.nodes.max(estimates.len());
-        let mut gs: Vec<Gaussian> = estimates.into_iter().map(|e| e.networked).collect();
+        let mut gs: Vec<Gaussian> = estimates.into_iter().filter_map(|e| e.networked).collect();
         self.layout.align(&mut gs);
         let Ok(fused) = cascade(&gs, Omega::Fixed(0.5), &self.layout.angle_states) else {
             return;

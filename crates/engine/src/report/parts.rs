@@ -31,15 +31,20 @@ pub enum PartError {
 /// is another holds x alone, as an earlier build wrote it).
 const ESTIMATES_HEADER: &str = "# step,frame,n,truth[n],x[n],P[n*n][,estimator,x[n],P[n*n]]...";
 
-/// `estimates-<id>.csv`: step, frame, truth, x and P (column-major) of the networked filter, then the name, x and P
-/// of each distributed estimator the node ran (P `nan` where it is not known).
+/// `estimates-<id>.csv`: step, frame, truth, x and P (column-major) of the networked filter (`nan` throughout where
+/// the node has none), then the name, x and P of each distributed estimator the node ran (P `nan` where it is not
+/// known).
 pub fn write_estimates(w: &mut impl Write, estimates: &[StepEstimate]) -> io::Result<()> {
     writeln!(w, "{ESTIMATES_HEADER}")?;
     for e in estimates {
-        let n = e.networked.x.len();
+        let n = e.truth.len();
         write!(w, "{},{},{}", e.step, e.frame, n)?;
-        for v in e.truth.iter().chain(e.networked.x.iter()).chain(e.networked.P.iter()) {
+        for v in e.truth.iter() {
             write!(w, ",{v:e}")?;
+        }
+        match &e.networked {
+            Some(g) => g.x.iter().chain(g.P.iter()).try_for_each(|v| write!(w, ",{v:e}"))?,
+            None => (0..n + n * n).try_for_each(|_| write!(w, ",nan"))?,
         }
         for s in &e.schemes {
             write!(w, ",{}", s.kind.name())?;
@@ -127,10 +132,11 @@ pub fn read_estimates(r: impl BufRead, node: usize, file: &str) -> Result<Vec<St
             step: int(f[0])?,
             frame: int(f[1])?,
             truth: DVector::from_column_slice(&v[..n]),
-            networked: Gaussian {
+            // A networked filter written as `nan` throughout was not there.
+            networked: v[n..].iter().any(|x| !x.is_nan()).then(|| Gaussian {
                 x: DVector::from_column_slice(&v[n..2 * n]),
                 P: DMatrix::from_column_slice(n, n, &v[2 * n..]),
-            },
+            }),
             diverged: false,
             schemes,
         });
@@ -256,12 +262,12 @@ pub fn merge(
     for (id, es) in estimates {
         if let Some(e) = es
             .iter()
-            .find(|e| e.networked.x.len() != n || e.truth.len() != n || e.schemes.iter().any(|s| s.x.len() != n))
+            .find(|e| e.truth.len() != n || e.schemes.iter().any(|s| s.x.len() != n))
         {
             return Err(PartError::Mismatch(format!(
                 "node {id}'s estimates of step {} have {} states, the run's have {n}",
                 e.step,
-                e.networked.x.len()
+                e.truth.len()
             )));
         }
     }
@@ -533,14 +539,13 @@ mod tests {
         .to_string();
         assert!(e.contains("line 2") && e.contains("and 3 more per estimator"), "{e}");
         let ok = read_estimates("0,0,1,1.5,2,0.25\n".as_bytes(), 0, "e.csv").unwrap();
-        assert_eq!(
-            (ok[0].truth[0], ok[0].networked.x[0], ok[0].networked.P[(0, 0)]),
-            (1.5, 2.0, 0.25)
-        );
+        let g = ok[0].networked.as_ref().unwrap();
+        assert_eq!((ok[0].truth[0], g.x[0], g.P[(0, 0)]), (1.5, 2.0, 0.25));
     }
 
     /// The estimators' estimates and covariances travel through the file unchanged (a covariance not known stays
-    /// unknown); a file of an earlier build, with x alone, is read with none.
+    /// unknown, and so does a networked filter a node did not have); a file of an earlier build, with x alone, is
+    /// read with none.
     #[test]
     fn estimates_round_trip_with_the_estimators() {
         use crate::estimators::Kind;
@@ -549,10 +554,10 @@ mod tests {
             step: 7,
             frame: 1,
             truth: DVector::from_vec(vec![1.0, -2.5]),
-            networked: Gaussian {
+            networked: Some(Gaussian {
                 x: DVector::from_vec(vec![0.9, -2.4]),
                 P: DMatrix::from_row_slice(2, 2, &[0.5, 0.1, 0.1, 0.25]),
-            },
+            }),
             diverged: false,
             schemes: vec![
                 SchemeEstimate {
@@ -573,10 +578,18 @@ mod tests {
         let b = &back[0];
         assert_eq!(back.len(), 1);
         assert_eq!(
-            (b.step, b.frame, &b.truth, &b.networked.x, &b.networked.P),
-            (e.step, e.frame, &e.truth, &e.networked.x, &e.networked.P)
+            (b.step, b.frame, &b.truth, &b.networked),
+            (e.step, e.frame, &e.truth, &e.networked)
         );
         assert_eq!(b.schemes, e.schemes);
+        let none = StepEstimate {
+            networked: None,
+            ..e.clone()
+        };
+        let mut buf = Vec::new();
+        write_estimates(&mut buf, std::slice::from_ref(&none)).unwrap();
+        let back = read_estimates(buf.as_slice(), 0, "e.csv").unwrap();
+        assert_eq!((&back[0].networked, &back[0].schemes), (&None, &e.schemes));
         let earlier = "# step,frame,n,truth[n],x[n],P[n*n][,estimator,x[n]]...\n7,1,1,1,0.9,0.5,icf,0.25\n";
         let back = read_estimates(earlier.as_bytes(), 0, "e.csv").unwrap();
         assert_eq!((back[0].schemes[0].x[0], &back[0].schemes[0].P), (0.25, &None));

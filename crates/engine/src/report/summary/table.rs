@@ -33,12 +33,15 @@ pub(crate) fn trace_figure(v: Option<f64>) -> String {
 impl NodeSummary {
     /// What the table's status column says of the node: `ok`, or what is not.
     pub fn status(&self) -> String {
-        let (Some(a), Some(b)) = (&self.networked, &self.independent) else {
+        let Some(b) = &self.independent else {
             return "senses and sends only".to_string();
         };
         let mut status = Vec::new();
-        if a.diverged {
-            status.push("networked DIVERGED");
+        match &self.networked {
+            Some(a) if a.diverged => status.push("networked DIVERGED"),
+            Some(_) => {}
+            // An estimating node without one: its model's nodes observe differently (sequeira cannot run).
+            None => status.push("no networked filter: the nodes observe differently"),
         }
         if self.role == crate::scenario::Role::Estimator {
             status.push("no own sensor: independent = prediction only");
@@ -87,7 +90,7 @@ impl Summary {
         )?;
         writeln!(w, "{}", "─".repeat(100))?;
         for n in &self.nodes {
-            let (Some(a), Some(b)) = (&n.networked, &n.independent) else {
+            let (a, Some(b)) = (n.networked.as_ref(), &n.independent) else {
                 writeln!(
                     w,
                     "{:>5} {:>9} │ {:^48} │ {:>8} │",
@@ -100,12 +103,12 @@ impl Summary {
                 "{:>5} {:>9} │ {:>10} {:>10} {:>7} │ {:>10} {:>10} │ {:>8} │ {}",
                 n.id,
                 n.role,
-                f(a.mean_error),
+                f(a.and_then(|a| a.mean_error)),
                 f(b.mean_error),
                 n.error_ratio.map_or("—".into(), |r| format!("{r:.3}")),
-                e(a.mean_trace_p_post),
+                e(a.and_then(|a| a.mean_trace_p_post)),
                 e(b.mean_trace_p_post),
-                pct(a.lmi_feasible_fraction),
+                pct(a.and_then(|a| a.lmi_feasible_fraction)),
                 n.status()
             )?;
         }

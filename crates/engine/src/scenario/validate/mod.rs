@@ -84,18 +84,6 @@ impl Validator {
                 ),
             );
         }
-        if !model.get().observes_alike() {
-            // Every node's networked filter is sequeira, whose gain is one for every source.
-            self.bad(
-                "model.kind",
-                format!(
-                    "model `{}` observes differently at each node, and every node runs sequeira: {}; \
-                     a run of it is not supported yet (its distributed estimators run from the library's Estimator API)",
-                    model.kind(),
-                    crate::estimators::NOT_ALIKE
-                ),
-            );
-        }
 
         // Nodes.
         if raw.node.is_empty() {
@@ -240,6 +228,17 @@ impl Validator {
             (&nodes, &ids),
             default_link,
         );
+        if !model.get().observes_alike() && estimators.run.contains(&crate::estimators::Kind::Sequeira) {
+            // Its nodes run no networked filter: sequeira's gain is one for every source.
+            self.bad(
+                "estimators.run",
+                format!(
+                    "model `{}` observes differently at each node: {}",
+                    model.kind(),
+                    crate::estimators::NOT_ALIKE
+                ),
+            );
+        }
         if estimators.any_in_node() {
             // Once per scenario, on the graph of every node's in-neighbours.
             let heard: Vec<Vec<usize>> = ins
