@@ -453,65 +453,14 @@ fn each_schemes_fused_error_is_the_covariance_intersection_of_its_nodes() {
 /// while the fusion center linearises each node's range at that node's site and does.
 #[test]
 fn a_model_whose_nodes_observe_differently_runs_without_sequeira() {
-    use std::borrow::Cow;
     use std::sync::Arc;
 
     use nalgebra::{DMatrix, DVector};
-    use simnet::estimate::{Gaussian, Observation};
-    use simnet::model::{register, Kind, Linear, Observed, Registration, Sensed, Sensing, Site, TrajectoryView, Truth};
-    use simnet::sensor::Sensor;
+    use simnet::model::{register, Kind, Linear, Observed, Ranges, Registration, TrajectoryView};
 
     const CORNERS: [[f64; 2]; 4] = [[0.0, 0.0], [20.0, 0.0], [0.0, 20.0], [20.0, 20.0]];
     const R: f64 = 0.01;
 
-    #[derive(Debug)]
-    struct Ranges;
-    impl Sensing for Ranges {
-        fn observation(&self) -> Observation {
-            Observation {
-                H: DMatrix::zeros(1, 2),
-                R: DMatrix::from_element(1, 1, R),
-                angle_rows: vec![false],
-                channel_of_row: vec![0],
-            }
-        }
-        fn observes_alike(&self) -> bool {
-            false
-        }
-        fn linearize_at<'a>(
-            &self,
-            template: &'a Observation,
-            prior: &Gaussian,
-            site: Site,
-            z: &[&'a DVector<f64>],
-        ) -> (Cow<'a, Observation>, Vec<Cow<'a, DVector<f64>>>) {
-            let a = CORNERS[site.node];
-            let (dx, dy) = (prior.x[0] - a[0], prior.x[1] - a[1]);
-            let h = dx.hypot(dy);
-            let jac = DMatrix::from_row_slice(1, 2, &[dx / h, dy / h]);
-            let offset = h - (&jac * &prior.x)[0];
-            let obs = Observation {
-                H: jac,
-                ..template.clone()
-            };
-            (
-                Cow::Owned(obs),
-                z.iter().map(|z| Cow::Owned(z.add_scalar(-offset))).collect(),
-            )
-        }
-        fn sense(&self, sensor: &mut Sensor, truth: &Truth, site: Site, _: f64) -> Sensed {
-            let Some(x) = truth.linear_state() else {
-                return Sensed::default();
-            };
-            let a = CORNERS[site.node];
-            let range = (x[0] - a[0]).hypot(x[1] - a[1]);
-            let v = sensor.noise(&DMatrix::from_element(1, 1, R.sqrt()));
-            Sensed {
-                z: Some(simnet::model::Measurement::full(v.add_scalar(range))),
-                ..Sensed::default()
-            }
-        }
-    }
     register(Registration {
         name: "corner-ranges",
         about: "a body wandering in a 20 m square, ranged from its four corners",
@@ -523,7 +472,7 @@ fn a_model_whose_nodes_observe_differently_runs_without_sequeira() {
             let base = Linear::new(eye.clone(), eye.clone(), &eye * 1e-4, &eye * R, centre, eye);
             Arc::new(Observed {
                 base: Arc::new(base),
-                sensing: Ranges,
+                sensing: Ranges::planar(CORNERS.to_vec(), 2, R).unwrap(),
             })
         }),
     })

@@ -17,6 +17,7 @@ pub mod linear;
 mod observed;
 mod parse;
 pub mod pose;
+pub mod ranges;
 mod registry;
 mod truth;
 
@@ -39,6 +40,7 @@ pub use observed::Observed;
 pub use parse::RawModel;
 pub use parse::{matrix_rows, parse, to_raw};
 pub use pose::Pose;
+pub use ranges::Ranges;
 pub use registry::{register, Builder, Kind, RegisterError, Registration};
 pub use truth::{psd_sqrt, Truth, REBASE_LIMIT};
 

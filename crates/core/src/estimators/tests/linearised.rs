@@ -8,7 +8,7 @@ use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
 
 use super::*;
 use crate::estimate::{kalman_update, MissingChannels};
-use crate::model::{Linear, Measurement, Observed, Sensed, Sensing, Site, Truth};
+use crate::model::{Linear, Measurement, Observed, Ranges, Sensed, Sensing, Site, Truth};
 use crate::sensor::Sensor;
 
 /// z = H x + c: a linear model's observation with an offset, which only its `linearize_at` takes off.
@@ -90,55 +90,6 @@ fn a_models_linearisation_reaches_every_update() {
     assert!((&raw.x - &want.x).amax() > 0.1);
 }
 
-/// Each node measures its range to a body at x = (p_x, p_y) from where it stands: h(x, site) = ‖x − a_site‖ + v.
-#[derive(Debug)]
-struct Ranges {
-    at: Vec<Vector2<f64>>,
-    r: f64,
-}
-
-impl Sensing for Ranges {
-    fn observation(&self) -> Observation {
-        Observation {
-            H: DMatrix::zeros(1, 2),
-            R: DMatrix::from_element(1, 1, self.r),
-            angle_rows: vec![false],
-            channel_of_row: vec![0],
-        }
-    }
-    fn observes_alike(&self) -> bool {
-        false
-    }
-    /// h(x) ≈ h(x̂) + H (x − x̂), H = (x̂ − a)ᵀ/‖x̂ − a‖: z − (h(x̂) − H x̂) for a linear update.
-    fn linearize_at<'a>(
-        &self,
-        template: &'a Observation,
-        prior: &Gaussian,
-        site: Site,
-        z: &[&'a DVector<f64>],
-    ) -> (Cow<'a, Observation>, Vec<Cow<'a, DVector<f64>>>) {
-        let d = Vector2::new(prior.x[0], prior.x[1]) - self.at[site.node];
-        let H = DMatrix::from_row_slice(1, 2, &[d.x / d.norm(), d.y / d.norm()]);
-        let offset = d.norm() - (&H * &prior.x)[0];
-        let obs = Observation { H, ..template.clone() };
-        (
-            Cow::Owned(obs),
-            z.iter().map(|z| Cow::Owned(z.add_scalar(-offset))).collect(),
-        )
-    }
-    fn sense(&self, sensor: &mut Sensor, truth: &Truth, site: Site, _t: f64) -> Sensed {
-        let Some(x) = truth.linear_state() else {
-            return Sensed::default();
-        };
-        let range = (Vector2::new(x[0], x[1]) - self.at[site.node]).norm();
-        let v = sensor.noise(&DMatrix::from_element(1, 1, self.r.sqrt()));
-        Sensed {
-            z: Some(Measurement::full(v.add_scalar(range))),
-            ..Sensed::default()
-        }
-    }
-}
-
 /// Four nodes at the corners of a 20 m square ranging a body that stands still (A = I).
 fn ranges() -> Observed<Ranges> {
     let obs = Observation {
@@ -150,12 +101,7 @@ fn ranges() -> Observed<Ranges> {
     let I = DMatrix::identity(2, 2);
     Observed {
         base: Arc::new(linear_model(&I, &obs, &(&I * 0.01))),
-        sensing: Ranges {
-            at: [(0.0, 0.0), (20.0, 0.0), (0.0, 20.0), (20.0, 20.0)]
-                .map(|(x, y)| Vector2::new(x, y))
-                .to_vec(),
-            r: 0.04,
-        },
+        sensing: Ranges::planar(vec![[0.0, 0.0], [20.0, 0.0], [0.0, 20.0], [20.0, 20.0]], 2, 0.04).unwrap(),
     }
 }
 
@@ -163,9 +109,14 @@ fn ranges() -> Observed<Ranges> {
 fn readings(model: &Observed<Ranges>) -> Vec<Measurement> {
     let body = Vector2::new(10.0, 10.0);
     let errors = [0.1, -0.2, 0.05, 0.15];
-    let at = &model.sensing.at;
+    let at = model.sensing.sites();
     (0..4)
-        .map(|i| Measurement::full(DVector::from_element(1, (body - at[i]).norm() + errors[i])))
+        .map(|i| {
+            Measurement::full(DVector::from_element(
+                1,
+                (body - Vector2::from(at[i])).norm() + errors[i],
+            ))
+        })
         .collect()
 }
 
@@ -183,11 +134,12 @@ fn stacked_ekf(model: &Observed<Ranges>, prior: &Gaussian, z: &[Measurement]) ->
     let P = Matrix2::new(prior.P[(0, 0)], prior.P[(0, 1)], prior.P[(1, 0)], prior.P[(1, 1)]);
     let mut Y = P.try_inverse().unwrap();
     let mut u = Vector2::zeros();
-    for (a, z) in model.sensing.at.iter().zip(z) {
-        let d = x - a;
+    let r = model.sensing.r();
+    for (a, z) in model.sensing.sites().iter().zip(z) {
+        let d = x - Vector2::from(*a);
         let h = d / d.norm();
-        Y += h * h.transpose() / model.sensing.r;
-        u += h * (z.z[0] - d.norm()) / model.sensing.r;
+        Y += h * h.transpose() / r;
+        u += h * (z.z[0] - d.norm()) / r;
     }
     let P = Y.try_inverse().unwrap();
     (x + P * u, P)
@@ -227,10 +179,7 @@ fn a_center_linearises_each_range_where_it_was_taken() {
     // The sites matter: the same four ranges read as if node 0 had taken them all land elsewhere.
     let alike = Observed {
         base: model.base.clone(),
-        sensing: Ranges {
-            at: vec![model.sensing.at[0]; 4],
-            r: model.sensing.r,
-        },
+        sensing: Ranges::planar(vec![model.sensing.sites()[0]; 4], 2, model.sensing.r()).unwrap(),
     };
     let (wrong, _) = stacked_ekf(&alike, &prior, &z);
     assert!((wrong - x).norm() > 1.0, "{wrong} and {x}");
@@ -260,10 +209,7 @@ fn a_node_linearises_its_own_range_at_its_site() {
         // One range alone: the stacked EKF of that corner.
         let one = Observed {
             base: model.base.clone(),
-            sensing: Ranges {
-                at: vec![model.sensing.at[node]],
-                r: model.sensing.r,
-            },
+            sensing: Ranges::planar(vec![model.sensing.sites()[node]], 2, model.sensing.r()).unwrap(),
         };
         let (x, P) = stacked_ekf(&one, &prior, &z[node..=node]);
         let got = local.state().unwrap();
