@@ -541,3 +541,77 @@ fn a_model_whose_nodes_observe_differently_runs_without_sequeira() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The built-in `ranges4` (a topology file, no program): its nodes range the target from the positions the file
+/// gives them. It is the same run as the model registered by hand with those four sites, over UDP as in memory; the
+/// center, with four ranges, beats each node's own filter, with one.
+#[test]
+fn ranges4_ranges_from_the_positions_of_its_file() {
+    use nalgebra::{DMatrix, DVector};
+    use simnet::model::{register, Kind as ModelKind, Linear, Observed, Ranges, Registration, TrajectoryView};
+
+    register(Registration {
+        name: "ranges4-by-hand",
+        about: "ranges4's target and anchors, written in code",
+        error_text: ModelKind::Linear.error_text(),
+        view: TrajectoryView::FirstColumn,
+        build: Some(|_, _| {
+            let (c, s) = (0.9999691576447897, 0.007853900888711334);
+            let a = DMatrix::from_row_slice(2, 2, &[c, -s, s, c]);
+            let eye = DMatrix::<f64>::identity(2, 2);
+            let r = DMatrix::from_element(1, 1, 0.01);
+            let base = Linear::new(
+                a,
+                DMatrix::zeros(1, 2),
+                &eye * 1e-4,
+                r,
+                DVector::from_vec(vec![5.0, 0.0]),
+                eye,
+            );
+            let corners = vec![[-10.0, -10.0], [10.0, -10.0], [-10.0, 10.0], [10.0, 10.0]];
+            Arc::new(Observed {
+                base: Arc::new(base),
+                sensing: Ranges::planar(corners, 2, 0.01).unwrap(),
+            })
+        }),
+    })
+    .unwrap();
+    let short = || Overrides {
+        duration_s: Some(4.0),
+        ..Default::default()
+    };
+    let file = common::simulate(common::topology("ranges4", short()));
+    let text = simnet::scenario::builtin::get("ranges4").unwrap();
+    let start = text.find("[model]").unwrap();
+    let end = text.find("[estimators]").unwrap();
+    let by_hand = format!(
+        "{}[model]\nkind = \"ranges4-by-hand\"\n{}",
+        &text[..start],
+        &text[end..]
+    );
+    let hand = common::simulate(common::topology(&by_hand, short()));
+    for (name, e) in &file.estimators {
+        assert_eq!(e.mean_error, hand.estimators[name].mean_error, "{name}");
+    }
+    let own: Vec<f64> = file
+        .nodes
+        .iter()
+        .map(|n| {
+            assert!(n.networked.is_none(), "node {}", n.id);
+            let (a, b) = (&n.independent, &hand.nodes[n.id as usize].independent);
+            assert_eq!(
+                a.as_ref().and_then(|f| f.mean_error),
+                b.as_ref().and_then(|f| f.mean_error)
+            );
+            a.as_ref().and_then(|f| f.mean_error).unwrap()
+        })
+        .collect();
+    let center = file.estimators["centralized"].mean_error.unwrap();
+    assert!(own.iter().all(|e| center < *e), "center {center}, own {own:?}");
+    let udp = reproducible(common::run(common::topology("ranges4", short())));
+    assert_eq!(
+        udp,
+        reproducible(file),
+        "the virtual clock over UDP and the in-memory Sim agree"
+    );
+}

@@ -54,6 +54,14 @@ pub enum ModelConfig {
     Attitude(Attitude),
     /// A linear model.
     Linear(Linear),
+    /// A linear model's body ranged by every node from where it stands (`observe = "ranges"`): [`Ranges`] on
+    /// [`Linear`]'s dynamics.
+    Ranged {
+        /// The dynamics, truth and prior (its C unused: a zero row).
+        linear: Linear,
+        /// The model the nodes run.
+        model: Observed<Ranges>,
+    },
     /// A model a program registered ([`register`]), built from its `[model.params]` table.
     Registered {
         /// Its place in the registry.
@@ -72,6 +80,7 @@ impl ModelConfig {
             ModelConfig::Pose(m) => m,
             ModelConfig::Attitude(m) => m,
             ModelConfig::Linear(m) => m,
+            ModelConfig::Ranged { model, .. } => model,
             ModelConfig::Registered { model, .. } => &**model,
         }
     }
@@ -81,7 +90,7 @@ impl ModelConfig {
         match self {
             ModelConfig::Pose(_) => Kind::Pose,
             ModelConfig::Attitude(_) => Kind::Attitude,
-            ModelConfig::Linear(_) => Kind::Linear,
+            ModelConfig::Linear(_) | ModelConfig::Ranged { .. } => Kind::Linear,
             ModelConfig::Registered { kind, .. } => *kind,
         }
     }
@@ -92,11 +101,23 @@ impl ModelConfig {
             ModelConfig::Pose(m) => Arc::new(m.clone()),
             ModelConfig::Attitude(m) => Arc::new(m.clone()),
             ModelConfig::Linear(m) => Arc::new(m.clone()),
+            ModelConfig::Ranged { model, .. } => Arc::new(model.clone()),
             ModelConfig::Registered { model, .. } => model.clone(),
         }
     }
 
-    /// The linear system, for the analyses that need one (Sinopoli's bounds).
+    /// Where each node stands (node i at `sites[i]`, m, in the plane): the sites a ranged model's nodes measure
+    /// from; nothing for any other model.
+    pub fn stand_at(&mut self, sites: Vec<[f64; 2]>) {
+        if let ModelConfig::Ranged { linear, model } = self {
+            if let Some(s) = Ranges::planar(sites, linear.A().nrows(), model.sensing.r()) {
+                model.sensing = s;
+            }
+        }
+    }
+
+    /// The linear system y = C x + v, for the analyses that need one (Sinopoli's bounds); none for a ranged model,
+    /// whose observation is not C x.
     pub fn as_linear(&self) -> Option<&Linear> {
         match self {
             ModelConfig::Linear(m) => Some(m),

@@ -2,7 +2,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::{Attitude, Kind, Linear, ModelConfig, Pose};
+use super::{Attitude, Kind, Linear, ModelConfig, Observed, Pose, Ranges};
 use serde::{Deserialize, Serialize};
 
 use crate::checks::Checks;
@@ -52,13 +52,16 @@ pub struct RawModel {
     pub x0: Option<Vec<f64>>,
     /// Linear: P₀, row by row.
     pub p0: Option<Vec<Vec<f64>>>,
+    /// Linear: what the nodes measure, `state` (y = C x + v) or `ranges` (each node's range to the body the first
+    /// two state rows place, from where the node stands).
+    pub observe: Option<String>,
 }
 
 /// The validated model of a `[model]` table; problems go to `ck` with their keys.
 pub fn parse(m: RawModel, ck: &mut Checks) -> ModelConfig {
     let kind = m.kind.as_deref().unwrap_or("pose");
     // Keys that belong to some kinds only.
-    let owned: [(&str, bool, &[&str]); 18] = [
+    let owned: [(&str, bool, &[&str]); 19] = [
         ("q_pos", m.q_pos.is_some(), &["pose"]),
         ("q_vel", m.q_vel.is_some(), &["pose"]),
         ("q_att", m.q_att.is_some(), &["pose"]),
@@ -76,6 +79,7 @@ pub fn parse(m: RawModel, ck: &mut Checks) -> ModelConfig {
         ("r", m.r.is_some(), &["linear"]),
         ("x0", m.x0.is_some(), &["linear"]),
         ("p0", m.p0.is_some(), &["linear"]),
+        ("observe", m.observe.is_some(), &["linear"]),
         ("params", m.params.is_some(), &[]),
     ];
     let known = Kind::from_name(kind);
@@ -130,10 +134,29 @@ pub fn parse(m: RawModel, ck: &mut Checks) -> ModelConfig {
             })
         }
         "linear" => {
+            let ranges = match m.observe.as_deref() {
+                None | Some("state") => false,
+                Some("ranges") => true,
+                Some(other) => {
+                    ck.bad("model.observe", format!("expected state | ranges, got `{other}`"));
+                    false
+                }
+            };
             let a = ck.matrix("model.a", &m.a);
-            let c = ck.matrix("model.c", &m.c);
             let q = ck.matrix("model.q", &m.q);
             let r = ck.matrix("model.r", &m.r);
+            // A range is linearised at the node's site: there is no C to give.
+            let c = match (ranges, &m.c) {
+                (true, Some(_)) => {
+                    ck.bad(
+                        "model.c",
+                        "not with observe = \"ranges\": each node's range is linearised where the node stands",
+                    );
+                    None
+                }
+                (true, None) => a.as_ref().map(|a| DMatrix::zeros(1, a.nrows())),
+                (false, _) => ck.matrix("model.c", &m.c),
+            };
             for (k, v) in [("a", &a), ("c", &c), ("q", &q), ("r", &r)] {
                 if v.is_none() && m.kind.is_some() && ck.problems.iter().all(|p| p.key != format!("model.{k}")) {
                     ck.bad(format!("model.{k}"), "required for kind = \"linear\"");
@@ -179,7 +202,27 @@ pub fn parse(m: RawModel, ck: &mut Checks) -> ModelConfig {
                 }
                 None => DMatrix::identity(n, n),
             };
-            ModelConfig::Linear(Linear::new(a, c, q, r, x0, p0))
+            let linear = Linear::new(a, c, q, r, x0, p0);
+            if !ranges {
+                return ModelConfig::Linear(linear);
+            }
+            if n < 2 {
+                ck.bad(
+                    "model.a",
+                    "observe = \"ranges\" places the body by the first two state rows: at least 2 states",
+                );
+            }
+            // The sites are the nodes' positions, which the scenario gives after the model ([`ModelConfig::stand_at`]).
+            match Ranges::planar(Vec::new(), n, linear.R()[(0, 0)]) {
+                Some(sensing) => ModelConfig::Ranged {
+                    model: Observed {
+                        base: std::sync::Arc::new(linear.clone()),
+                        sensing,
+                    },
+                    linear,
+                },
+                None => ModelConfig::Linear(linear),
+            }
         }
         other => {
             ck.bad("model.kind", format!("expected {}, got `{other}`", Kind::names()));
@@ -222,6 +265,16 @@ pub fn to_raw(m: &ModelConfig) -> RawModel {
             kind: Some("linear".into()),
             a: rows(l.A()),
             c: rows(l.C()),
+            q: rows(l.Q()),
+            r: rows(l.R()),
+            x0: Some(l.x0().iter().copied().collect()),
+            p0: rows(l.P0()),
+            ..Default::default()
+        },
+        ModelConfig::Ranged { linear: l, .. } => RawModel {
+            kind: Some("linear".into()),
+            observe: Some("ranges".into()),
+            a: rows(l.A()),
             q: rows(l.Q()),
             r: rows(l.R()),
             x0: Some(l.x0().iter().copied().collect()),

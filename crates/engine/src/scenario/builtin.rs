@@ -16,6 +16,7 @@ pub const ALL: &[(&str, &str)] = &[
     ("ring100", include_str!("../../../../topologies/ring100.toml")),
     ("attitude3", include_str!("../../../../topologies/attitude3.toml")),
     ("rgg50", include_str!("../../../../topologies/rgg50.toml")),
+    ("ranges4", include_str!("../../../../topologies/ranges4.toml")),
     (
         "ring3-attacked",
         include_str!("../../../../topologies/ring3-attacked.toml"),

@@ -84,6 +84,7 @@ pub const KEYS: &[KeyDoc] = &[
     k("model.r", MATRIX, "", "required (linear)", "m × m, symmetric positive definite", "linear: the measurement noise covariance R: y = C x + v, v ~ N(0, R).", Some("[[0.0]]")),
     k("model.x0", "list of numbers", "", "zeros", "n entries", "linear: the initial estimate x̂₀, and the mean the true initial state is drawn from (x(0) ~ N(x0, p0); then the truth runs x⁺ = A x + w on its own seeded stream).", Some("[1.0, 2.0, 3.0]")),
     k("model.p0", MATRIX, "", "the identity", "n × n, symmetric positive definite", "linear: the initial covariance P₀, and the spread the true initial state is drawn with.", Some("[[0.0]]")),
+    k("model.observe", "state | ranges", "", "\"state\"", "the words listed; linear only", "linear: what each node measures. state: y = C x + v; ranges: its distance to the body whose position is the first two state rows, from where the node stands (node[].position_m), with variance model.r (1 × 1) and no model.c; every estimator linearises each range at its node's site, and the nodes run no networked filter (sequeira's one gain needs one observation for every source).", Some("\"bearing\"")),
     k("model.params", "table", "", "empty", "the keys the registered model reads", "a registered model's own keys (`[model.params]`), which it checks and reports by key (`model.params.<key>`).", Some("{ q = 1.0 }")),
     // [consensus]
     k("consensus.beta0", NUM, "", "0.0", PROB, "β₀ of Sequeira (2023) (17): the weight of the node's own prior in the consensus step.", Some("2")),
@@ -321,7 +322,17 @@ mod tests {
         }
         let model = if ["model.r_acc", "model.r_mag", "model.mag_field"].contains(&key) {
             "kind = \"attitude\"\n"
-        } else if ["model.a", "model.c", "model.q", "model.r", "model.x0", "model.p0"].contains(&key) {
+        } else if [
+            "model.a",
+            "model.c",
+            "model.q",
+            "model.r",
+            "model.x0",
+            "model.p0",
+            "model.observe",
+        ]
+        .contains(&key)
+        {
             "kind = \"linear\"\na = [[1.0]]\nc = [[1.0]]\nq = [[1.0]]\nr = [[1.0]]\n"
         } else {
             "kind = \"pose\"\n"

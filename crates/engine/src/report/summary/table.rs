@@ -286,7 +286,7 @@ impl Summary {
         if self.estimators.contains_key("centralized") {
             writeln!(
                 w,
-                "centralized: every sensing node's measurement reaches one center with no loss (the reference; exact for linear models)"
+                "centralized: every sensing node's measurement reaches one center with no loss (the reference; exact where the measurements are linear in the state)"
             )?;
         }
         if let Some(e) = self.estimators.get("centralized-net") {

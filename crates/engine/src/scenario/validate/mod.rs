@@ -74,7 +74,7 @@ impl Validator {
         let description = raw.description.clone().unwrap_or_default();
         let trajectory_given = raw.sim.as_ref().is_some_and(|s| s.trajectory.is_some());
         let sim = self.sim(raw.sim.unwrap_or_default());
-        let model = crate::model::parse(raw.model.unwrap_or_default(), self);
+        let mut model = crate::model::parse(raw.model.unwrap_or_default(), self);
         if trajectory_given && !model.get().imu_driven() {
             self.bad(
                 "sim.trajectory",
@@ -149,6 +149,7 @@ impl Validator {
                 place,
             });
         }
+        self.stand(&mut model, &nodes);
         let n = nodes.len();
         let index = |v: &mut Validator, key: &str, id: i64| -> Option<usize> {
             let r = ids.get(&id).copied();
