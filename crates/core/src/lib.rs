@@ -23,13 +23,13 @@
 //! | [`checks`] | the validator's shared checks: each problem keyed, a usable default returned |
 //! | [`model`] | the estimation models: [`model::Model`] = [`model::Dynamics`] + [`model::Sensing`] + [`model::Manifold`] + [`model::GroundTruth`] + [`model::Report`] — pose, attitude (quaternion EKF), linear, and any a program registers ([`model::register`]); an observation may depend on the [`model::Site`] that measured |
 //! | [`wire`] | the datagram format: postcard + CRC-32, checked decode; authenticated frames (AES-128-CCM); a link's sequence gaps as its receiver counts them |
-//! | [`medium`] | what carries a node's transmissions to their receivers: the [`medium::Medium`] trait, and [`medium::PairwiseMedium`] (every directed link deciding alone, split by sender) |
+//! | [`medium`] | what carries a node's transmissions to their receivers: the [`medium::Medium`] trait, and [`medium::PairwiseMedium`] (every directed link deciding alone, split by sender); [`medium::Ingress`], a stage in front of one receiver that adds datagrams and learns their fate |
 //! | [`link`] | per-datagram rules (outage, Bernoulli / Gilbert–Elliott loss, duplication, delay and jitter, corruption), the egress queue, fault schedules |
 //! | [`estimators`] | the distributed schemes behind one [`estimators::Estimator`] trait — sequeira (the node's networked filter), independent, centralized, KCF, ICF, HCMCI, diffusion, CI — per node, one message per round; the registry by name and the wire form of their messages |
-//! | [`attack`] | the adversary model of `[[attack]]`: forge, tamper, replay, flood on the air in front of a node, false data from a compromised one |
+//! | [`attack`] | the adversary model of `[[attack]]`: forge, tamper, replay, flood on the air in front of a node (an [`medium::Ingress`]), false data from a compromised one |
 //!
 //! Dependencies point down the table's order and never back up (`model` uses `estimate`, `imu_csv`, `checks`,
-//! `sensor`; `estimators` uses `model` and `wire`; `attack` uses `wire`); `tests/integration/layering.rs` holds it. The crate has no tokio and no filesystem dependency, so
+//! `sensor`; `estimators` uses `model` and `wire`; `attack` uses `wire` and `medium`); `tests/integration/layering.rs` holds it. The crate has no tokio and no filesystem dependency, so
 //! the compiler holds the rest.
 
 pub mod attack;

@@ -22,7 +22,7 @@
 //! | [`wire`] (core) | the datagram format: a header that says who sent what to whom, when, for which scheme; postcard + CRC-32, checked decode |
 //! | [`medium`] (core) | what carries the nodes' datagrams: the [`medium::Medium`] trait a driver hands every transmission to, and [`medium::PairwiseMedium`], the scenario's directed links (built by [`Scenario::pairwise_medium`], split by sender for the UDP drivers) |
 //! | [`link`] (core) | per-datagram rules (outage, Bernoulli / Gilbert–Elliott loss, duplication, delay and jitter, corruption), the egress queue, fault schedules |
-//! | [`attack`] (core) | the adversary model of `[[attack]]`: forge, tamper, replay, flood on the air in front of a node, false data from a compromised one; what became of each injected datagram |
+//! | [`attack`] (core) | the adversary model of `[[attack]]`: forge, tamper, replay, flood on the air in front of a node (a [`medium::Ingress`] stage the node takes what arrives through), false data from a compromised one; what became of each injected datagram |
 //! | [`node`] | one node's sans-IO state machine with its call order written once: `poll_timeout`/`handle_timeout` (a step's start, its rounds, its deadline), `handle_datagram`, `send_to` (hands what it sent to the medium), over any [`model::Model`]; simulated or recorded IMU |
 //! | [`observe`] | what is measured as a run goes: the [`observe::Probe`]s a node feeds (the scorer, the trace, IMU and LMI recorders, your own), per-filter metrics, the fusion observer, the estimators' agreement and the two fusion centers (centralized, and centralized-net over lossy links) |
 //! | [`sim`] | whole runs in memory: [`Sim`] steps every node in lockstep and returns [`RunResults`], the same as over UDP (`simnet-net`) |

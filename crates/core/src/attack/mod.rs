@@ -8,7 +8,8 @@
 //! | `flood` | anyone who can reach `target` | random bytes at `rate_hz` |
 //! | `false-data` | `node` itself, compromised (it holds the key) | `bias + ramp·(t − start_s)` added to every measurement it sends |
 //!
-//! The outsiders act on the air in front of their target ([`Air`]): what they inject goes through the target's
+//! The outsiders act on the air in front of their target ([`Air`], a [`crate::medium::Ingress`] stage: the target
+//! does not know what stands in front of it): what they inject goes through the target's
 //! whole receive path (checksum, authentication, plausibility, the inbox) exactly as a datagram from a socket does,
 //! with the claimed source as its address, as a spoofed source address would give it. They cannot silence the
 //! original, so an attack that a key defeats leaves a run as it was. Each injection's fate is counted in a [`Tally`].
@@ -20,6 +21,7 @@ use nalgebra::DVector;
 use rand::Rng as _;
 use serde::{Deserialize, Serialize};
 
+pub use crate::medium::{Injection, Refusals, Tally};
 use crate::time::Time;
 use crate::wire::{Datagram, Header, Payload, KIND_MEASUREMENT};
 
@@ -116,109 +118,6 @@ impl Attack {
     }
 }
 
-/// Why an injected datagram was refused.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Refusals {
-    /// The authentication tag failed (forged or tampered with, on a sealed network).
-    pub bad_tag: u64,
-    /// A counter already accepted.
-    pub replay: u64,
-    /// Below the receiver's replay window, or an earlier boot.
-    pub too_old: u64,
-    /// A source the receiver does not hear from.
-    pub unknown_source: u64,
-    /// Not a datagram (garbage), or a datagram naming the wrong source.
-    pub malformed: u64,
-    /// The checksum failed.
-    pub corrupted: u64,
-    /// A step the receiver could not be running.
-    pub implausible_step: u64,
-    /// From an address no neighbour has.
-    pub unknown_address: u64,
-}
-
-impl Refusals {
-    /// Every refusal.
-    pub fn total(&self) -> u64 {
-        self.bad_tag
-            + self.replay
-            + self.too_old
-            + self.unknown_source
-            + self.malformed
-            + self.corrupted
-            + self.implausible_step
-            + self.unknown_address
-    }
-
-    /// Add `o`'s counts (saturating).
-    pub fn add(&mut self, o: &Refusals) {
-        self.bad_tag = self.bad_tag.saturating_add(o.bad_tag);
-        self.replay = self.replay.saturating_add(o.replay);
-        self.too_old = self.too_old.saturating_add(o.too_old);
-        self.unknown_source = self.unknown_source.saturating_add(o.unknown_source);
-        self.malformed = self.malformed.saturating_add(o.malformed);
-        self.corrupted = self.corrupted.saturating_add(o.corrupted);
-        self.implausible_step = self.implausible_step.saturating_add(o.implausible_step);
-        self.unknown_address = self.unknown_address.saturating_add(o.unknown_address);
-    }
-
-    /// The causes with a count, for a table.
-    pub fn causes(&self) -> Vec<(&'static str, u64)> {
-        [
-            ("bad tag", self.bad_tag),
-            ("replay", self.replay),
-            ("too old", self.too_old),
-            ("unknown source", self.unknown_source),
-            ("malformed", self.malformed),
-            ("checksum", self.corrupted),
-            ("implausible step", self.implausible_step),
-            ("unknown address", self.unknown_address),
-        ]
-        .into_iter()
-        .filter(|(_, n)| *n > 0)
-        .collect()
-    }
-}
-
-/// What became of one attack's datagrams.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Tally {
-    /// Datagrams the attack put on the air.
-    pub sent: u64,
-    /// Accepted and taken as a step's data (a measurement nothing had delivered yet).
-    pub used: u64,
-    /// Accepted, but nothing new: a duplicate, a closed step, or a node that was down.
-    pub ignored: u64,
-    /// Refused, by cause.
-    pub rejected: Refusals,
-}
-
-impl Tally {
-    /// Used or ignored: the datagrams the node did not refuse.
-    pub fn accepted(&self) -> u64 {
-        self.used + self.ignored
-    }
-
-    /// Add `o`'s counts (saturating).
-    pub fn add(&mut self, o: &Tally) {
-        self.sent = self.sent.saturating_add(o.sent);
-        self.used = self.used.saturating_add(o.used);
-        self.ignored = self.ignored.saturating_add(o.ignored);
-        self.rejected.add(&o.rejected);
-    }
-}
-
-/// A datagram an outsider puts on the air: `from` is the address it arrives with (the claimed source's, or none).
-#[derive(Debug, Clone)]
-pub struct Injection {
-    /// Index of the attack in the scenario.
-    pub attack: usize,
-    /// The node whose address it arrives with (none: an address no neighbour has).
-    pub from: Option<usize>,
-    /// The datagram.
-    pub bytes: Bytes,
-}
-
 /// Captures a replayer holds at most (a bounded recorder).
 const MAX_CAPTURES: usize = 4096;
 
@@ -233,6 +132,8 @@ pub struct Air {
     rng: crate::rng::Rng,
     /// The forger's own sequence numbers.
     seq: u32,
+    /// What became of each attack's datagrams, by attack index.
+    tallies: std::collections::BTreeMap<usize, Tally>,
 }
 
 impl Air {
@@ -250,6 +151,7 @@ impl Air {
             captured: VecDeque::new(),
             rng: crate::rng::stream(seed, "attack", index as u64, 0),
             seq: 0,
+            tallies: Default::default(),
         }
     }
 
@@ -259,7 +161,7 @@ impl Air {
     }
 
     /// The target begins a step at `t` (length `dt`): the flood of the step, and the replays now due.
-    pub fn on_step(&mut self, t: Time, dt: f64) -> Vec<Injection> {
+    fn floods_and_replays(&mut self, t: Time, dt: f64) -> Vec<Injection> {
         let mut out = Vec::new();
         while self.captured.front().is_some_and(|(due, _, _)| *due <= t) {
             let (_, attack, bytes) = self.captured.pop_front().expect("front exists");
@@ -293,7 +195,7 @@ impl Air {
 
     /// A datagram reaches the target at `t` from `from`: what the outsiders send ahead of it, and what they
     /// capture of it.
-    pub fn on_arrival(&mut self, t: Time, from: Option<usize>, bytes: &[u8]) -> Vec<Injection> {
+    fn ahead_of(&mut self, t: Time, from: Option<usize>, bytes: &[u8]) -> Vec<Injection> {
         let mut out = Vec::new();
         let Some(from) = from else { return out };
         let Ok(header) = crate::wire::peek_header(bytes) else {
@@ -365,6 +267,23 @@ impl Air {
             }
         }
         out
+    }
+}
+
+/// The outsiders stand in front of their target: it takes what they inject ahead of what arrives and as each step
+/// begins, and tells them what became of it.
+impl crate::medium::Ingress for Air {
+    fn on_arrival(&mut self, t: Time, from: Option<usize>, bytes: &[u8]) -> Vec<Injection> {
+        self.ahead_of(t, from, bytes)
+    }
+    fn on_step(&mut self, t: Time, dt: f64) -> Vec<Injection> {
+        self.floods_and_replays(t, dt)
+    }
+    fn on_fate(&mut self, source: usize, fate: &Tally) {
+        self.tallies.entry(source).or_default().add(fate);
+    }
+    fn tallies(&self) -> Vec<(usize, Tally)> {
+        self.tallies.iter().map(|(i, t)| (*i, *t)).collect()
     }
 }
 

@@ -1,4 +1,5 @@
 use super::*;
+use crate::medium::Ingress;
 use crate::wire::secure::{Key, Opener, Rejected, Sealer};
 
 fn attack(kind: AttackKind) -> Attack {

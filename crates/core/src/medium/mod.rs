@@ -86,10 +86,12 @@
 //! ```
 
 mod capture;
+mod ingress;
 
 use bytes::Bytes;
 
 pub use capture::{Capture, CaptureLog, Captured, Event};
+pub use ingress::{Ingress, Injection, Refusals, Tally};
 
 use crate::link::{Egress, FaultSchedule, LinkCounters, Stream};
 use crate::time::Time;

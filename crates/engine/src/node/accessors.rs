@@ -21,6 +21,57 @@ impl Node {
         self.probes.lmi.get_or_insert_with(LmiRecorder::default);
     }
 
+    /// Put `stage` in front of this node (none: nothing) in place of the scenario's outsiders
+    /// ([`crate::medium::Ingress`]): what it adds goes through the whole receive path ahead of what arrives, and it
+    /// learns each one's fate; [`crate::Sim::set_ingress`] does it in a run. This one sends each datagram again
+    /// behind the next: copies the node takes for nothing new.
+    ///
+    /// ```
+    /// # extern crate simnet_engine as simnet;
+    /// use simnet::attack::{Injection, Tally};
+    /// use simnet::medium::Ingress;
+    /// use simnet::time::Time;
+    /// use simnet::{Overrides, Scenario, Sim};
+    ///
+    /// #[derive(Default)]
+    /// struct Echo {
+    ///     last: Option<(Option<usize>, bytes::Bytes)>,
+    ///     fate: Tally,
+    /// }
+    ///
+    /// impl Ingress for Echo {
+    ///     fn on_arrival(&mut self, _t: Time, from: Option<usize>, bytes: &[u8]) -> Vec<Injection> {
+    ///         let again = self.last.replace((from, bytes::Bytes::copy_from_slice(bytes)));
+    ///         again.map(|(from, bytes)| Injection { attack: 0, from, bytes }).into_iter().collect()
+    ///     }
+    ///     fn on_step(&mut self, _t: Time, _dt: f64) -> Vec<Injection> {
+    ///         Vec::new()
+    ///     }
+    ///     fn on_fate(&mut self, _source: usize, fate: &Tally) {
+    ///         self.fate.add(fate);
+    ///     }
+    ///     fn tallies(&self) -> Vec<(usize, Tally)> {
+    ///         vec![(0, self.fate)]
+    ///     }
+    /// }
+    ///
+    /// let scenario = Scenario::resolve("ring3")?.with(&Overrides { duration_s: Some(2.0), ..Default::default() })?;
+    /// let plain = Sim::new(&scenario)?.run()?;
+    /// let mut sim = Sim::new(&scenario)?;
+    /// sim.set_ingress(0, Some(Box::new(Echo::default())))?;
+    /// let echoed = sim.run()?;
+    /// // Every copy reached the node and none was new: its estimates are those of the plain run.
+    /// let (fate, arrived) = (echoed.reports[0].attacks[0].1, echoed.reports[0].counters.datagrams_in);
+    /// assert_eq!(fate.sent, arrived / 2);
+    /// assert_eq!((fate.used, fate.ignored), (0, fate.sent));
+    /// let error = |r: simnet::RunResults| r.summary().nodes[0].networked.as_ref().unwrap().mean_error;
+    /// assert_eq!(error(plain), error(echoed));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn set_ingress(&mut self, stage: Option<Box<dyn crate::medium::Ingress>>) {
+        self.ingress = stage;
+    }
+
     /// Feed `p` every update, IMU sample and set of LMI terms from now on.
     pub fn add_probe(&mut self, p: Box<dyn Probe>) {
         self.probes.added.push(p);
@@ -97,7 +148,9 @@ impl Node {
             },
             trace: self.take_trace(),
             imu: self.take_imu(),
-            attacks: self.trust.tallies(),
+            attacks: self
+                .trust
+                .tallies(self.ingress.as_ref().map(|i| i.tallies()).unwrap_or_default()),
         }
     }
 }

@@ -78,6 +78,7 @@ impl Node {
             handshake: false,
             hello_due: false,
             trust,
+            ingress: topo.ingress(index),
             topo,
             due: super::clock::Due::Step(0),
         };

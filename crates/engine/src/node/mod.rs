@@ -49,7 +49,7 @@
 //! | `session.rs` | neighbours heard from and the highest step they reported (the multi-host handshake) |
 //! | `hello.rs` | the handshake's datagrams: hellos out and in, probes of a neighbour's new address, earlier boots |
 //! | `events.rs` | what a node reports: trace rows, step estimates, counters |
-//! | `trust.rs` | what it believes: plausible steps, the innovation gate, the attacks on it and their tallies |
+//! | `trust.rs` | what it believes: plausible steps, the innovation gate, what a stage in front of it adds ([`crate::medium::Ingress`]) and each one's fate, its false-data attacks |
 #![allow(non_snake_case)]
 
 mod accessors;
@@ -151,8 +151,10 @@ pub struct Node {
     handshake: bool,
     /// A neighbour's hello did not echo this node's boot: it has not heard this boot yet ([`Node::take_hello_due`]).
     hello_due: bool,
-    /// The attacks around this node and its innovation gate.
+    /// Its false-data attacks (when compromised) and its innovation gate.
     trust: trust::Trust,
+    /// What stands in front of it (the outsiders attacking it), taken ahead of what arrives.
+    ingress: Option<Box<dyn crate::medium::Ingress>>,
     /// What comes next on its timeline ([`Node::handle_timeout`]).
     due: clock::Due,
 }
@@ -252,7 +254,7 @@ impl Node {
             self.counters.steps_down += 1;
             self.inbox.close_down();
             self.schemes.close_down();
-            self.air_on_step(k);
+            self.ingress_on_step(k);
             return;
         }
         let joining = !self.started && k > 0;
@@ -344,7 +346,7 @@ impl Node {
         };
         self.send(at, own.as_ref(), &round0);
         self.inbox.open(k, own);
-        self.air_on_step(k);
+        self.ingress_on_step(k);
     }
 
     /// The sub-deadline of round `r` of step k, t_k + D(r+1)/L, for r < L − 1 (the last round closes at
@@ -448,7 +450,7 @@ impl Node {
 
     /// Bytes arrived; `from` is the sender's node index when the shell knows it by address.
     pub fn handle_datagram(&mut self, from: Option<usize>, bytes: &[u8]) -> Option<Arrival> {
-        self.air_on_arrival(from, bytes);
+        self.ingress_on_arrival(from, bytes);
         self.receive(from, bytes)
     }
 }

@@ -1,23 +1,25 @@
 //! What a node believes of what arrives: a claimed step only inside a window of its own clock, a neighbour's
-//! measurement only through the innovation gate, and — when the scenario attacks the node — the air in front of it
-//! ([`crate::attack::Air`]) with the fate of every datagram an attack injects ([`Tally`]).
+//! measurement only through the innovation gate; what a stage in front of it adds ([`Ingress`], the scenario's
+//! outsiders when they attack it) goes through its whole receive path, and the stage learns each one's fate
+//! ([`Tally`]); a compromised node's own measurements are moved by its false-data attacks.
 
 use std::collections::BTreeMap;
 
 use nalgebra::DVector;
 
 use super::Node;
-use crate::attack::{Air, Attack, AttackKind, Injection, Tally};
+use crate::attack::{Attack, AttackKind, Injection, Tally};
 use crate::estimate::{Gaussian, Observation};
+use crate::medium::Ingress;
 use crate::model::{Measurement, Model, Site};
 use crate::scenario::Scenario;
 use crate::time::Time;
 
-/// The adversaries around one node and its innovation gate.
+/// A compromised node's false-data attacks and its innovation gate.
 pub(super) struct Trust {
-    air: Air,
     /// The false-data attacks this node carries out (it is compromised), by index in the scenario.
     false_data: Vec<(usize, Attack)>,
+    /// What the false-data attacks sent, by attack index.
     tallies: BTreeMap<usize, Tally>,
     /// The gate's χ² quantile by degrees of freedom (index: rows present), when the run gates.
     gate: Option<Vec<f64>>,
@@ -27,7 +29,6 @@ impl Trust {
     pub fn new(topo: &Scenario, index: usize, rows: usize) -> Trust {
         let attacks = topo.attacks();
         Trust {
-            air: Air::new(attacks, index, |j| topo.nodes()[j].id, topo.sim().seed),
             false_data: attacks
                 .iter()
                 .enumerate()
@@ -60,8 +61,13 @@ impl Trust {
         self.tallies.entry(attack).or_default().sent += n;
     }
 
-    pub fn tallies(&self) -> Vec<(usize, Tally)> {
-        self.tallies.iter().map(|(i, t)| (*i, *t)).collect()
+    /// The false-data attacks' tallies with `more` (a stage's, by attack index), by attack index.
+    pub fn tallies(&self, more: Vec<(usize, Tally)>) -> Vec<(usize, Tally)> {
+        let mut all = self.tallies.clone();
+        for (i, t) in more {
+            all.entry(i).or_default().add(&t);
+        }
+        all.into_iter().collect()
     }
 
     /// Whether the gate leaves `m`, taken at `site`, out of an update from `prior`: its normalised innovation squared
@@ -141,35 +147,33 @@ impl Node {
         self.topo.step_time(self.last_step.unwrap_or(0))
     }
 
-    /// What the outsiders send ahead of a datagram that reaches this node, taken first.
-    pub(super) fn air_on_arrival(&mut self, from: Option<usize>, bytes: &[u8]) {
-        if self.trust.air.is_empty() {
-            return;
+    /// What the stage in front of this node adds ahead of a datagram that reaches it, taken first.
+    pub(super) fn ingress_on_arrival(&mut self, from: Option<usize>, bytes: &[u8]) {
+        let Some(mut stage) = self.ingress.take() else { return };
+        for inj in stage.on_arrival(self.now(), from, bytes) {
+            self.inject(&mut *stage, inj);
         }
-        let t = self.now();
-        for inj in self.trust.air.on_arrival(t, from, bytes) {
-            self.inject(inj);
-        }
+        self.ingress = Some(stage);
     }
 
-    /// What the outsiders send as step `k` begins: floods and the replays due.
-    pub(super) fn air_on_step(&mut self, k: u64) {
-        if self.trust.air.is_empty() {
-            return;
+    /// What the stage adds as step `k` begins (the outsiders' floods and the replays due).
+    pub(super) fn ingress_on_step(&mut self, k: u64) {
+        let Some(mut stage) = self.ingress.take() else { return };
+        for inj in stage.on_step(self.topo.step_time(k), self.topo.sim().dt()) {
+            self.inject(&mut *stage, inj);
         }
-        let dt = self.topo.sim().dt();
-        for inj in self.trust.air.on_step(self.topo.step_time(k), dt) {
-            self.inject(inj);
-        }
+        self.ingress = Some(stage);
     }
 
-    /// One injected datagram through the whole receive path, its fate counted.
-    fn inject(&mut self, inj: Injection) {
+    /// One added datagram through the whole receive path; the stage learns its fate.
+    fn inject(&mut self, stage: &mut dyn Ingress, inj: Injection) {
         let before = self.seen(inj.from);
         let arrival = self.receive(inj.from, &inj.bytes);
         let after = self.seen(inj.from);
-        let t = self.trust.tallies.entry(inj.attack).or_default();
-        t.sent += 1;
+        let mut t = Tally {
+            sent: 1,
+            ..Tally::default()
+        };
         let r = &mut t.rejected;
         let d = |a: u64, b: u64| b.saturating_sub(a);
         r.bad_tag += d(before.rejected.bad_tag, after.rejected.bad_tag);
@@ -196,5 +200,6 @@ impl Node {
                 t.ignored += 1;
             }
         }
+        stage.on_fate(inj.attack, &t);
     }
 }

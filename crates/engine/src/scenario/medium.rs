@@ -1,8 +1,9 @@
-//! The medium of a run's links: every directed link with its rules and its seeded streams, one per sender.
+//! The medium of a run's links: every directed link with its rules and its seeded streams, one per sender; and what
+//! stands in front of a receiver (the outsiders attacking it).
 
 use super::Scenario;
 use crate::link::{Egress, Link};
-use crate::medium::PairwiseMedium;
+use crate::medium::{Ingress, PairwiseMedium};
 
 impl Scenario {
     /// The links out of `senders` as a [`PairwiseMedium`]: each directed link with its rules and its stream
@@ -34,5 +35,12 @@ impl Scenario {
                 .collect();
             m.with_sender(i, Egress::with_rounds(links, round_links))
         })
+    }
+
+    /// What stands in front of node `index`: the outsiders of `[[attack]]` aimed at it, on their stream
+    /// (seed, "attack", index); none when no attack is.
+    pub fn ingress(&self, index: usize) -> Option<Box<dyn Ingress>> {
+        let air = crate::attack::Air::new(self.attacks(), index, |j| self.nodes()[j].id, self.sim().seed);
+        (!air.is_empty()).then(|| Box::new(air) as Box<dyn Ingress>)
     }
 }

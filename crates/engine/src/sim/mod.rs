@@ -374,6 +374,19 @@ impl Sim {
         Ok(())
     }
 
+    /// Put `stage` in front of node `index` in place of the scenario's outsiders ([`crate::medium::Ingress`]; an
+    /// example at [`crate::node::Node::set_ingress`]).
+    pub fn set_ingress(
+        &mut self,
+        index: usize,
+        stage: Option<Box<dyn crate::medium::Ingress>>,
+    ) -> Result<(), SimError> {
+        let n = self.nodes.len();
+        let node = self.nodes.get_mut(index).ok_or(SimError::NoNode { index, n })?;
+        node.set_ingress(stage);
+        Ok(())
+    }
+
     /// Steps run so far.
     pub fn steps_done(&self) -> u64 {
         self.next
