@@ -101,6 +101,10 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
         .estimators
         .as_deref()
         .map_or_else(Kind::all, super::args::EstimatorChoice::kinds);
+    // Unnamed, the list is every scheme the model can run: sequeira's one gain needs one observation for all.
+    if args.estimators.is_none() && !base.model().get().observes_alike() {
+        all.retain(|k| *k != Kind::Sequeira);
+    }
     if !all.contains(&Kind::Centralized) {
         all.push(Kind::Centralized);
         all.sort();
@@ -156,11 +160,13 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
         crate::scenario::count(args.seeds as usize, "seed")
     )?;
     writeln!(out)?;
-    // One cell per column, header and rows alike (with no scheme beside the reference, too).
+    // One cell per column, header and rows alike (with no scheme beside the reference, too); a rank only where
+    // sequeira ran.
+    let ranked = names.contains(&"sequeira");
     let header: Vec<&str> = ["loss", "L", "centralized error"]
         .into_iter()
         .chain(names.iter().copied())
-        .chain(["sequeira's rank"])
+        .chain(ranked.then_some("sequeira's rank"))
         .collect();
     writeln!(out, "| {} |", header.join(" | "))?;
     writeln!(out, "|{}", "---|".repeat(header.len()))?;
@@ -173,9 +179,10 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
         ]
         .into_iter()
         .chain(names.iter().map(|n| r.ratio_to_centralized[*n].text(seeds)))
-        .chain([r
-            .sequeira_rank
-            .map_or("—".to_string(), |k| format!("{k} of {}", names.len()))])
+        .chain(ranked.then(|| {
+            r.sequeira_rank
+                .map_or("—".to_string(), |k| format!("{k} of {}", names.len()))
+        }))
         .collect();
         writeln!(out, "| {} |", cells.join(" | "))?;
     }

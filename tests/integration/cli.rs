@@ -328,12 +328,13 @@ fn compare_prints_the_findings_table() {
     );
     let sub_row = sub.lines().find(|l| l.starts_with("| 20 %")).unwrap();
     assert_eq!(sub_row.split('|').nth(5).unwrap().trim(), cell, "{sub}");
-    // The reference alone: header, separator and rows have one cell per column each (were 5, 4 and 5).
+    // The reference alone: header, separator and rows have one cell per column each (were 5, 4 and 5), and no
+    // rank of a sequeira that did not run.
     let alone = compare(&["--rounds", "1", "--estimators", "centralized"]);
     let cells = |l: &str| l.matches('|').count() - 1;
     let lines: Vec<&str> = alone.lines().filter(|l| l.starts_with('|')).collect();
     assert_eq!(lines.len(), 3, "{alone}");
-    assert!(lines.iter().all(|l| cells(l) == 4), "{alone}");
+    assert!(lines.iter().all(|l| cells(l) == 3), "{alone}");
 
     // With --out it is a campaign: the sweep's files, resumable; --json prints the same figures as the table.
     let dir = std::env::temp_dir().join(format!("simnet-test-{}-compare-out", std::process::id()));
@@ -1033,5 +1034,62 @@ fn a_listing_into_a_closed_pipe_is_not_a_panic() {
             "{what}: {:?}",
             out.status
         );
+    }
+}
+
+/// Nodes that range from where they stand run no networked filter: `--estimators all` and `compare` with no
+/// `--estimators` run every scheme the model can (no sequeira), naming sequeira is refused, `protocol` and
+/// `bounds` refuse with the reason, exit 2.
+#[test]
+fn the_commands_take_a_ranged_model_as_it_is() {
+    let out = simnet()
+        .args(["-t", "ranges4", "--estimators", "all", "--duration", "2", "--json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let s: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let ran: Vec<&str> = s["estimators"]
+        .as_object()
+        .unwrap()
+        .keys()
+        .map(String::as_str)
+        .collect();
+    assert_eq!(ran.len(), simnet::estimators::Kind::BUILTIN.len() - 1, "{ran:?}");
+    assert!(!ran.contains(&"sequeira"), "{ran:?}");
+    let out = simnet()
+        .args([
+            "-q",
+            "compare",
+            "-t",
+            "ranges4",
+            "--duration",
+            "2",
+            "--seeds",
+            "1",
+            "--loss",
+            "0",
+            "--rounds",
+            "1",
+        ])
+        .output()
+        .unwrap();
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        table.contains("icf") && table.contains("kcf") && !table.contains("sequeira"),
+        "{table}"
+    );
+    for (args, words) in [
+        (&["protocol", "-t", "ranges4"][..], "observe differently"),
+        (&["bounds", "-t", "ranges4"][..], "observed by ranges"),
+        (
+            &["-t", "ranges4", "--estimators", "sequeira,icf"][..],
+            "observes differently",
+        ),
+    ] {
+        let out = simnet().args(args).output().unwrap();
+        let e = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {e}");
+        assert!(e.contains(words), "{args:?}: {e}");
     }
 }

@@ -16,8 +16,8 @@ use simnet_engine::sim::{Sim, SimError};
 
 #[derive(Debug, thiserror::Error)]
 pub enum BoundsError {
-    #[error("`{name}` has a {kind} model: bounds need kind = \"linear\"")]
-    NotLinear { name: String, kind: String },
+    #[error("`{name}` has {what}: bounds need y = C x + v (kind = \"linear\", observe = \"state\")")]
+    NotLinear { name: String, what: String },
     #[error("the eigenvalues of A did not converge")]
     Eigenvalues,
     #[error("`{0}` has no estimator node fed over the network: nothing to measure")]
@@ -73,7 +73,10 @@ impl System {
     pub fn of(scenario: &Scenario) -> Result<System, BoundsError> {
         let m = scenario.model().as_linear().ok_or_else(|| BoundsError::NotLinear {
             name: scenario.name().to_string(),
-            kind: scenario.model().kind().to_string(),
+            what: match scenario.model() {
+                simnet_engine::model::ModelConfig::Ranged { .. } => "a linear model observed by ranges".into(),
+                m => format!("a {} model", m.kind()),
+            },
         })?;
         Ok(System {
             A: m.A().clone(),
@@ -253,5 +256,9 @@ mod tests {
         let ring = Scenario::resolve("ring3").unwrap();
         assert!(matches!(System::of(&ring), Err(BoundsError::NotLinear { .. })));
         assert!(matches!(measure(&ring, 0.5), Err(BoundsError::NoEstimator(_))));
+        // Ranges are not y = C x: no Riccati bound for them.
+        let ranges = Scenario::resolve("ranges4").unwrap();
+        let e = System::of(&ranges).unwrap_err().to_string();
+        assert!(e.contains("observed by ranges") && e.contains("y = C x"), "{e}");
     }
 }

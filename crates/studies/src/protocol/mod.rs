@@ -69,6 +69,11 @@ pub enum ProtocolError {
          have no reference columns)"
     )]
     NoReference(String),
+    #[error(
+        "topology `{0}`: its nodes observe differently (model.observe or a registered Sensing), so they run no \
+         networked filter, and a β protocol weighs that filter's sources"
+    )]
+    NoNetworked(String),
     /// A protocol the scenario's validator rejects.
     #[error(transparent)]
     Scenario(#[from] ScenarioError),
@@ -294,6 +299,9 @@ pub fn search(topo: &Scenario, cfg: &SearchConfig, tick: &(dyn Fn() + Sync)) -> 
     }
     if cfg.seeds.is_empty() {
         return Err(ProtocolError::NoSeeds);
+    }
+    if !topo.model().get().observes_alike() {
+        return Err(ProtocolError::NoNetworked(topo.name().to_string()));
     }
     let umax = u_max(topo, cfg.max_row_sum);
     if umax <= 0.0 {

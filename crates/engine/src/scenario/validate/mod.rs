@@ -229,8 +229,12 @@ impl Validator {
             (&nodes, &ids),
             default_link,
         );
-        if !model.get().observes_alike() && estimators.run.contains(&crate::estimators::Kind::Sequeira) {
-            // Its nodes run no networked filter: sequeira's gain is one for every source.
+        // Its nodes run no networked filter: sequeira's gain is one for every source. "all" is all it can run.
+        let sequeira = crate::estimators::Kind::Sequeira;
+        if !model.get().observes_alike() && estimators.run.len() == crate::estimators::Kind::all().len() {
+            estimators.run.retain(|k| *k != sequeira);
+        }
+        if !model.get().observes_alike() && estimators.run.contains(&sequeira) {
             self.bad(
                 "estimators.run",
                 format!(
