@@ -101,10 +101,6 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
         .estimators
         .as_deref()
         .map_or_else(Kind::all, super::args::EstimatorChoice::kinds);
-    // Unnamed, the list is every scheme the model can run: sequeira's one gain needs one observation for all.
-    if args.estimators.is_none() && !base.model().get().observes_alike() {
-        all.retain(|k| *k != Kind::Sequeira);
-    }
     if !all.contains(&Kind::Centralized) {
         all.push(Kind::Centralized);
         all.sort();
@@ -117,7 +113,9 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
     .iter()
     .map(|a| Axis::parse(a).map_err(|e| UsageError::Option(format!("--loss/--rounds: {e}"))))
     .collect::<Result<Vec<_>, _>>()?;
-    let start = campaign::sweep_base(&base, Some(all.clone()), None, args.duration)?;
+    let start = campaign::sweep_base(&base, Some(all), None, args.duration)?;
+    // The schemes as validated: "all" is all the model can run.
+    let all = start.estimators().run.clone();
     // Every cell's scenario is checked before any run starts.
     let plan = Plan::new(start, axes, args.seeds)?;
     let stats = match &args.out {
