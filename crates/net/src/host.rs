@@ -53,7 +53,7 @@ pub struct HostOutput {
     pub wall_s: f64,
     /// How far the steps run on this host's clock fell behind their schedule.
     pub schedule: simnet_engine::report::summary::Schedule,
-    /// The run the node ended on ([`Node::run_id`]).
+    /// The run the node ended on ([`simnet_engine::node::Endpoint::run_id`]).
     pub run: u64,
     /// Whether any neighbour's hello opened here (fresh or not): with none, and tags failing, the keys differ.
     pub heard_a_hello: bool,
@@ -237,8 +237,8 @@ impl Peers {
 /// datagram.
 fn deliver(node: &mut Node, peers: &mut Peers, from: SocketAddr, bytes: &[u8]) -> Option<(u64, bool)> {
     let index = peers.index_of(&from);
-    if index.is_none() && !node.authenticates() {
-        node.handle_unknown_address();
+    if index.is_none() && !node.endpoint().authenticates() {
+        node.endpoint_mut().handle_unknown_address();
         return None;
     }
     let a = node.handle_datagram(index, bytes)?;
@@ -253,7 +253,7 @@ fn deliver(node: &mut Node, peers: &mut Peers, from: SocketAddr, bytes: &[u8]) -
             Some((_, _, sent)) if sent.elapsed() < PROBE_RENEW => {}
             _ => {
                 let probe = u64::from_le_bytes(simnet_engine::fresh::token_bytes()) | 1;
-                if let Some(tx) = node.probe(a.src, None, probe) {
+                if let Some(tx) = node.endpoint_mut().probe(a.src, None, probe) {
                     tracing::debug!(peer = a.src, %from, "authenticated datagram from a new address: probing it");
                     peers.outbox.push((from, tx.bytes));
                     peers.probes.insert(a.src, (from, probe, Instant::now()));
@@ -285,8 +285,8 @@ pub async fn run_node(
     let mut node = Node::new(topo.clone(), index, cfg.record_trace);
     // The node's out-links: what becomes of what it sends.
     let mut medium = topo.pairwise_medium([index]);
-    node.boot(cfg.boot_epoch);
-    node.handshake();
+    node.endpoint_mut().boot(cfg.boot_epoch);
+    node.endpoint_mut().handshake();
     let mut peers = Peers {
         names: cfg.peers.clone(),
         addrs: HashMap::new(),
@@ -308,11 +308,11 @@ pub async fn run_node(
         if *stop.borrow() {
             return Ok(finish(node, &medium, Vec::new(), 0, true, started, Default::default()));
         }
-        if let Some(k) = node.max_peer_step() {
+        if let Some(k) = node.endpoint().max_peer_step() {
             tracing::info!(step = k + 1, "network already running: joining");
             break k + 1;
         }
-        if node.heard_all() && heard_all_at.is_none() {
+        if node.endpoint().heard_all() && heard_all_at.is_none() {
             heard_all_at = Some(Instant::now());
         }
         if heard_all_at.is_some_and(|t| t.elapsed() >= GRACE) {
@@ -327,7 +327,7 @@ pub async fn run_node(
         }
         if Instant::now() >= next_hello {
             peers.refresh();
-            for tx in node.hello(None) {
+            for tx in node.endpoint_mut().hello(None) {
                 peers.send(&socket, tx.to, &tx.bytes).await;
             }
             last_hello = Instant::now();
@@ -337,7 +337,7 @@ pub async fn run_node(
             r = socket.recv_from(&mut buf) => if let Ok((len, from)) = r {
                 deliver(&mut node, &mut peers, from, &buf[..len]);
                 peers.flush(&socket).await;
-                if node.take_hello_due() {
+                if node.endpoint_mut().take_hello_due() {
                     next_hello = next_hello.min((last_hello + REPLY_GAP).max(Instant::now()));
                 }
             },
@@ -360,11 +360,11 @@ pub async fn run_node(
     // run since, plus the window of steps a neighbour may be ahead — so that datagrams claiming later and later steps
     // (unauthenticated, or a neighbour gone wrong) cannot walk the node to the end of the run.
     let (joined_step, joined_at) = (k, Instant::now());
-    let window = node.step_window();
+    let window = node.endpoint().step_window();
     while k < steps {
         // A neighbour is ahead: run the steps in between at once and continue from its step.
         let own_clock = || joined_step + (joined_at.elapsed().as_secs_f64() / dt.as_secs_f64()) as u64 + window;
-        if let Some(ahead) = node.max_peer_step().filter(|&m| m > k && own_clock() > k) {
+        if let Some(ahead) = node.endpoint().max_peer_step().filter(|&m| m > k && own_clock() > k) {
             let target = ahead.min(own_clock()).min(steps);
             tracing::info!(from = k, to = target, "catching up with a neighbour");
             while k < target {
@@ -406,7 +406,7 @@ pub async fn run_node(
             }
             if now >= next_hello {
                 peers.refresh();
-                for tx in node.hello(Some(k)) {
+                for tx in node.endpoint_mut().hello(Some(k)) {
                     peers.send(&socket, tx.to, &tx.bytes).await;
                 }
                 last_hello = now;
@@ -426,7 +426,7 @@ pub async fn run_node(
                     let arrived = Instant::now();
                     let got = deliver(&mut node, &mut peers, from, &buf[..len]);
                     peers.flush(&socket).await;
-                    if node.take_hello_due() {
+                    if node.endpoint_mut().take_hello_due() {
                         next_hello = next_hello.min((last_hello + REPLY_GAP).max(arrived));
                     }
                     if let Some((step, true)) = got {
@@ -493,8 +493,8 @@ fn finish(
     schedule: simnet_engine::report::summary::Schedule,
 ) -> HostOutput {
     HostOutput {
-        heard_a_hello: node.heard_a_hello(),
-        run: node.run_id(),
+        heard_a_hello: node.endpoint().heard_a_hello(),
+        run: node.endpoint().run_id(),
         report: node.report(medium),
         estimates,
         steps_done: done,

@@ -265,7 +265,7 @@ pub(super) async fn run(
             // The socket leaves tokio's reactor for this worker's poll set (it stays non-blocking).
             let socket = UdpSocket::from_std(socket.into_std().map_err(NetError::Bind)?);
             let mut node = Node::new(topo.clone(), i, record);
-            node.boot(epoch);
+            node.endpoint_mut().boot(epoch);
             slots.push(Slot {
                 node,
                 medium: crate::tap(topo.pairwise_medium([i]), &opts.capture),

@@ -34,7 +34,7 @@ pub fn record_drops<'a, S: AsRawFd + 'a>(nodes: impl IntoIterator<Item = (&'a mu
     let drops = drops_table();
     for (node, socket) in nodes {
         if let Some(n) = inode_of(socket).and_then(|i| drops.get(&i)) {
-            node.handle_kernel_drops(*n);
+            node.endpoint_mut().handle_kernel_drops(*n);
         }
     }
 }

@@ -1,5 +1,6 @@
-//! What is measured about a run as it goes. A node hands every filter update, IMU sample and set of LMI terms to its
-//! probes; the fusion observer takes the nodes' estimates of each step.
+//! What is measured about a run as it goes. A node's testbed ([`crate::node::Testbed`]) scores every update its
+//! endpoint hands out against the truth and gives it, each IMU sample and each set of LMI terms to its probes; the
+//! fusion observer takes the nodes' estimates of each step.
 //!
 //! | file | owns |
 //! |---|---|

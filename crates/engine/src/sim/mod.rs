@@ -333,7 +333,7 @@ impl Sim {
         let mut nodes: Vec<Node> = (0..scenario.nodes().len())
             .map(|i| {
                 let mut n = Node::new(scenario.clone(), i, record);
-                n.boot(epoch);
+                n.endpoint_mut().boot(epoch);
                 n
             })
             .collect();
@@ -557,7 +557,11 @@ mod tests {
         let epochs: Vec<u64> = (0..2)
             .map(|_| {
                 let sim = super::Sim::new(&topo).unwrap();
-                let e: Vec<u64> = sim.nodes.iter().map(|n| n.sealing_epoch().unwrap()).collect();
+                let e: Vec<u64> = sim
+                    .nodes
+                    .iter()
+                    .map(|n| n.endpoint().sealing_epoch().unwrap())
+                    .collect();
                 assert!(e.iter().all(|n| *n == e[0]), "{e:?}");
                 e[0]
             })

@@ -374,7 +374,7 @@ pub(super) async fn run(
             .filter_map(|i| {
                 let socket = sockets.next()?;
                 let mut node = Node::new(topo.clone(), i, record);
-                node.boot(epoch);
+                node.endpoint_mut().boot(epoch);
                 let mut ins: Vec<usize> = topo.in_links(i).map(|l| l.from).collect();
                 ins.sort_unstable();
                 ins.dedup();

@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 
 use nalgebra::DVector;
 
-use super::Node;
+use super::Endpoint;
 use crate::attack::{Attack, AttackKind, Injection, Tally};
 use crate::estimate::{Gaussian, Observation};
 use crate::medium::Ingress;
@@ -116,7 +116,7 @@ struct Seen {
     early: u64,
 }
 
-impl Node {
+impl Endpoint {
     /// A step is believed only inside the run and no further ahead of this node's own than a neighbour can be —
     /// two seconds of steps, at least 32: one datagram must not end the run or make the node skip to its end.
     pub(super) fn plausible_step(&self, s: u64) -> bool {

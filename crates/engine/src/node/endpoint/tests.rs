@@ -2,11 +2,13 @@
 //! `estimate::attitude`'s EKF.
 
 use super::*;
+use crate::node::Node;
+use crate::observe::Probe;
 use crate::wire::Datagram;
 
 /// One lockstep step with the scenario's deadline, the scenario's links carrying the datagrams.
 fn step_in_memory(nodes: &mut [Node], medium: &mut crate::medium::PairwiseMedium, k: u64) {
-    let window_end = nodes[0].topo.deadline(k);
+    let window_end = nodes[0].endpoint.topo.deadline(k);
     crate::sim::lockstep(nodes, medium, k, window_end);
 }
 
@@ -86,9 +88,9 @@ fn attitude_node_is_the_quaternion_ekf() {
         lambda: topo.consensus().inflation,
     };
     let mut node = Node::new(topo.clone(), 0, true);
-    let x0 = &node.initial.x;
+    let x0 = &node.endpoint.initial.x;
     let q0 = nalgebra::Vector4::new(x0[0], x0[1], x0[2], x0[3]);
-    let mut ekf = AttitudeEkf::new(q0, &node.initial.P, Form::Standard).unwrap();
+    let mut ekf = AttitudeEkf::new(q0, &node.endpoint.initial.P, Form::Standard).unwrap();
     let mut worst: f64 = 0.0;
     let mut log = Vec::new();
     let mut medium = topo.pairwise_medium([0]);
@@ -103,7 +105,7 @@ fn attitude_node_is_the_quaternion_ekf() {
         }
         let y = DVector::from_iterator(6, now.sample.accel.iter().chain(now.mag.unwrap().iter()).copied());
         ekf.update(&y, [true, true], &model).unwrap();
-        let f = crate::estimators::Estimator::state(&node.filters.as_ref().unwrap().independent).unwrap();
+        let f = crate::estimators::Estimator::state(&node.endpoint.filters.as_ref().unwrap().independent).unwrap();
         worst = worst.max((&f.x - DVector::from_column_slice(ekf.q.as_slice())).amax());
         worst = worst.max((&f.P - ekf.P()).amax() / ekf.P().amax());
     }
@@ -125,7 +127,7 @@ fn forged_round_messages_are_counted_not_used() {
         })
         .unwrap();
     let mut node = Node::new(Arc::new(topo), 0, false);
-    node.handle_step(0);
+    node.open_step(0);
     let info = |n: u8| Body::Information {
         n,
         sym: vec![1.0; (n as usize) * (n as usize + 1) / 2],
@@ -149,17 +151,17 @@ fn forged_round_messages_are_counted_not_used() {
     ];
     for (i, bytes) in forged.iter().enumerate() {
         assert!(node.handle_datagram(Some(1), bytes).is_none(), "forgery {i} was taken");
-        assert_eq!(node.counters.malformed, i as u64 + 1);
+        assert_eq!(node.endpoint.counters.malformed, i as u64 + 1);
     }
     // From a socket that is not the header's source.
     assert!(node.handle_datagram(Some(2), &dg(1, 0, Kind::Icf, info(9))).is_none());
-    assert_eq!(node.counters.malformed, 5);
+    assert_eq!(node.endpoint.counters.malformed, 5);
     assert!(node.handle_datagram(Some(1), &dg(1, 0, Kind::Icf, info(9))).is_some());
     // A broadcast is for every node that hears it.
     assert!(node
         .handle_datagram(Some(1), &to(BROADCAST, 1, 0, Kind::Icf, info(9)))
         .is_some());
-    assert_eq!(node.counters.malformed, 5);
+    assert_eq!(node.endpoint.counters.malformed, 5);
 }
 
 /// A step is believed only inside the run and no further ahead of the node's own than two seconds of steps: a
@@ -197,9 +199,9 @@ fn implausible_steps_are_counted_not_used() {
     // Before the first step: nothing outside the run moves the node's start.
     assert!(node.handle_datagram(Some(1), &hello(u64::MAX - 1)).is_none());
     assert!(node.handle_datagram(Some(1), &hello(steps)).is_none());
-    assert_eq!(node.counters.implausible_step, 2);
+    assert_eq!(node.endpoint.counters.implausible_step, 2);
     let k = 10;
-    node.handle_step(k);
+    node.open_step(k);
     for (bytes, what) in [
         (measurement(steps - 1), "the run's last step"),
         (measurement(steps + 2990), "a step past the run"),
@@ -208,12 +210,12 @@ fn implausible_steps_are_counted_not_used() {
     ] {
         assert!(node.handle_datagram(Some(1), &bytes).is_none(), "{what} was taken");
     }
-    assert_eq!(node.counters.implausible_step, 6);
+    assert_eq!(node.endpoint.counters.implausible_step, 6);
     assert!(node.handle_datagram(Some(1), &measurement(k + 1)).is_some());
     assert!(node.handle_datagram(Some(1), &measurement(k + window)).is_some());
     assert!(node.handle_datagram(Some(1), &hello(k + 3)).is_some());
-    assert_eq!(node.counters.implausible_step, 6);
-    assert_eq!(node.counters.malformed, 0);
+    assert_eq!(node.endpoint.counters.implausible_step, 6);
+    assert_eq!(node.endpoint.counters.malformed, 0);
 }
 
 /// A node crashed and restarted twice never seals two different datagrams under one key and nonce: every datagram
@@ -237,7 +239,7 @@ fn restarts_never_reuse_a_nonce() {
     let topo = Arc::new(topo);
     let mut node = Node::new(topo.clone(), 0, false);
     let mut medium = topo.pairwise_medium([0]);
-    node.boot(7);
+    node.endpoint.boot(7);
     let mut seen: std::collections::HashMap<(usize, (u32, u64, u64)), bytes::Bytes> = Default::default();
     let mut epochs = Vec::new();
     // Each neighbour's end, in the run's boot (7) that node 0 seals for.
@@ -246,16 +248,16 @@ fn restarts_never_reuse_a_nonce() {
     let dt = topo.sim().dt();
     for k in 0..400u64 {
         match k {
-            100 | 250 => node.handle_crash(),
-            150 | 300 => node.handle_restart(),
+            100 | 250 => node.endpoint.handle_crash(),
+            150 | 300 => node.endpoint.handle_restart(),
             _ => {}
         }
         // Crashes given by hand, outside the scenario's timeline: the step's parts are called one by one.
-        node.handle_step(k);
+        node.open_step(k);
         for r in 0..2 {
-            node.handle_round(k, r);
+            node.endpoint.handle_round(k, r);
         }
-        let _ = node.handle_deadline(k);
+        let _ = node.endpoint.handle_deadline(k);
         node.send_to(&mut medium);
         while let Some(t) = medium.poll_delivery(0, Time::at_step(k + 1, dt) + std::time::Duration::from_secs(1)) {
             let n = claimed_nonce(&t.bytes).expect("every datagram is sealed");

@@ -1,13 +1,13 @@
-//! The multi-host handshake's datagrams ([`Node`]'s part of it; [`super::session`] keeps what they established):
+//! The multi-host handshake's datagrams (the endpoint's part of it; [`super::session`] keeps what they established):
 //! hellos out, each echoing the neighbour's boot and answering its last probe; hellos in, of which only a fresh one
 //! (echoing this boot) may start, join or name the run; probes of an address a neighbour's datagrams newly came
 //! from; and sealed datagrams of a neighbour's earlier boot, refused unopened.
 
-use super::{Node, Transmit};
+use super::{Endpoint, Transmit};
 use crate::time::Time;
 use crate::wire::{Datagram, Header, Payload};
 
-impl Node {
+impl Endpoint {
     /// Hello datagrams for every neighbour (control traffic of the start handshake: not subject to the link layer).
     pub fn hello(&mut self, running: Option<u64>) -> Vec<Transmit> {
         let echoes: Vec<(usize, u64, u64)> = self.session.echoes().collect();

@@ -173,7 +173,7 @@ impl Wire {
 
 /// Sending: one broadcast to every out-neighbour, or (when the run is authenticated: each link has its own key) one
 /// transmission to each, addressed to it and sealed for it.
-impl super::Node {
+impl super::Endpoint {
     /// `ds` as bytes, with whom they are for: one broadcast unsealed, else one unicast per out-link (every
     /// destination listed, its bytes empty when `ds` is). A round's message counts towards its scheme's traffic once
     /// per out-link either way.

@@ -3,7 +3,7 @@
 #[allow(unused_imports)]
 use super::*;
 
-impl Node {
+impl Endpoint {
     /// Bytes through the whole receive path: checked, authenticated, plausible, collected.
     pub(super) fn receive(&mut self, from: Option<usize>, bytes: &[u8]) -> Option<Arrival> {
         self.counters.datagrams_in += 1;

@@ -4,12 +4,9 @@
 //! Round r of step k closes at its sub-deadline t_k + D(r+1)/L; a round's message that arrives later is late and
 //! left out (each scheme's file says how it treats the gap). Messages for a later step or round wait, bounded.
 
-use nalgebra::DVector;
-
 use crate::estimate::{EstimateError, Gaussian, Observation};
 use crate::estimators::{from_body, to_body, Estimator, Kind, Message, StepInput};
 use crate::model::{Measurement, Model};
-use crate::observe::{Filter, SchemeEstimate, Update};
 use crate::scenario::Scenario;
 use crate::time::Time;
 use crate::wire::{Body, Datagram, Header, Payload, BROADCAST};
@@ -290,48 +287,6 @@ pub(super) fn input<'a>(
         own,
         heard: &[],
         step,
-    }
-}
-
-impl super::Node {
-    /// The distributed estimators' posteriors of step k ([`Schemes::finish`]), scored at an estimating node against
-    /// `truth` and handed to its probes (`trace.csv`'s rows of each scheme); each one's estimate, by kind.
-    pub(super) fn score_schemes(
-        &mut self,
-        k: u64,
-        posts: Option<Vec<(Gaussian, Gaussian, bool)>>,
-        truth: &DVector<f64>,
-    ) -> Vec<SchemeEstimate> {
-        let Some(posts) = posts.filter(|_| self.role.estimates()) else {
-            return Vec::new();
-        };
-        let t = k as f64 * self.topo.sim().dt();
-        let kinds: Vec<_> = self.schemes.kinds().collect();
-        kinds
-            .into_iter()
-            .zip(posts)
-            .map(|(kind, (prior, post, failed))| {
-                let u = Update {
-                    node: self.id,
-                    step: k,
-                    t,
-                    filter: Filter::Scheme(kind),
-                    truth,
-                    prior: &prior,
-                    post: &post,
-                    failed,
-                    feasible: true,
-                    received: &[],
-                };
-                let score = self.scorer.score(&u);
-                self.probes.each().for_each(|p| p.on_update(&u, &score));
-                SchemeEstimate {
-                    kind,
-                    x: post.x,
-                    P: Some(post.P),
-                }
-            })
-            .collect()
     }
 }
 

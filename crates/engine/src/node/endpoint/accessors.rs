@@ -1,10 +1,10 @@
-//! What drivers and the observer read and take from a node: its sources and neighbours, the rows it recorded, the
-//! fusion centers' feed, its end-of-run report.
+//! What drivers and the observer read and take from an endpoint: its sources and neighbours, the fusion centers'
+//! feed, its part of the end-of-run report.
 
 #[allow(unused_imports)]
 use super::*;
 
-impl Node {
+impl Endpoint {
     /// What the centralized reference needs of the last step (none unless the run holds it).
     pub fn take_feed(&mut self) -> Option<Feed> {
         self.feed.take()
@@ -15,10 +15,19 @@ impl Node {
         self.schemes.traffic()
     }
 
-    /// Keep the LMI terms of every networked update from now on (for a protocol search; costs one extra
-    /// gain computation per step).
-    pub fn record_lmi(&mut self) {
-        self.probes.lmi.get_or_insert_with(LmiRecorder::default);
+    /// What its testbed's observer listens to from now on.
+    pub(crate) fn listen(&mut self, listening: Listening) {
+        self.listening = listening;
+    }
+
+    /// The centralized reference's feed of the step under way, for the testbed to add the truth to.
+    pub(crate) fn feed_mut(&mut self) -> Option<&mut Feed> {
+        self.feed.as_mut()
+    }
+
+    /// Whether it runs the networked filter.
+    pub fn has_networked(&self) -> bool {
+        self.filters.as_ref().is_some_and(|f| f.networked.is_some())
     }
 
     /// Put `stage` in front of this node (none: nothing) in place of the scenario's outsiders
@@ -72,15 +81,6 @@ impl Node {
         self.ingress = stage;
     }
 
-    /// Feed `p` every update, IMU sample and set of LMI terms from now on.
-    pub fn add_probe(&mut self, p: Box<dyn Probe>) {
-        self.probes.added.push(p);
-    }
-
-    pub fn take_lmi_log(&mut self) -> Vec<LmiStep> {
-        self.probes.lmi.as_mut().map(LmiRecorder::take).unwrap_or_default()
-    }
-
     /// Sources whose measurements this node expects each step (node indices; own excluded).
     pub fn in_sources(&self) -> &[usize] {
         &self.in_sources
@@ -101,43 +101,16 @@ impl Node {
         self.session.max_peer_step
     }
 
-    /// The node's own measurements recorded since the last call.
-    pub fn take_measurements(&mut self) -> Vec<MeasurementRow> {
-        self.probes
-            .measurements
-            .as_mut()
-            .map(MeasurementRecorder::take)
-            .unwrap_or_default()
-    }
-
-    /// The IMU rows recorded since the last call.
-    pub fn take_imu(&mut self) -> Vec<ImuRow> {
-        self.probes.imu.as_mut().map(ImuRecorder::take).unwrap_or_default()
-    }
-
-    /// The trace rows recorded since the last call (a shell streams them out step by step).
-    pub fn take_trace(&mut self) -> Vec<TraceRow> {
-        self.probes.trace.as_mut().map(TraceRecorder::take).unwrap_or_default()
-    }
-
-    /// The node's figures of the run, its out-links' as `medium` carried them.
-    pub fn report(&mut self, medium: &dyn crate::medium::Medium) -> NodeReport {
-        let est = self.role.estimates();
+    /// The endpoint's figures of the run, its out-links' as `medium` carried them; the filters' figures, the trace
+    /// and the IMU rows are the observer's (left empty here).
+    pub(crate) fn report(&self, medium: &dyn crate::medium::Medium) -> NodeReport {
         NodeReport {
             index: self.index,
             id: self.id,
             role: self.role,
-            networked: self
-                .filters
-                .as_ref()
-                .is_some_and(|f| f.networked.is_some())
-                .then(|| self.scorer.metrics(Filter::Networked).clone()),
-            independent: est.then(|| self.scorer.metrics(Filter::Independent).clone()),
-            schemes: if est {
-                self.scorer.scheme_metrics().to_vec()
-            } else {
-                Vec::new()
-            },
+            networked: None,
+            independent: None,
+            schemes: Vec::new(),
             traffic: self.schemes.traffic(),
             rounds_late: self.schemes.late,
             links_out: medium.counters(self.index),
@@ -146,8 +119,8 @@ impl Node {
                 rejected: self.wire.rejected,
                 ..self.counters
             },
-            trace: self.take_trace(),
-            imu: self.take_imu(),
+            trace: Vec::new(),
+            imu: Vec::new(),
             attacks: self
                 .trust
                 .tallies(self.ingress.as_ref().map(|i| i.tallies()).unwrap_or_default()),
