@@ -14,6 +14,7 @@ mod golden;
 mod layering;
 mod loss;
 mod network;
+mod ns3;
 mod outputs;
 mod protocol;
 mod reproduce;

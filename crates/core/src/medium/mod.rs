@@ -87,6 +87,7 @@
 
 mod capture;
 mod ingress;
+pub mod phy;
 
 use bytes::Bytes;
 

@@ -35,6 +35,7 @@ pub struct Feed {
     pub shift: Option<DVector<f64>>,
     /// The fresh prior the node started from this step (its first step, a restart, a late join).
     pub prior: Option<Gaussian>,
+    /// The true state of the step, which the node's testbed adds (its endpoint never sees it: empty until then).
     pub truth: DVector<f64>,
     /// At the sink, when the run holds centralized-net: the neighbours' measurements that arrived over the
     /// scenario's links by the deadline (the same datagrams `sequeira` fused).

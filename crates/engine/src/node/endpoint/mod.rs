@@ -276,6 +276,7 @@ impl Endpoint {
                 imu: u.filter(|_| k > 0 && !restarted),
                 shift: shift.clone(),
                 prior: (k == 0 || restarted).then(|| fresh.clone()).flatten(),
+                // The testbed adds the truth ([`crate::node::Node`]'s step).
                 truth: DVector::zeros(0),
                 heard: None,
             });
