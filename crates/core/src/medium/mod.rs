@@ -85,7 +85,10 @@
 //! assert_eq!(air.poll_delivery(1, ms(30)).map(|d| d.to), Some(2));
 //! ```
 
+pub mod air;
 mod capture;
+pub mod csma;
+pub mod frame;
 mod ingress;
 pub mod phy;
 
