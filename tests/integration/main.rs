@@ -17,6 +17,7 @@ mod network;
 mod ns3;
 mod outputs;
 mod protocol;
+mod radio;
 mod reproduce;
 mod riccati;
 mod untrusted;

@@ -91,6 +91,7 @@ pub mod csma;
 pub mod frame;
 mod ingress;
 pub mod phy;
+pub mod radio;
 
 use bytes::Bytes;
 

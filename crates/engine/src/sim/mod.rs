@@ -505,9 +505,13 @@ pub(crate) fn lockstep(nodes: &mut [Node], medium: &mut dyn Medium, k: u64, wind
         .filter(|t| *t <= close)
     {
         let until = if t == close { window_end } else { t };
-        let mut moved = Vec::new();
+        // Every node's transmissions reach the medium before any delivery is asked of it: a shared channel
+        // decides a frame's fate only once every frame that could overlap it is known.
         for n in nodes.iter_mut() {
             n.send_to(medium);
+        }
+        let mut moved = Vec::new();
+        for n in nodes.iter() {
             while let Some(d) = medium.poll_delivery(n.index(), until) {
                 moved.push(d);
             }
