@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # ns-3's own numbers for the radio cross-checks: ns-3 3.44 with lr-wpan from its wheel, in a venv of its own
-# (target/ns3/venv), writes target/ns3/phy.json; `cargo test --test integration -- --ignored ns3::` compares.
+# (target/ns3/venv). Writes target/ns3/phy.json (the PHY's arithmetic, from Python) and target/ns3/star.json (a
+# star of senders around a coordinator, a C++ program built against the wheel's headers and libraries);
+# `cargo test --test integration -- --ignored ns3::` compares.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 venv=target/ns3/venv
@@ -12,3 +14,22 @@ if ! "$venv/bin/python" -c "import ns" >/dev/null 2>&1; then
 fi
 # cppyy prints harmless static-initialiser notices from ns-3's headers; the script's own line says what it wrote.
 "$venv/bin/python" tests/ns3/phy_reference.py target/ns3/phy.json 2> >(grep -v "Failed to materialize symbols" >&2)
+
+# The star: N senders 5 m around a coordinator, unslotted CSMA/CA, no ACK, a 50-octet payload every 50 ms for 10 s.
+ns3="$("$venv/bin/python" -c 'import ns3; print(list(ns3.__path__)[0])')"
+g++ -std=c++20 -O1 -I"$ns3/include" tests/ns3/star.cc -o target/ns3/star -L"$ns3/lib64" \
+  -lns3.44-lr-wpan -lns3.44-spectrum -lns3.44-propagation -lns3.44-mobility -lns3.44-network -lns3.44-core \
+  -Wl,-rpath,"$ns3/lib64"
+{
+  echo "["
+  first=1
+  for n in 1 2 3 5 8 10 15 20; do
+    read -r n sent received < <(target/ns3/star --n="$n" | tail -1)
+    [ "$first" = 1 ] || echo ","
+    first=0
+    printf '  [%s, %s, %s]' "$n" "$sent" "$received"
+  done
+  echo
+  echo "]"
+} > target/ns3/star.json
+echo "wrote target/ns3/star.json: $(tr -d '\n ' < target/ns3/star.json)"
