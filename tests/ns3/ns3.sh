@@ -15,7 +15,9 @@ fi
 # cppyy prints harmless static-initialiser notices from ns-3's headers; the script's own line says what it wrote.
 "$venv/bin/python" tests/ns3/phy_reference.py target/ns3/phy.json 2> >(grep -v "Failed to materialize symbols" >&2)
 
-# The star: N senders 5 m around a coordinator, unslotted CSMA/CA, no ACK, a 50-octet payload every 50 ms for 10 s.
+# The star: N senders r m around a coordinator, unslotted CSMA/CA, no ACK, a 50-octet payload every 50 ms for
+# 10 s; N = 1 … 20 at 5 m (all in range of each other), and two senders on either side of it at 20 m (40 m apart:
+# they sense each other) and at 35 m (70 m apart: hidden from each other).
 ns3="$("$venv/bin/python" -c 'import ns3; print(list(ns3.__path__)[0])')"
 g++ -std=c++20 -O1 -I"$ns3/include" tests/ns3/star.cc -o target/ns3/star -L"$ns3/lib64" \
   -lns3.44-lr-wpan -lns3.44-spectrum -lns3.44-propagation -lns3.44-mobility -lns3.44-network -lns3.44-core \
@@ -23,11 +25,12 @@ g++ -std=c++20 -O1 -I"$ns3/include" tests/ns3/star.cc -o target/ns3/star -L"$ns3
 {
   echo "["
   first=1
-  for n in 1 2 3 5 8 10 15 20; do
-    read -r n sent received < <(target/ns3/star --n="$n" | tail -1)
+  for case in "1 5" "2 5" "3 5" "5 5" "8 5" "10 5" "15 5" "20 5" "2 20" "2 35"; do
+    read -r n r <<< "$case"
+    read -r n sent received < <(target/ns3/star --n="$n" --radius="$r" | tail -1)
     [ "$first" = 1 ] || echo ","
     first=0
-    printf '  [%s, %s, %s]' "$n" "$sent" "$received"
+    printf '  [%s, %s, %s, %s]' "$n" "$r" "$sent" "$received"
   done
   echo
   echo "]"
