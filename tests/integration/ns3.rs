@@ -150,4 +150,22 @@ fn a_star_delivers_what_ns3s_does() {
         }
     }
     assert!(far.is_empty(), "outside sampling error:\n{}", far.join("\n"));
+    // Speed, printed beside ns-3's (never asserted: the machine is shared): the largest star, 11 s simulated.
+    if let Ok(speed) = std::fs::read_to_string(path.with_file_name("star-speed.json")) {
+        let speed: serde_json::Value = serde_json::from_str(&speed).unwrap();
+        let ns3 = speed["wall_s"].as_f64().unwrap();
+        let t = std::time::Instant::now();
+        let runs = 5;
+        for seed in 0..runs {
+            std::hint::black_box(star(20, 5.0, seed));
+        }
+        let ours = t.elapsed().as_secs_f64() / runs as f64;
+        eprintln!(
+            "star of 20, 11 s simulated: ns-3 {ns3:.3} s wall ({:.0} simulated s per s), simnet {ours:.4} s ({:.0} per s): \
+             simnet {:.1}× as fast",
+            11.0 / ns3,
+            11.0 / ours,
+            ns3 / ours
+        );
+    }
 }

@@ -36,3 +36,8 @@ g++ -std=c++20 -O1 -I"$ns3/include" tests/ns3/star.cc -o target/ns3/star -L"$ns3
   echo "]"
 } > target/ns3/star.json
 echo "wrote target/ns3/star.json: $(tr -d '\n ' < target/ns3/star.json)"
+# Its speed on the largest star (printed beside simnet's by the test; never asserted: the machine is shared).
+start=$(date +%s%N)
+target/ns3/star --n=20 --radius=5 >/dev/null
+echo "{\"n\": 20, \"simulated_s\": 11, \"wall_s\": $(( ($(date +%s%N) - start) / 1000 ))e-6}" > target/ns3/star-speed.json
+echo "wrote target/ns3/star-speed.json: $(cat target/ns3/star-speed.json)"
