@@ -5,11 +5,14 @@
 
 use simnet::medium::phy::{self, LogDistance, Receiver};
 
-/// ns-3's numbers; none (the test says it skips) where they were not written and `SIMNET_REQUIRE_NS3` is unset.
-fn reference() -> Option<serde_json::Value> {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/ns3/phy.json");
-    let text = match std::fs::read_to_string(&path) {
-        Ok(text) => text,
+/// ns-3's numbers in `target/ns3/<name>`; none (the test says it skips) where they were not written and
+/// `SIMNET_REQUIRE_NS3` is unset.
+fn reference(name: &str) -> Option<String> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("target/ns3")
+        .join(name);
+    match std::fs::read_to_string(&path) {
+        Ok(text) => Some(text),
         Err(e) if std::env::var_os("SIMNET_REQUIRE_NS3").is_some() => {
             panic!("{}: {e} — `bash tests/ns3/ns3.sh` writes it", path.display())
         }
@@ -18,10 +21,9 @@ fn reference() -> Option<serde_json::Value> {
                 "SKIPPED: {}: {e} — `bash tests/ns3/ns3.sh` writes it (pip installs ns3==3.44.post0)",
                 path.display()
             );
-            return None;
+            None
         }
-    };
-    Some(serde_json::from_str(&text).unwrap())
+    }
 }
 
 /// The chunk success rate, the log-distance path loss and the noise floor equal ns-3's: the success rate
@@ -31,7 +33,8 @@ fn reference() -> Option<serde_json::Value> {
 #[test]
 #[ignore = "needs ns-3's numbers (target/ns3/phy.json); .ci/run writes them and runs this"]
 fn the_radio_arithmetic_is_ns3s() {
-    let Some(r) = reference() else { return };
+    let Some(r) = reference("phy.json") else { return };
+    let r: serde_json::Value = serde_json::from_str(&r).unwrap();
     let rows = r["success"].as_array().unwrap();
     assert!(rows.len() > 200, "{} rows", rows.len());
     let mut worst = 0f64;
@@ -119,17 +122,7 @@ fn star(n: usize, radius: f64, seed: u64) -> (u64, u64) {
 #[test]
 #[ignore = "needs ns-3's star (target/ns3/star.json); .ci/run writes it and runs this"]
 fn a_star_delivers_what_ns3s_does() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("target/ns3/star.json");
-    let text = match std::fs::read_to_string(&path) {
-        Ok(text) => text,
-        Err(e) if std::env::var_os("SIMNET_REQUIRE_NS3").is_some() => {
-            panic!("{}: {e} — `bash tests/ns3/ns3.sh` writes it", path.display())
-        }
-        Err(e) => {
-            eprintln!("SKIPPED: {}: {e} — `bash tests/ns3/ns3.sh` writes it", path.display());
-            return;
-        }
-    };
+    let Some(text) = reference("star.json") else { return };
     let rows: Vec<(usize, f64, u64, u64)> = serde_json::from_str(&text).unwrap();
     assert!(rows.len() >= 8, "{rows:?}");
     eprintln!("| senders | radius | ns-3 delivered | simnet delivered | difference / its standard error |");
@@ -151,7 +144,7 @@ fn a_star_delivers_what_ns3s_does() {
     }
     assert!(far.is_empty(), "outside sampling error:\n{}", far.join("\n"));
     // Speed, printed beside ns-3's (never asserted: the machine is shared): the largest star, 11 s simulated.
-    if let Ok(speed) = std::fs::read_to_string(path.with_file_name("star-speed.json")) {
+    if let Some(speed) = reference("star-speed.json") {
         let speed: serde_json::Value = serde_json::from_str(&speed).unwrap();
         let ns3 = speed["wall_s"].as_f64().unwrap();
         let t = std::time::Instant::now();
