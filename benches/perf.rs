@@ -754,10 +754,41 @@ fn auth_ratios() {
     }
 }
 
+/// rgg50 in memory over the radio channel against the same run over the pairwise links, wall time, in alternated
+/// rounds (the best of each): at 10 Hz (the channel a quarter busy) and at its 100 Hz (saturated).
+fn radio_ratios() {
+    for (rate, secs) in [(10.0, 40.0), (100.0, 4.0)] {
+        let pairwise = Scenario::resolve("rgg50")
+            .unwrap()
+            .with(&Overrides {
+                duration_s: Some(secs),
+                ..Default::default()
+            })
+            .unwrap()
+            .set("sim.rate_hz", toml::Value::Float(rate))
+            .unwrap();
+        let radio = pairwise.set("medium.kind", toml::Value::String("radio".into())).unwrap();
+        let time = |s: &Scenario| {
+            let t = Instant::now();
+            black_box(simnet::Sim::new(s).unwrap().run().unwrap());
+            t.elapsed().as_secs_f64()
+        };
+        let (mut a, mut b) = (f64::MAX, f64::MAX);
+        for _ in 0..3 {
+            a = a.min(time(&pairwise));
+            b = b.min(time(&radio));
+        }
+        println!(
+            "| rgg50 in memory at {rate} Hz ({secs} s simulated): radio channel / pairwise links, wall | {:.2} ({b:.3} s / {a:.3} s) |",
+            b / a
+        );
+    }
+}
+
 fn main() {
     // `cargo bench --bench perf -- MODE` runs one part: `lockstep [N]` (the lockstep ratios, of the ring of N),
-    // `estimation` (the kernel and node-step ratios), `realtime`, `scale`, `scaling`; `kf-loop` and `sim-loop` are
-    // loops for a profiler. No mode: everything.
+    // `estimation` (the kernel and node-step ratios), `radio`, `realtime`, `scale`, `scaling`; `kf-loop` and
+    // `sim-loop` are loops for a profiler. No mode: everything.
     let args: Vec<String> = std::env::args().collect();
     if let Some(i) = args.iter().position(|a| a == "scaling-one") {
         scaling_one(args[i + 1].parse().unwrap(), &args[i + 2]);
@@ -780,6 +811,10 @@ fn main() {
     }
     if args.iter().any(|a| a == "realtime") {
         realtime();
+        return;
+    }
+    if args.iter().any(|a| a == "radio") {
+        radio_ratios();
         return;
     }
     if args.iter().any(|a| a == "scaling") {
@@ -934,6 +969,7 @@ fn main() {
     lockstep_ratios(None);
     kernel_ratios();
     estimation_ratios();
+    radio_ratios();
     realtime();
     scale();
     scaling();

@@ -250,7 +250,7 @@ fn bad_input(e: &anyhow::Error) -> bool {
             || c.is::<crate::wire::secure::KeyError>()
             || c.is::<crate::net::host::PeerError>()
             || c.downcast_ref::<crate::net::NetError>()
-                .is_some_and(|n| matches!(n, crate::net::NetError::BindAt { .. }))
+                .is_some_and(|n| matches!(n, crate::net::NetError::BindAt { .. } | crate::net::NetError::WholeMedium(_)))
             || c.downcast_ref::<crate::campaign::CampaignError>()
                 .is_some_and(crate::campaign::CampaignError::is_usage)
             || c.downcast_ref::<crate::sim::SimError>()

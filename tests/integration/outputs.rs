@@ -50,9 +50,14 @@ fn every_builtin_writes_its_plots_even_when_a_covariance_overflows() {
     assert!(names.len() >= 10, "{names:?}");
     for name in &names {
         let d = tmp(&format!("all-{name}"));
-        // Heavy loss so that the prediction-only and starved filters drift as far as they will in a short run.
+        // Heavy loss so that the prediction-only and starved filters drift as far as they will in a short run (a
+        // radio's loss is its channel's).
+        let radio = simnet::Scenario::resolve(name).unwrap().radio_medium().is_some();
+        let loss: &[&str] = if radio { &[] } else { &["--loss", "0.9"] };
         let child = simnet()
-            .args(["-t", name, "--duration", "1", "--loss", "0.9", "-q", "--out"])
+            .args(["-t", name, "--duration", "1", "-q"])
+            .args(loss)
+            .arg("--out")
             .arg(&d)
             .stdout(Stdio::null())
             .spawn()
@@ -822,7 +827,7 @@ fn header_is(header: &[&str], columns: &[simnet::report::outputs::Field]) -> Res
 
 /// The book's "Output files" chapter is generated from `simnet::report::outputs`; this holds that table to what simnet
 /// writes. Runs that between them write every kind of file and field (estimators, attacks, authentication, faults, a
-/// wall-clock run, the attitude model, nodes standing apart, a sweep): every file written is in the table with its columns in order, every
+/// wall-clock run, the attitude model, nodes standing apart, a radio channel, a sweep): every file written is in the table with its columns in order, every
 /// field of every summary.json is named by a pattern, and everything in the table is written by one of the runs —
 /// except what only a multi-host run writes (its parts), and the Parquet copies.
 #[test]
@@ -840,7 +845,7 @@ fn every_file_column_and_field_written_is_documented() {
         ),
     )
     .unwrap();
-    let runs: [(&str, Vec<&str>); 6] = [
+    let runs: [(&str, Vec<&str>); 7] = [
         (
             "attacked",
             vec![
@@ -860,6 +865,8 @@ fn every_file_column_and_field_written_is_documented() {
         ("attitude", vec!["-t", "attitude3", "--duration", "2"]),
         // Nodes that stand apart: the map.
         ("rgg50", vec!["-t", "rgg50", "--duration", "0.5"]),
+        // One radio channel, sealed: unicasts with ACKs.
+        ("radio", vec!["-t", "ring3-radio", "--duration", "1", "--auth"]),
         (
             "realtime",
             vec!["-t", "ring3", "--duration", "0.5", "--realtime", "--capture"],

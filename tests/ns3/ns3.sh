@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # ns-3's own numbers for the radio cross-checks: ns-3 3.44 with lr-wpan from its wheel, in a venv of its own
-# (target/ns3/venv). Writes target/ns3/phy.json (the PHY's arithmetic, from Python) and target/ns3/star.json (a
-# star of senders around a coordinator, a C++ program built against the wheel's headers and libraries);
+# (target/ns3/venv). Writes target/ns3/phy.json (the PHY's arithmetic, from Python) and target/ns3/star.json and
+# star-ack.json (a star of senders around a coordinator, unacknowledged and with ACKs, a C++ program built against
+# the wheel's headers and libraries);
 # `cargo test --test integration -- --ignored ns3::` compares.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -15,27 +16,32 @@ fi
 # cppyy prints harmless static-initialiser notices from ns-3's headers; the script's own line says what it wrote.
 "$venv/bin/python" tests/ns3/phy_reference.py target/ns3/phy.json 2> >(grep -v "Failed to materialize symbols" >&2)
 
-# The star: N senders r m around a coordinator, unslotted CSMA/CA, no ACK, a 50-octet payload every 50 ms for
+# The star: N senders r m around a coordinator, unslotted CSMA/CA, a 50-octet payload every 50 ms for
 # 10 s; N = 1 … 20 at 5 m (all in range of each other), and two senders on either side of it at 20 m (40 m apart:
 # they sense each other) and at 35 m (70 m apart: hidden from each other).
 ns3="$("$venv/bin/python" -c 'import ns3; print(list(ns3.__path__)[0])')"
 g++ -std=c++20 -O1 -I"$ns3/include" tests/ns3/star.cc -o target/ns3/star -L"$ns3/lib64" \
   -lns3.44-lr-wpan -lns3.44-spectrum -lns3.44-propagation -lns3.44-mobility -lns3.44-network -lns3.44-core \
   -Wl,-rpath,"$ns3/lib64"
-{
-  echo "["
-  first=1
-  for case in "1 5" "2 5" "3 5" "5 5" "8 5" "10 5" "15 5" "20 5" "2 20" "2 35"; do
-    read -r n r <<< "$case"
-    read -r n sent received < <(target/ns3/star --n="$n" --radius="$r" | tail -1)
-    [ "$first" = 1 ] || echo ","
-    first=0
-    printf '  [%s, %s, %s, %s]' "$n" "$r" "$sent" "$received"
-  done
-  echo
-  echo "]"
-} > target/ns3/star.json
-echo "wrote target/ns3/star.json: $(tr -d '\n ' < target/ns3/star.json)"
+# Each star twice: unacknowledged (star.json), and with ACKs and 3 retries (star-ack.json).
+for ack in 0 1; do
+  out=target/ns3/star.json
+  [ "$ack" = 1 ] && out=target/ns3/star-ack.json
+  {
+    echo "["
+    first=1
+    for case in "1 5" "2 5" "3 5" "5 5" "8 5" "10 5" "15 5" "20 5" "2 20" "2 35"; do
+      read -r n r <<< "$case"
+      read -r n sent received < <(target/ns3/star --n="$n" --radius="$r" --ack="$ack" | tail -1)
+      [ "$first" = 1 ] || echo ","
+      first=0
+      printf '  [%s, %s, %s, %s]' "$n" "$r" "$sent" "$received"
+    done
+    echo
+    echo "]"
+  } > "$out"
+  echo "wrote $out: $(tr -d '\n ' < "$out")"
+done
 # Its speed on the largest star (printed beside simnet's by the test; never asserted: the machine is shared).
 start=$(date +%s%N)
 target/ns3/star --n=20 --radius=5 >/dev/null

@@ -271,6 +271,7 @@ pub async fn run_node(
     cfg: HostConfig,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<HostOutput, NetError> {
+    super::splittable(&topo)?;
     let socket = UdpSocket::bind(cfg.bind)
         .await
         .map_err(|source| NetError::BindAt { addr: cfg.bind, source })?;

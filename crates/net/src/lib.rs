@@ -45,13 +45,29 @@ pub enum NetError {
     Scenario(#[from] simnet_engine::scenario::ScenarioError),
     #[error("cannot start the async runtime: {0}")]
     Runtime(std::io::Error),
+    /// A medium that must see every transmission at once, asked of a driver that splits the medium by sender.
+    #[error(
+        "topology `{0}` runs over a radio medium (medium.kind = \"radio\"), which decides each frame's fate from \
+         every frame on the air at once: it runs on the virtual clock (`simnet run`, `simnet compare`), not yet on \
+         wall clocks (--realtime) or one node per process (`simnet node`), where each node carries its own part of \
+         the medium"
+    )]
+    WholeMedium(String),
+}
+
+/// The drivers on wall clocks split the medium by sender: a medium that cannot be split is refused, not replaced.
+fn splittable(topo: &Scenario) -> Result<(), NetError> {
+    match topo.medium() {
+        simnet_engine::scenario::MediumConfig::Pairwise => Ok(()),
+        simnet_engine::scenario::MediumConfig::Radio(_) => Err(NetError::WholeMedium(topo.name().to_string())),
+    }
 }
 
 /// A worker's part of the medium, tapped when the run records a capture.
-fn tap(
-    medium: simnet_engine::medium::PairwiseMedium,
+fn tap<M: simnet_engine::medium::Medium>(
+    medium: M,
     log: &Option<simnet_engine::medium::CaptureLog>,
-) -> simnet_engine::medium::Capture<simnet_engine::medium::PairwiseMedium> {
+) -> simnet_engine::medium::Capture<M> {
     use simnet_engine::medium::Capture;
     match log {
         Some(log) => Capture::new(medium, log.clone()),
@@ -98,6 +114,9 @@ pub async fn run(
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> Result<RunResults, NetError> {
     topo.check_recordings()?;
+    if opts.clock != Clock::Virtual {
+        splittable(&topo)?;
+    }
     let n = topo.nodes().len();
     let mut sockets = Vec::with_capacity(n);
     for _ in 0..n {

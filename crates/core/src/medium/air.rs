@@ -150,7 +150,8 @@ pub fn receive(frames: &[OnAir], transmitting: &[(Time, Time)], noise_w: f64) ->
                 }
             }
             Ev::TxStart => {
-                // Half-duplex: what it was receiving is lost.
+                // Half-duplex: what it was receiving is lost (its SINR as far as it came).
+                close(&mut locked, active_w, t);
                 if let Some((j, _, sinr_min, _)) = locked.take() {
                     out[j] = Reception::Locked { success: 0.0, sinr_min };
                 }

@@ -166,6 +166,12 @@ impl<M: Medium> Medium for Capture<M> {
     fn counters(&self, from: usize) -> Vec<(usize, LinkCounters)> {
         self.inner.counters(from)
     }
+    fn radio(&self, node: usize) -> Option<super::radio::RadioCounters> {
+        self.inner.radio(node)
+    }
+    fn radio_links(&self, from: usize) -> Vec<(usize, super::radio::LinkQuality)> {
+        self.inner.radio_links(from)
+    }
 }
 
 #[cfg(test)]

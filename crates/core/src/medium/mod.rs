@@ -88,6 +88,7 @@
 pub mod air;
 mod capture;
 pub mod csma;
+pub mod energy;
 pub mod frame;
 mod ingress;
 pub mod phy;
@@ -148,6 +149,17 @@ pub trait Medium: Send + std::fmt::Debug {
     fn poll_timeout(&self, from: usize) -> Option<Time>;
     /// What each of `from`'s links carried, by receiver.
     fn counters(&self, from: usize) -> Vec<(usize, LinkCounters)>;
+    /// What node `node`'s radio did on a shared channel (frames, airtime, channel access); none for a medium
+    /// without radios.
+    fn radio(&self, node: usize) -> Option<radio::RadioCounters> {
+        let _ = node;
+        None
+    }
+    /// What `from`'s frames were like at each receiver they were for, on a shared channel; none without radios.
+    fn radio_links(&self, from: usize) -> Vec<(usize, radio::LinkQuality)> {
+        let _ = from;
+        Vec::new()
+    }
 }
 
 /// A boxed medium is a medium (so that a tap such as [`Capture`] can wrap one chosen at run time).
@@ -163,6 +175,12 @@ impl<M: Medium + ?Sized> Medium for Box<M> {
     }
     fn counters(&self, from: usize) -> Vec<(usize, LinkCounters)> {
         (**self).counters(from)
+    }
+    fn radio(&self, node: usize) -> Option<radio::RadioCounters> {
+        (**self).radio(node)
+    }
+    fn radio_links(&self, from: usize) -> Vec<(usize, radio::LinkQuality)> {
+        (**self).radio_links(from)
     }
 }
 

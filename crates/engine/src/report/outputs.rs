@@ -74,6 +74,11 @@ const LINKS: &[Field] = &[
     f("arrival_rate", "The fraction of the receiver's steps in which a measurement from the sender arrived in time: the arrival rate λ (γ in the printed table)."),
     f("mean_loss_run", "The mean run of consecutive losses, datagrams."),
     f("longest_loss_run", "The longest run of consecutive losses, datagrams."),
+    only("frames", "Radio runs: the frames the sender put on the air for the receiver (retries included)."),
+    only("distance_m", "Radio runs: their mean distance as each began, m."),
+    only("rssi_dbm", "Radio runs: the mean power at the receiver of the frames it heard (above a hundredth of its noise), dBm."),
+    only("sinr_db", "Radio runs: the mean of the lowest SINR over each frame it locked onto, dB."),
+    only("prr", "Radio runs: frames that arrived intact over frames sent (by frame; `loss_rate` counts messages)."),
 ];
 
 const MEASUREMENTS: &[Field] = &[
@@ -275,6 +280,13 @@ pub const SUMMARY: &[Field] = &[
     f("attacks[].datagrams.rejected.*", "Refused, by cause (bad_tag, replay, too_old, unknown_source, malformed, corrupted, implausible_step, unknown_address)."),
     f("attacks[].gated", "Measurements of the attacked source the target's gate left out."),
     f("attacks[].gated_clean", "The same in the clean run of the same seed."),
+    f("radio.span_s", "Radio runs: how long the radios were on — the run, and past its last step while saturated queues drained, s."),
+    f("radio.tx_dbm", "The radios' transmit power, dBm."),
+    f("radio.sensitivity_dbm", "Their sensitivity, dBm."),
+    f("radio.channel_load", "The senders' airtime summed over the span."),
+    f("radio.energy_j", "Every node's radio energy, J."),
+    f("radio.energy_model", "The chip, currents and supply the energy is costed at."),
+    f("radio.nodes[].*", "Per node: id, frames, airtime_s, duty (airtime over the span), busy_assessments, csma_failures, acks (ACK frames sent), retries, no_ack (unicasts given up), energy_j, mean_power_mw."),
     f("attack_effect[].id", "Per estimating node: its id."),
     f("attack_effect[].mean_error", "Its networked mean error under attack."),
     f("attack_effect[].clean_mean_error", "The same in the clean run."),

@@ -361,6 +361,8 @@ pub fn merge(
         }),
         attacks: Vec::new(),
         attack_effect: Vec::new(),
+        // One node per process splits the medium by sender: never a radio's.
+        radio: None,
     };
     let mut merged = merged;
     merged.attacks = crate::report::summary::AttackSummary::merge(parts, &merged.links);

@@ -3,6 +3,7 @@
 /// (name, TOML text), in the order `simnet topologies` lists them.
 pub const ALL: &[(&str, &str)] = &[
     ("ring3", include_str!("../../../../topologies/ring3.toml")),
+    ("ring3-radio", include_str!("../../../../topologies/ring3-radio.toml")),
     ("pair2-paper", include_str!("../../../../topologies/pair2-paper.toml")),
     ("tri3-paper", include_str!("../../../../topologies/tri3-paper.toml")),
     ("tri3-alt", include_str!("../../../../topologies/tri3-alt.toml")),

@@ -1,11 +1,37 @@
-//! The medium of a run's links: every directed link with its rules and its seeded streams, one per sender; and what
-//! stands in front of a receiver (the outsiders attacking it).
+//! The medium of a run: every directed link with its rules and its seeded streams, one per sender, or one shared
+//! radio channel; and what stands in front of a receiver (the outsiders attacking it).
 
 use super::Scenario;
 use crate::link::{Egress, Link};
-use crate::medium::{Ingress, PairwiseMedium};
+use crate::medium::radio::RadioMedium;
+use crate::medium::{Ingress, Medium, PairwiseMedium};
 
 impl Scenario {
+    /// What carries every node's datagrams in one process: the scenario's links, or its radio channel.
+    pub fn whole_medium(&self) -> Box<dyn Medium> {
+        match self.radio_medium() {
+            Some(radio) => Box::new(radio),
+            None => Box::new(self.pairwise_medium(0..self.nodes().len())),
+        }
+    }
+
+    /// The shared channel of `[medium] kind = "radio"` (none for the pairwise medium): every node a radio where
+    /// [`Scenario::world`] places it, its broadcasts for its out-neighbours, its backoffs and its frames' fates drawn
+    /// from streams of the run's seed. Sealed datagrams travel as secured frames, simnet's sequence number and tag
+    /// standing for the frame counter and the MIC.
+    pub fn radio_medium(&self) -> Option<RadioMedium> {
+        let super::MediumConfig::Radio(mut radio) = *self.medium() else {
+            return None;
+        };
+        if self.security().key.is_some() {
+            radio.security = crate::medium::frame::Security::Mic64;
+        }
+        let listeners = (0..self.nodes().len())
+            .map(|i| self.out_links(i).map(|l| l.to).collect())
+            .collect();
+        Some(RadioMedium::new(radio, self.world(), self.sim().seed).with_listeners(listeners))
+    }
+
     /// The links out of `senders` as a [`PairwiseMedium`]: each directed link with its rules and its stream
     /// (seed, "link", from, to), and one stream per consensus round when the nodes run distributed estimators (round
     /// r meets the same fates whatever L is). A driver that holds some senders builds their part alone.

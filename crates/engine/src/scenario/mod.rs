@@ -254,6 +254,15 @@ pub struct SecurityConfig {
     pub key_source: Option<String>,
 }
 
+/// `[medium]`: what carries the nodes' datagrams.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum MediumConfig {
+    /// Every directed link decides alone, by its `[link]` and `[[edge]]` rules ([`Scenario::pairwise_medium`]).
+    Pairwise,
+    /// One shared IEEE 802.15.4 channel between the nodes where the world places them ([`Scenario::radio_medium`]).
+    Radio(crate::medium::radio::Radio),
+}
+
 /// Most consensus rounds per step.
 pub const MAX_ROUNDS: usize = 100;
 /// The fastest step rate: a period of a microsecond.
@@ -300,6 +309,7 @@ pub struct Scenario {
     consensus: ConsensusConfig,
     estimators: EstimatorsConfig,
     security: SecurityConfig,
+    medium: MediumConfig,
     nodes: Vec<NodeConfig>,
     links: Vec<DirectedLink>,
     /// Indices into `links` of each node's incoming and outgoing links.
@@ -341,6 +351,10 @@ impl Scenario {
     }
     pub fn security(&self) -> &SecurityConfig {
         &self.security
+    }
+    /// What carries the datagrams (`[medium]`).
+    pub fn medium(&self) -> &MediumConfig {
+        &self.medium
     }
     /// Where every node is at every time: an IMU network's nodes on one body following `sim.trajectory`, each at
     /// its lever arm; a linear system's nodes still at their positions.

@@ -134,6 +134,15 @@ pub const KEYS: &[KeyDoc] = &[
     // [security]
     k("security.key_file", STR, "path", "none (unauthenticated)", "a key file of `simnet keygen`, relative to the topology file", "Every datagram sealed with this network key (AES-128-CCM, 8-byte tag).", Some("\"no-such.key\"")),
     k("security.auth", BOOL, "", "false", "true | false", "Authenticate with a key of the run's own (from its seed) where no key file is given.", None),
+    // [medium]
+    k("medium.kind", "pairwise | radio", "", "\"pairwise\"", "the words listed", "pairwise: every directed link decides alone by its [link] and [[edge]] rules. radio: one shared IEEE 802.15.4 channel (2.4 GHz O-QPSK, unslotted CSMA/CA, broadcast frames) between the nodes where the world places them; loss comes from distance, noise and contention, and the links must carry no rule of their own.", Some("\"ether\"")),
+    k("medium.tx_dbm", NUM, "dBm", "0.0", "-50 to 30; radio only", "Every radio's transmit power (a CC2420's highest is 0 dBm).", Some("100")),
+    k("medium.path_loss_exponent", NUM, "", "3.0", "0.5 to 10; radio only", "The log-distance path loss's exponent n: PL(d) = PL₀ + 10 n log₁₀(d / d₀) (ns-3's default).", Some("0")),
+    k("medium.reference_m", NUM, "m", "1.0", "0.001 to 1000; radio only", "The log-distance reference distance d₀ (ns-3's default).", Some("0")),
+    k("medium.reference_loss_db", NUM, "dB", "46.6777", "0 to 200; radio only", "The loss PL₀ at the reference distance (ns-3's default).", Some("-1")),
+    k("medium.sensitivity_dbm", NUM, "dBm", "-95.0", "-106.58 to 0; radio only", "The receivers' sensitivity, which sets their noise figure as ns-3 does (a CC2420: −95 dBm, its datasheet) and the clear-channel assessment's threshold 10 dB above it.", Some("-120")),
+    k("medium.ack", BOOL, "", "true", "true | false; radio only", "Unicasts (a message with one destination: a sealed run's per-link datagrams, centralized-net's to its sink) are acknowledged, and sent again when no ACK comes; broadcasts never are.", None),
+    k("medium.max_frame_retries", INT, "", "3", "0 to 7; radio only", "How many times an unacknowledged unicast is sent again (macMaxFrameRetries) before it is given up.", Some("8")),
     // [generate]
     k("generate.graph", "ring | grid | complete | random-geometric", "", "required", "the words listed", "Nodes and edges from a graph instead of [[node]] and [[edge]] lists.", Some("\"tree\"")),
     k("generate.nodes", INT, "", "required", "1 to 10000 (2000 for complete and random-geometric)", "The number of nodes, ids 0 … n − 1.", Some("0")),
@@ -245,7 +254,7 @@ mod tests {
     #[test]
     fn the_table_names_every_key_of_the_file_and_no_other() {
         const U: &str = "zz_unknown = 1";
-        let tables: [(&str, String); 16] = [
+        let tables: [(&str, String); 17] = [
             ("", format!("{U}\n")),
             ("sim", format!("[sim]\n{U}\n")),
             ("model", format!("[model]\n{U}\n")),
@@ -256,6 +265,7 @@ mod tests {
             ("link.loss", format!("[link.loss]\n{U}\n")),
             ("estimators", format!("[estimators]\n{U}\n")),
             ("security", format!("[security]\n{U}\n")),
+            ("medium", format!("[medium]\n{U}\n")),
             ("generate", format!("[generate]\ngraph = \"ring\"\n{U}\n")),
             ("node[]", format!("[[node]]\n{U}\n")),
             ("node[].sensor", format!("[[node]]\n[node.sensor]\n{U}\n")),
@@ -358,6 +368,12 @@ mod tests {
                 vec!["0.0"; rows].join(", ")
             ),
         };
+        // A radio's keys are tried on a radio.
+        let medium = if key.starts_with("medium.") && key != "medium.kind" {
+            "[medium]\nkind = \"radio\"\n"
+        } else {
+            ""
+        };
         let sim = if model.contains("linear") {
             "[sim]\nduration_s = 1.0\n"
         } else {
@@ -365,7 +381,7 @@ mod tests {
         };
         format!(
             "name = \"base\"\n{sim}[model]\n{model}[consensus]\n[consensus.lmi]\n[sensor]\n[link]\n[link.loss]\n{loss}\
-             [estimators]\n[security]\n\
+             [estimators]\n[security]\n{medium}\
              [[node]]\nid = 0\n[[node]]\nid = 1\n[node.sensor]\n[[node]]\nid = 2\n\
              [[edge]]\nnodes = [0, 1]\n[[edge]]\nnodes = [1, 2]\n[[edge]]\nnodes = [2, 0]\n\
              [[fault]]\n{fault}\

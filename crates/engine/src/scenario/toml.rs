@@ -19,6 +19,7 @@ pub struct RawTopology {
     /// Nodes and edges from a graph generator instead of `[[node]]`/`[[edge]]`.
     pub generate: Option<RawGenerate>,
     pub security: Option<RawSecurity>,
+    pub medium: Option<RawMedium>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub node: Vec<RawNode>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -155,6 +156,22 @@ pub struct RawSecurity {
     /// Authenticate with a key of the run's own (from its seed) where no key file is given: what an in-process run
     /// needs to measure the cost of authentication.
     pub auth: Option<bool>,
+}
+
+/// `[medium]`: what carries the datagrams, the independent links of `[link]` and `[[edge]]` or one shared radio
+/// channel.
+#[derive(Debug, Serialize, Deserialize, Default, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct RawMedium {
+    /// "pairwise" | "radio".
+    pub kind: Option<String>,
+    pub tx_dbm: Option<f64>,
+    pub path_loss_exponent: Option<f64>,
+    pub reference_loss_db: Option<f64>,
+    pub reference_m: Option<f64>,
+    pub sensitivity_dbm: Option<f64>,
+    pub ack: Option<bool>,
+    pub max_frame_retries: Option<i64>,
 }
 
 /// `[generate]`: a graph of `nodes` nodes (ids 0 … n−1) and its undirected edges.

@@ -340,9 +340,7 @@ impl Sim {
         if opts.record_lmi {
             nodes.iter_mut().for_each(Node::record_lmi);
         }
-        let medium = opts
-            .medium
-            .unwrap_or_else(|| Box::new(scenario.pairwise_medium(0..nodes.len())));
+        let medium = opts.medium.unwrap_or_else(|| scenario.whole_medium());
         Ok(Sim {
             medium: match opts.capture {
                 Some(log) => Box::new(crate::medium::Capture::new(medium, log)),

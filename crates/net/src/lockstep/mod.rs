@@ -4,7 +4,9 @@
 //! empty frame, the marker. A node closes step k once it has the step-k frame of every in-neighbour, as conservative
 //! parallel discrete-event simulation closes a time step on its null messages; frames of later windows wait for their
 //! step. Datagrams due after the deadline go out in a later window and arrive late. Same seed, same results.
-//! With L consensus rounds a step has L windows, k·L + r closing round r at t_k + D(r+1)/L.
+//! With L consensus rounds a step has L windows, k·L + r closing round r at t_k + D(r+1)/L. A medium that cannot be
+//! split by sender (a radio channel) is one [`air::Air`] every worker shares: each worker hands it its nodes'
+//! transmissions of a window, and asks it for the window's deliveries once every worker has.
 //!
 //! Workers may run ahead of each other, and of the observer that fuses each step, by at most [`LEAD`] steps: that
 //! bounds the socket buffers and the estimates in flight.
@@ -39,6 +41,7 @@ use simnet_engine::sim::{Clock, RunResults};
 use simnet_engine::time::Time;
 use simnet_engine::wire::{Frame, FrameView, FrameWriter, Nack, MAX_FRAME};
 
+mod air;
 mod slot;
 use slot::Slot;
 
@@ -59,11 +62,18 @@ struct Pace {
     stop_at: u64,
     /// Workers past their last step (they go on answering NACKs until every one is).
     finished: Vec<bool>,
+    /// Windows each worker has handed the shared air ([`air`]) its nodes' transmissions of.
+    posted: Vec<u64>,
 }
 
 impl Pace {
     fn slowest(&self) -> u64 {
         self.next.iter().copied().min().unwrap_or(0)
+    }
+
+    /// Every worker's transmissions of `window` are on the air (or the worker has stopped).
+    fn all_posted(&self, window: u64) -> bool {
+        self.posted.iter().zip(&self.finished).all(|(p, f)| *p > window || *f)
     }
 }
 
@@ -124,6 +134,8 @@ struct Shared {
     topo: Arc<Scenario>,
     recv_timeout: Duration,
     sync: watch::Sender<Pace>,
+    /// The medium is one shared air: a window's deliveries wait until every worker has posted it.
+    shared_air: bool,
 }
 
 impl Shared {
@@ -179,8 +191,23 @@ async fn worker(
                 if r == 0 {
                     slot.node.handle_timeout(sh.topo.step_time(k));
                 }
-                bundles.resize_with(slot.outs.len(), Vec::new);
                 slot.node.send_to(&mut slot.medium);
+            }
+            if sh.shared_air {
+                sh.sync.send_modify(|s| s.posted[w] = window + 1);
+                loop {
+                    tokio::select! {
+                        biased;
+                        s = sync.wait_for(|s| s.all_posted(window)) => match s {
+                            Ok(_) => break,
+                            Err(_) => break 'steps,
+                        },
+                        _ = control.readable() => serve(&control, &mut slots, &sh),
+                    }
+                }
+            }
+            for slot in &mut slots {
+                bundles.resize_with(slot.outs.len(), Vec::new);
                 let i = slot.node.index();
                 while let Some(tx) = slot.medium.poll_delivery(i, window_end) {
                     if let Ok(j) = slot.outs.binary_search(&tx.to) {
@@ -310,6 +337,7 @@ pub(super) async fn run(
         next: vec![0; workers + 1],
         stop_at: u64::MAX,
         finished: vec![false; workers],
+        posted: vec![0; workers],
     });
     // One control socket per worker, where the NACKs for its nodes' frames go.
     let mut controls = Vec::with_capacity(workers);
@@ -322,6 +350,7 @@ pub(super) async fn run(
             worker_of[i] = w;
         }
     }
+    let air = topo.radio_medium().map(|m| air::Air::new(Box::new(m)));
     let sh = Arc::new(Shared {
         index_of: addrs.iter().enumerate().map(|(i, a)| (*a, i)).collect(),
         controls: controls
@@ -335,6 +364,7 @@ pub(super) async fn run(
         topo: topo.clone(),
         recv_timeout: opts.recv_timeout,
         sync: sync.clone(),
+        shared_air: air.is_some(),
     });
     // A shutdown stops every worker after the same step: one past the furthest any has started.
     let stopper = {
@@ -381,7 +411,13 @@ pub(super) async fn run(
                 let mut outs: Vec<usize> = topo.out_links(i).map(|l| l.to).collect();
                 outs.sort_unstable();
                 Some(Slot {
-                    medium: crate::tap(topo.pairwise_medium([i]), &opts.capture),
+                    medium: crate::tap(
+                        match &air {
+                            Some(air) => Box::new(air.clone()) as Box<dyn Medium>,
+                            None => Box::new(topo.pairwise_medium([i])),
+                        },
+                        &opts.capture,
+                    ),
                     got: vec![0; ins.len()],
                     want: vec![None; ins.len()],
                     seen: vec![0; ins.len()],

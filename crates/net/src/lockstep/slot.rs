@@ -1,13 +1,13 @@
 //! One node a worker owns: its socket, the frames it expects each window, what it keeps for a resend.
 
 use super::*;
-use simnet_engine::medium::{Capture, PairwiseMedium};
+use simnet_engine::medium::Capture;
 
 /// One node a worker owns, with its socket and what it expects each step.
 pub(super) struct Slot {
     pub(super) node: Node,
-    /// The node's out-links: what becomes of what it sends.
-    pub(super) medium: Capture<PairwiseMedium>,
+    /// What becomes of what it sends: its out-links, or its handle on the shared air.
+    pub(super) medium: Capture<Box<dyn Medium>>,
     /// Shared with the worker's list of sockets it waits on.
     pub(super) socket: Arc<UdpSocket>,
     /// In-neighbours (node indices, sorted): one frame each per window.

@@ -46,6 +46,12 @@ use crate::rng::Rng;
 use crate::time::Time;
 use crate::world::World;
 
+mod ack;
+mod quality;
+use ack::{ifs, Awaiting};
+pub use ack::{ACK_PSDU, ACK_WAIT};
+pub use quality::LinkQuality;
+
 /// The radios' settings, the same at every node.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Radio {
@@ -57,12 +63,17 @@ pub struct Radio {
     pub receiver: Receiver,
     /// The MAC's CSMA/CA parameters.
     pub csma: CsmaParams,
-    /// Whether frames carry 802.15.4 security.
+    /// Whether frames carry 802.15.4 security: then each datagram is a sealed one ([`crate::wire::secure`]), whose
+    /// sequence number and tag ([`crate::wire::secure::OVERHEAD`] octets) are the frame's security header and MIC.
     pub security: Security,
+    /// Unicasts are acknowledged and sent again up to this many times when no ACK comes (macMaxFrameRetries);
+    /// none: unacknowledged.
+    pub max_frame_retries: Option<u8>,
 }
 
 impl Default for Radio {
-    /// 0 dBm, ns-3's log-distance defaults, a CC2420 receiver, the standard's CSMA/CA, no security.
+    /// 0 dBm, ns-3's log-distance defaults, a CC2420 receiver, the standard's CSMA/CA, no security, unicasts
+    /// acknowledged with the standard's 3 retries.
     fn default() -> Radio {
         Radio {
             tx_dbm: 0.0,
@@ -70,6 +81,7 @@ impl Default for Radio {
             receiver: Receiver::CC2420,
             csma: CsmaParams::STANDARD,
             security: Security::None,
+            max_frame_retries: Some(3),
         }
     }
 }
@@ -83,6 +95,8 @@ struct Queued {
     psdu: u32,
     /// The datagram, on the message's last frame.
     bytes: Option<Bytes>,
+    /// Times sent again for want of an ACK.
+    retries: u8,
 }
 
 /// A frame on the air.
@@ -94,6 +108,8 @@ struct AirFrame {
     message: u64,
     to: Dest,
     bytes: Option<Bytes>,
+    /// An acknowledgement (of `message`, to `to`).
+    ack: bool,
 }
 
 /// What a sender's MAC does next.
@@ -105,6 +121,8 @@ enum Next {
     Cca(Time),
     /// Its frame leaves the air.
     TxEnd(Time),
+    /// Its wait for an ACK ends.
+    AckWait(Time),
 }
 
 #[derive(Debug)]
@@ -115,6 +133,8 @@ struct Mac {
     /// Not before: the end of its last frame and the interframe spacing after it.
     free_at: Time,
     rng: Rng,
+    /// The head frame's ACK, awaited.
+    awaiting: Option<Awaiting>,
 }
 
 /// Per-node figures of the channel.
@@ -128,6 +148,14 @@ pub struct RadioCounters {
     pub csma_failures: u64,
     /// Busy assessments.
     pub busy: u64,
+    /// ACK frames it sent (their airtime is in `airtime_ns`).
+    pub acks: u64,
+    /// Frames it sent again for want of an ACK.
+    pub retries: u64,
+    /// Unicast messages it gave up after macMaxFrameRetries retries without an ACK.
+    pub no_ack: u64,
+    /// When its last frame left the air, ns (a run's last step flushes what is queued: this may be past its end).
+    pub last_end_ns: u64,
 }
 
 /// The shared channel.
@@ -144,9 +172,15 @@ pub struct RadioMedium {
     lost: HashSet<(u64, usize)>,
     /// (message, receiver): the link was down when it was sent (counted as such, not as a loss on the air).
     down: HashSet<(u64, usize)>,
+    /// (message, receiver): an acknowledged message delivered, until its sender is done with it.
+    delivered: HashSet<(u64, usize)>,
     links: Vec<Vec<LinkCounters>>,
     nodes: Vec<RadioCounters>,
     fates: Vec<Rng>,
+    /// Each sender's frames at each receiver they were for.
+    quality: Vec<std::collections::BTreeMap<usize, LinkQuality>>,
+    /// Whom each node's broadcasts are for ([`RadioMedium::with_listeners`]); every other node when `None`.
+    listeners: Option<Vec<Vec<usize>>>,
     messages: u64,
     /// The last event done: a datagram handed in later is queued from here at the earliest.
     clock: Time,
@@ -169,19 +203,45 @@ impl RadioMedium {
                     next: Next::Idle,
                     free_at: Time::ZERO,
                     rng: crate::rng::stream(seed, "csma", i as u64, 0),
+                    awaiting: None,
                 })
                 .collect(),
             air: Vec::new(),
             deliveries: (0..n).map(|_| VecDeque::new()).collect(),
             lost: HashSet::new(),
             down: HashSet::new(),
+            delivered: HashSet::new(),
             links: vec![vec![LinkCounters::default(); n]; n],
             nodes: vec![RadioCounters::default(); n],
             fates: (0..n).map(|i| crate::rng::stream(seed, "air", i as u64, 0)).collect(),
+            quality: (0..n).map(|_| Default::default()).collect(),
+            listeners: None,
             messages: 0,
             clock: Time::ZERO,
             radio,
             world,
+        }
+    }
+
+    /// Broadcasts from each node reach its MAC's listeners `listeners[i]` alone (the group the node sends to, as a
+    /// PAN or group address would): every node still hears every frame on the air, as interference and when it
+    /// assesses the channel. Without this, every other node listens.
+    pub fn with_listeners(mut self, listeners: Vec<Vec<usize>>) -> RadioMedium {
+        self.listeners = Some(listeners);
+        self
+    }
+
+    /// Whom a datagram from `from` to `to` is for: the node named (if it is another node of the world), or `from`'s
+    /// listeners.
+    fn receivers(&self, from: usize, to: Dest) -> Vec<usize> {
+        let n = self.world.len();
+        match (to, &self.listeners) {
+            (Dest::Node(j), _) => (j < n && j != from).then_some(j).into_iter().collect(),
+            (Dest::Broadcast, Some(l)) => l
+                .get(from)
+                .map(|l| l.iter().copied().filter(|&j| j < n && j != from).collect())
+                .unwrap_or_default(),
+            (Dest::Broadcast, None) => (0..n).filter(|&j| j != from).collect(),
         }
     }
 
@@ -206,7 +266,8 @@ impl RadioMedium {
             let next = (0..self.macs.len())
                 .filter_map(|i| match self.macs[i].next {
                     Next::TxEnd(t) => Some((t, 0, i)),
-                    Next::Cca(t) => Some((t, 1, i)),
+                    Next::AckWait(t) => Some((t, 1, i)),
+                    Next::Cca(t) => Some((t, 2, i)),
                     Next::Idle => None,
                 })
                 .min();
@@ -214,10 +275,10 @@ impl RadioMedium {
                 break;
             };
             self.clock = self.clock.max(t);
-            if kind == 0 {
-                self.end_frame(i, t);
-            } else {
-                self.assess(i, t);
+            match kind {
+                0 => self.end_frame(i, t),
+                1 => self.ack_wait(i, t),
+                _ => self.assess(i, t),
             }
         }
     }
@@ -250,11 +311,15 @@ impl RadioMedium {
             .chain(heard.iter().map(|h| h.0).filter(|s| *s > from))
             .map(|at| heard.iter().filter(|h| h.0 <= at && h.1 > at).map(|h| h.2).sum::<f64>())
             .fold(0.0, f64::max);
-        // Receiving: a frame on the air at the end that it could have locked onto as it began.
-        let receiving = heard.iter().any(|h| {
-            let others: f64 = heard.iter().filter(|o| o.0 < h.0 && o.1 > h.0).map(|o| o.2).sum();
-            h.1 > t && 10.0 * (h.2 / (self.noise_w + others)).log10() > air::LOCK_SINR_DB
-        });
+        // Receiving: a frame still on the air that it locked onto as it began (what it makes of the frames around it,
+        // as at any receiver).
+        let receiving = {
+            let (frames, ids, sending) = self.heard_by(i, (t, t));
+            let got = air::receive(&frames, &sending, self.noise_w);
+            ids.iter()
+                .zip(got)
+                .any(|(&m, r)| self.air[m].end > t && matches!(r, Reception::Locked { .. }))
+        };
         let mac = &mut self.macs[i];
         let mut csma = mac.csma.take().expect("an assessment belongs to an access");
         if peak >= threshold || receiving {
@@ -273,11 +338,7 @@ impl RadioMedium {
                     self.nodes[i].csma_failures += 1;
                     mac.next = Next::Idle;
                     mac.free_at = t;
-                    let receivers: Vec<usize> = match q.to {
-                        Dest::Node(j) => vec![j],
-                        Dest::Broadcast => (0..self.world.len()).filter(|&j| j != i).collect(),
-                    };
-                    for j in receivers {
+                    for j in self.receivers(i, q.to) {
                         self.lost.remove(&(q.message, j));
                         if !self.down.remove(&(q.message, j)) {
                             self.links[i][j].lost_random += 1;
@@ -293,6 +354,7 @@ impl RadioMedium {
         mac.next = Next::TxEnd(end);
         self.nodes[i].frames += 1;
         self.nodes[i].airtime_ns += end.since(start).as_nanos() as u64;
+        self.nodes[i].last_end_ns = end.as_nanos();
         self.air.push(AirFrame {
             from: i,
             start,
@@ -300,43 +362,56 @@ impl RadioMedium {
             message: q.message,
             to: q.to,
             bytes: q.bytes,
+            ack: false,
         });
     }
 
-    /// Sender `i`'s frame leaves the air at `t`: its fate at every receiver it was for, then the interframe spacing.
+    /// Sender `i`'s frame leaves the air at `t`: its fate at every receiver it was for, then the interframe spacing
+    /// (or, for an acknowledged unicast, the wait for its ACK).
     fn end_frame(&mut self, i: usize, t: Time) {
+        let acked = self.macs[i].queue.front().is_some_and(|q| self.acknowledged(q.to));
         let mac = &mut self.macs[i];
-        let q = mac.queue.pop_front().expect("a frame on the air");
         mac.next = Next::Idle;
-        // Long interframe spacing (40 symbols) after a frame over aMaxSIFSFrameSize (18 octets), short (12) else.
-        mac.free_at = t + if q.psdu > 18 {
-            csma::SYMBOL * 40
-        } else {
-            csma::SYMBOL * 12
-        };
-        let Some(k) = self.air.iter().rposition(|f| f.from == i && f.end == t) else {
+        if !acked {
+            let q = mac.queue.pop_front().expect("a frame on the air");
+            mac.free_at = t + ifs(q.psdu);
+        }
+        let Some(k) = self.air.iter().rposition(|f| f.from == i && f.end == t && !f.ack) else {
+            if acked {
+                self.macs[i].queue.pop_front();
+            }
             return;
         };
         let f = self.air[k].clone();
-        let receivers: Vec<usize> = match f.to {
-            Dest::Node(j) => vec![j],
-            Dest::Broadcast => (0..self.world.len()).filter(|&j| j != i).collect(),
-        };
-        for j in receivers {
+        for j in self.receivers(i, f.to) {
             let p = self.power(i, j, f.start);
-            let success = if p < NEGLIGIBLE * self.noise_w {
-                0.0
-            } else {
-                match self.reception(k, j) {
-                    Reception::Locked { success, .. } => success,
-                    _ => 0.0,
-                }
+            let heard = p >= NEGLIGIBLE * self.noise_w;
+            let (success, sinr) = match heard.then(|| self.reception(k, j)) {
+                Some(Reception::Locked { success, sinr_min }) => (success, Some(sinr_min)),
+                _ => (0.0, None),
             };
             let u: f64 = rand::Rng::gen(&mut self.fates[i]);
+            let down = self.down.contains(&(f.message, j));
+            let distance = self.world.distance(i, j, f.start);
+            let quality = self.quality[i].entry(j).or_default();
+            quality.count(p, heard, sinr, u < success && !down, distance);
+            if acked {
+                let received = u < success && !down;
+                if received && f.bytes.is_some() && self.delivered.insert((f.message, j)) {
+                    self.deliver(i, j, t, f.bytes.clone());
+                }
+                let ack_end = received.then(|| self.send_ack(j, i, f.message, t));
+                self.macs[i].awaiting = Some(Awaiting {
+                    data_end: t,
+                    ack_start: ack_end.map(|_| t + csma::TURNAROUND),
+                });
+                self.macs[i].next = Next::AckWait(ack_end.unwrap_or(t + ACK_WAIT));
+                continue;
+            }
             if u >= success {
                 self.lost.insert((f.message, j));
             }
-            if let Some(bytes) = &f.bytes {
+            if f.bytes.is_some() {
                 let (down, lost) = (self.down.remove(&(f.message, j)), self.lost.remove(&(f.message, j)));
                 if down {
                     continue;
@@ -344,12 +419,7 @@ impl RadioMedium {
                 if lost {
                     self.links[i][j].lost_random += 1;
                 } else {
-                    self.deliveries[i].push_back(Delivery {
-                        from: i,
-                        to: j,
-                        at: t,
-                        bytes: bytes.clone(),
-                    });
+                    self.deliver(i, j, t, f.bytes.clone());
                 }
             }
         }
@@ -365,14 +435,35 @@ impl RadioMedium {
         self.air.retain(|f| f.end >= keep_from);
     }
 
-    /// What receiver `j` makes of frame `k`: [`air::receive`] over the frames it heard that overlap `k` or, one
-    /// after another, the frames before it, with its own frames as the times it transmitted.
+    /// Sender `i`'s datagram `bytes` reaches `j` at `t`.
+    fn deliver(&mut self, i: usize, j: usize, t: Time, bytes: Option<Bytes>) {
+        if let Some(bytes) = bytes {
+            self.deliveries[i].push_back(Delivery {
+                from: i,
+                to: j,
+                at: t,
+                bytes,
+            });
+        }
+    }
+
+    /// What receiver `j` makes of frame `k` ([`air::receive`] over what it heard around it, [`Self::heard_by`]).
     fn reception(&self, k: usize, j: usize) -> Reception {
         let f = &self.air[k];
-        let mut lo = f.start;
+        let (frames, ids, sending) = self.heard_by(j, (f.start, f.end));
+        match ids.iter().position(|&m| m == k) {
+            Some(index) => air::receive(&frames, &sending, self.noise_w)[index],
+            None => Reception::Weak { sinr: 0.0 },
+        }
+    }
+
+    /// What receiver `j` heard around the interval `[lo, hi]`: every frame overlapping it or, one after another, the
+    /// frames before it (whose start decides what `j` was locked onto), as [`OnAir`] with their indices in `air`
+    /// (frames far below the noise left out), and `j`'s own frames as the times it transmitted.
+    fn heard_by(&self, j: usize, (mut lo, hi): (Time, Time)) -> (Vec<OnAir>, Vec<usize>, Vec<(Time, Time)>) {
         let members = loop {
             let members: Vec<usize> = (0..self.air.len())
-                .filter(|&m| self.air[m].start < f.end && self.air[m].end > lo)
+                .filter(|&m| self.air[m].start <= hi && self.air[m].end > lo)
                 .collect();
             let first = members.iter().map(|&m| self.air[m].start).min().unwrap_or(lo);
             if first >= lo {
@@ -380,7 +471,7 @@ impl RadioMedium {
             }
             lo = first;
         };
-        let (mut frames, mut index, mut sending) = (Vec::new(), None, Vec::new());
+        let (mut frames, mut ids, mut sending) = (Vec::new(), Vec::new(), Vec::new());
         for m in members {
             let g = &self.air[m];
             if g.from == j {
@@ -388,9 +479,7 @@ impl RadioMedium {
                 continue;
             }
             let p = self.power(g.from, j, g.start);
-            if m == k {
-                index = Some(frames.len());
-            } else if p < NEGLIGIBLE * self.noise_w {
+            if p < NEGLIGIBLE * self.noise_w {
                 continue;
             }
             frames.push(OnAir {
@@ -398,11 +487,9 @@ impl RadioMedium {
                 end: g.end,
                 power_w: p,
             });
+            ids.push(m);
         }
-        let Some(index) = index else {
-            return Reception::Weak { sinr: 0.0 };
-        };
-        air::receive(&frames, &sending, self.noise_w)[index]
+        (frames, ids, sending)
     }
 }
 
@@ -411,16 +498,14 @@ impl Medium for RadioMedium {
         if from >= self.macs.len() {
             return;
         }
+        if matches!(tx.to, Dest::Node(j) if j >= self.world.len() || j == from) {
+            return;
+        }
         let ready = tx.at.max(self.clock);
         for bytes in tx.group {
             let message = self.messages;
             self.messages += 1;
-            let receivers: Vec<usize> = match tx.to {
-                Dest::Node(j) if j < self.world.len() && j != from => vec![j],
-                Dest::Node(_) => Vec::new(),
-                Dest::Broadcast => (0..self.world.len()).filter(|&j| j != from).collect(),
-            };
-            for &j in &receivers {
+            for j in self.receivers(from, tx.to) {
                 let link = &mut self.links[from][j];
                 link.sent += 1;
                 link.bytes += bytes.len() as u64;
@@ -429,7 +514,12 @@ impl Medium for RadioMedium {
                     self.down.insert((message, j));
                 }
             }
-            let frames = frame::psdus(bytes.len() as u32, self.radio.security);
+            // A sealed datagram's sequence number and tag travel as the frame's security header and MIC.
+            let payload = match self.radio.security {
+                Security::None => bytes.len(),
+                Security::Mic64 => bytes.len().saturating_sub(crate::wire::secure::OVERHEAD),
+            };
+            let frames = frame::psdus(payload as u32, self.radio.security);
             let last = frames.len() - 1;
             for (n, psdu) in frames.into_iter().enumerate() {
                 self.macs[from].queue.push_back(Queued {
@@ -438,6 +528,7 @@ impl Medium for RadioMedium {
                     to: tx.to,
                     psdu,
                     bytes: (n == last).then(|| bytes.clone()),
+                    retries: 0,
                 });
             }
         }
@@ -457,7 +548,7 @@ impl Medium for RadioMedium {
             return Some(d.at);
         }
         match self.macs.get(from)?.next {
-            Next::Cca(t) | Next::TxEnd(t) => Some(t),
+            Next::Cca(t) | Next::TxEnd(t) | Next::AckWait(t) => Some(t),
             Next::Idle => (!self.macs[from].queue.is_empty()).then_some(self.clock),
         }
     }
@@ -472,6 +563,16 @@ impl Medium for RadioMedium {
             .filter(|(j, c)| *j != from && c.sent > 0)
             .map(|(j, c)| (j, *c))
             .collect()
+    }
+    fn radio(&self, node: usize) -> Option<RadioCounters> {
+        self.nodes.get(node).copied()
+    }
+
+    fn radio_links(&self, from: usize) -> Vec<(usize, LinkQuality)> {
+        self.quality
+            .get(from)
+            .map(|q| q.iter().map(|(j, l)| (*j, *l)).collect())
+            .unwrap_or_default()
     }
 }
 

@@ -12,6 +12,14 @@ fn world(at: &[(f64, f64)]) -> World {
     w
 }
 
+/// The standard's radio with unacknowledged unicasts (as ns-3's star sends them).
+fn unacked() -> Radio {
+    Radio {
+        max_frame_retries: None,
+        ..Radio::default()
+    }
+}
+
 fn send(m: &mut RadioMedium, from: usize, to: Dest, at: Time, len: usize) {
     let tx = Transmission {
         to,
@@ -35,7 +43,7 @@ fn all(m: &mut RadioMedium, until: Time) -> Vec<Delivery> {
 /// once, whole, when its last frame ends.
 #[test]
 fn a_sender_sends_its_frames_in_turn() {
-    let mut m = RadioMedium::new(Radio::default(), world(&[(0.0, 0.0), (5.0, 0.0)]), 3);
+    let mut m = RadioMedium::new(unacked(), world(&[(0.0, 0.0), (5.0, 0.0)]), 3);
     send(&mut m, 0, Dest::Node(1), Time::ZERO, 40);
     send(&mut m, 0, Dest::Node(1), Time::ZERO, 300);
     let got = all(&mut m, Time::from_secs(1.0));
@@ -77,7 +85,7 @@ fn hidden_senders_collide_where_senders_in_range_defer() {
     let run = |angle: f64| {
         let d = 35.0;
         let at = [(0.0, 0.0), (d, 0.0), (d * angle.cos(), d * angle.sin())];
-        let mut m = RadioMedium::new(Radio::default(), world(&at), 11);
+        let mut m = RadioMedium::new(unacked(), world(&at), 11);
         let mut delivered = 0;
         for k in 0..200u64 {
             let t = Time::from_nanos(k * 50_000_000);
@@ -138,4 +146,65 @@ fn a_frame_too_weak_is_lost() {
             }
         )
     );
+}
+
+/// A broadcast reaches its sender's listeners alone and is counted on their links alone; a node that is not a
+/// listener still hears the frame on the air (its own frame, sent at the same instant, collides there).
+#[test]
+fn a_broadcast_reaches_its_listeners_alone() {
+    let at = [(0.0, 0.0), (5.0, 0.0), (0.0, 5.0)];
+    let mut m = RadioMedium::new(Radio::default(), world(&at), 4).with_listeners(vec![vec![1], vec![0], vec![0]]);
+    send(&mut m, 0, Dest::Broadcast, Time::ZERO, 40);
+    let got = all(&mut m, Time::from_secs(1.0));
+    assert_eq!(got.iter().map(|d| (d.from, d.to)).collect::<Vec<_>>(), vec![(0, 1)]);
+    assert_eq!(
+        m.counters(0).iter().map(|(j, c)| (*j, c.sent)).collect::<Vec<_>>(),
+        vec![(1, 1)]
+    );
+}
+
+/// An acknowledged unicast in range: one frame, one ACK back (5 octets, 352 µs, counted in the receiver's airtime),
+/// delivered once as the frame ends; the sender's next frame waits for the ACK and the interframe spacing.
+#[test]
+fn a_unicast_in_range_is_acknowledged() {
+    let mut m = RadioMedium::new(Radio::default(), world(&[(0.0, 0.0), (5.0, 0.0)]), 3);
+    send(&mut m, 0, Dest::Node(1), Time::ZERO, 40);
+    send(&mut m, 0, Dest::Node(1), Time::ZERO, 40);
+    let got = all(&mut m, Time::from_secs(1.0));
+    assert_eq!(got.len(), 2);
+    let (s, r) = (m.node_counters(0), m.node_counters(1));
+    assert_eq!((s.frames, s.retries, s.no_ack, r.acks), (2, 0, 0, 2));
+    assert_eq!(r.airtime_ns, 2 * phy::airtime(ACK_PSDU).as_nanos() as u64);
+    assert_eq!(phy::airtime(ACK_PSDU), std::time::Duration::from_micros(352));
+    // The second frame: after the first, its ACK (turnaround and 352 µs), the long spacing, a CCA and a turnaround.
+    let min_gap = csma::TURNAROUND
+        + phy::airtime(ACK_PSDU)
+        + csma::SYMBOL * 40
+        + csma::CCA
+        + csma::TURNAROUND
+        + frame::airtime(40, Security::None);
+    assert!(
+        got[1].at.since(got[0].at) >= min_gap,
+        "{:?} then {:?}",
+        got[0].at,
+        got[1].at
+    );
+    assert_eq!(m.counters(0)[0].1.lost_random, 0);
+}
+
+/// A unicast to a node out of range is sent 1 + macMaxFrameRetries times, each after macAckWaitDuration and a new
+/// CSMA/CA, then given up and counted lost once; unacknowledged, it is sent once.
+#[test]
+fn a_unicast_out_of_range_is_retried_then_given_up() {
+    for (radio, frames) in [(Radio::default(), 4), (unacked(), 1)] {
+        let mut m = RadioMedium::new(radio, world(&[(0.0, 0.0), (900.0, 0.0)]), 5);
+        send(&mut m, 0, Dest::Node(1), Time::ZERO, 40);
+        assert!(all(&mut m, Time::from_secs(1.0)).is_empty());
+        let s = m.node_counters(0);
+        assert_eq!(s.frames, frames, "{radio:?}");
+        assert_eq!((s.retries, s.no_ack), if frames == 4 { (3, 1) } else { (0, 0) });
+        assert_eq!(m.node_counters(1).acks, 0);
+        let c = m.counters(0)[0].1;
+        assert_eq!((c.sent, c.lost_random), (1, 1));
+    }
 }

@@ -114,6 +114,8 @@ impl Endpoint {
             traffic: self.schemes.traffic(),
             rounds_late: self.schemes.late,
             links_out: medium.counters(self.index),
+            radio: medium.radio(self.index),
+            radio_links: medium.radio_links(self.index),
             rx: self.inbox.counters(),
             counters: NodeCounters {
                 rejected: self.wire.rejected,

@@ -69,6 +69,10 @@ pub struct NodeReport {
     pub rounds_late: u64,
     /// Outgoing links (sender-side counters).
     pub links_out: Vec<(usize, LinkCounters)>,
+    /// What its radio did, on a shared channel ([`crate::medium::Medium::radio`]).
+    pub radio: Option<crate::medium::radio::RadioCounters>,
+    /// Its frames at each receiver, on a shared channel ([`crate::medium::Medium::radio_links`]).
+    pub radio_links: Vec<(usize, crate::medium::radio::LinkQuality)>,
     /// Per-source receive counters, indexed by node index.
     pub rx: RxBySource,
     pub counters: NodeCounters,

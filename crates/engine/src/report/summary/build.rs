@@ -35,6 +35,7 @@ impl LinkSummary {
             longest_loss_run: tx.longest_loss_run.max(tx.current_run),
             gated: rx.gated,
             seq_gaps: rx.seq_gaps,
+            radio: None,
         }
     }
 }
@@ -116,7 +117,13 @@ impl Summary {
                     .find(|x| x.index == *to)
                     .map(|x| x.rx.get(r.index))
                     .unwrap_or_default();
-                links.push(LinkSummary::join(r.id, topo.nodes()[*to].id, tx, &rx));
+                let mut l = LinkSummary::join(r.id, topo.nodes()[*to].id, tx, &rx);
+                l.radio = r
+                    .radio_links
+                    .iter()
+                    .find(|(j, _)| j == to)
+                    .map(|(_, q)| LinkRadio::of(q));
+                links.push(l);
             }
         }
         let attacks = AttackSummary::of(topo, reports, &links);
@@ -157,6 +164,7 @@ impl Summary {
             }),
             attacks,
             attack_effect: Vec::new(),
+            radio: RadioSummary::of(topo, reports, steps),
         }
     }
 }

@@ -3,13 +3,23 @@
 use super::*;
 use std::io::{self, Write};
 
-/// `links.csv`: the per-link counters.
+/// `links.csv`: the per-link counters; on a radio channel also each pair's frames, distance, RSSI, SINR and PRR.
 pub fn write_links(w: &mut impl Write, links: &[LinkSummary]) -> io::Result<()> {
     use crate::report::trace::num;
     let opt = |v: Option<f64>| v.map_or(String::new(), num);
-    writeln!(w, "from,to,sent,delivered,late,corrupted,lost,lost_random,lost_down,duplicated,loss_rate,arrival_rate,mean_loss_run,longest_loss_run")?;
+    let radio = links.iter().any(|l| l.radio.is_some());
+    write!(w, "from,to,sent,delivered,late,corrupted,lost,lost_random,lost_down,duplicated,loss_rate,arrival_rate,mean_loss_run,longest_loss_run")?;
+    writeln!(
+        w,
+        "{}",
+        if radio {
+            ",frames,distance_m,rssi_dbm,sinr_db,prr"
+        } else {
+            ""
+        }
+    )?;
     for l in links {
-        writeln!(
+        write!(
             w,
             "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             l.from,
@@ -27,6 +37,19 @@ pub fn write_links(w: &mut impl Write, links: &[LinkSummary]) -> io::Result<()> 
             num(l.mean_loss_run),
             l.longest_loss_run
         )?;
+        match (&l.radio, radio) {
+            (Some(r), _) => writeln!(
+                w,
+                ",{},{},{},{},{}",
+                r.frames,
+                opt(r.distance_m),
+                opt(r.rssi_dbm),
+                opt(r.sinr_db),
+                opt(r.prr)
+            )?,
+            (None, true) => writeln!(w, ",0,,,,")?,
+            (None, false) => writeln!(w)?,
+        }
     }
     Ok(())
 }

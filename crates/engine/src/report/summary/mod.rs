@@ -5,11 +5,13 @@ mod attacks;
 mod build;
 mod csv;
 mod estimators;
+mod radio;
 mod table;
 
 pub use attacks::{AttackEffect, AttackSummary};
 pub use csv::write_links;
 pub use estimators::{EstimatorNode, EstimatorSummary};
+pub use radio::{LinkRadio, NodeRadio, RadioSummary};
 pub(crate) use table::{figure, trace_figure};
 
 use serde::{Deserialize, Serialize};
@@ -71,6 +73,9 @@ pub struct LinkSummary {
     /// transmissions; without estimators and hellos, `lost + corrupted`).
     #[serde(default)]
     pub seq_gaps: u64,
+    /// On a radio channel: the sender's frames at the receiver (distance, RSSI, SINR, PRR).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub radio: Option<LinkRadio>,
 }
 
 /// How a run was set up, so that a result file says how it was made.
@@ -150,6 +155,9 @@ pub struct Summary {
     /// Each estimating node's error beside the same seed's clean run (set by [`Summary::compare_clean`]).
     #[serde(skip_serializing_if = "Vec::is_empty", default)]
     pub attack_effect: Vec<AttackEffect>,
+    /// The radio channel: per node its frames, airtime and energy; absent from runs over the pairwise medium.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub radio: Option<RadioSummary>,
 }
 
 /// How a run's datagrams were authenticated.

@@ -141,6 +141,7 @@ impl Summary {
                 l.mean_loss_run
             )?;
         }
+        self.write_radio(w)?;
         self.write_estimators(w)?;
         if let Some(fu) = &self.fused {
             writeln!(w)?;

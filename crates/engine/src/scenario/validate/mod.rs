@@ -4,6 +4,7 @@
 mod attack;
 mod consensus;
 mod link;
+mod medium;
 mod place;
 
 use std::collections::HashMap;
@@ -254,9 +255,9 @@ impl Validator {
         }
         let faults = self.faults(&raw.fault, &ids, n);
         let security = self.security(raw.security.as_ref(), file, sim.seed);
+        let medium = self.medium(raw.medium.as_ref(), &links, &nodes);
         let rows = model.get().observation().dim();
         let attacks = self.attacks(&raw.attack, &ids, &linked, rows, sim.duration_s);
-
         if sim.split_channels && model.get().observation().channels() < 2 {
             self.bad(
                 "sim.split_channels",
@@ -273,6 +274,7 @@ impl Validator {
             consensus,
             estimators,
             security,
+            medium,
             applied: Overrides::default(),
             raw: kept,
             nodes,
