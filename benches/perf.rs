@@ -767,7 +767,9 @@ fn radio_ratios() {
             .unwrap()
             .set("sim.rate_hz", toml::Value::Float(rate))
             .unwrap();
-        let radio = pairwise.set("medium.kind", toml::Value::String("radio".into())).unwrap();
+        let radio = pairwise
+            .set("medium.kind", toml::Value::String("radio".into()))
+            .unwrap();
         let time = |s: &Scenario| {
             let t = Instant::now();
             black_box(simnet::Sim::new(s).unwrap().run().unwrap());

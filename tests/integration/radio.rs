@@ -5,19 +5,22 @@ use simnet::medium::radio::{Radio, RadioMedium};
 use simnet::sim::SimOptions;
 use simnet::{Overrides, Scenario, Sim};
 
+/// Built-in `name`, `secs` long.
+fn short(name: &str, secs: f64) -> Scenario {
+    let o = Overrides {
+        duration_s: Some(secs),
+        ..Default::default()
+    };
+    Scenario::resolve(name).unwrap().with(&o).unwrap()
+}
+
 /// ring3 (three nodes a few decimetres apart on one package, 100 Hz, each broadcasting its measurement every step)
 /// over one channel for 3 s: every datagram the channel delivered reached its receiver — in time, late or as a
 /// duplicate — and none more; with the frames' airtime near the whole 10 ms step (3 × 94 octets, 9 ms), contention
 /// delays and loses measurements, so fewer arrive in time than over the default lossless links.
 #[test]
 fn ring3_over_one_channel() {
-    let s = Scenario::resolve("ring3")
-        .unwrap()
-        .with(&Overrides {
-            duration_s: Some(3.0),
-            ..Default::default()
-        })
-        .unwrap();
+    let s = short("ring3", 3.0);
     let medium = RadioMedium::new(Radio::default(), s.world(), s.sim().seed);
     let opts = SimOptions {
         medium: Some(Box::new(medium)),
@@ -62,13 +65,7 @@ fn ring3_over_one_channel() {
 /// was abandoned by CSMA/CA or is still queued at the end.
 #[test]
 fn ring3_radio_pays_its_airtime_in_energy() {
-    let s = Scenario::resolve("ring3-radio")
-        .unwrap()
-        .with(&Overrides {
-            duration_s: Some(2.0),
-            ..Default::default()
-        })
-        .unwrap();
+    let s = short("ring3-radio", 2.0);
     let summary = Sim::new(&s).unwrap().run().unwrap().summary();
     let radio = summary.radio.as_ref().expect("a radio run has its radio figures");
     let run_s = radio.span_s;
@@ -92,19 +89,7 @@ fn ring3_radio_pays_its_airtime_in_energy() {
     let load: f64 = radio.nodes.iter().map(|n| n.airtime_s).sum::<f64>() / run_s;
     assert!((radio.channel_load - load).abs() < 1e-12);
     // Over the pairwise medium there is no radio to report.
-    let plain = Sim::new(
-        &Scenario::resolve("ring3")
-            .unwrap()
-            .with(&Overrides {
-                duration_s: Some(1.0),
-                ..Default::default()
-            })
-            .unwrap(),
-    )
-    .unwrap()
-    .run()
-    .unwrap()
-    .summary();
+    let plain = Sim::new(&short("ring3", 1.0)).unwrap().run().unwrap().summary();
     assert!(plain.radio.is_none());
 }
 

@@ -46,6 +46,7 @@ impl RadioMedium {
             to: Dest::Node(i),
             bytes: None,
             ack: true,
+            power_w: self.powers(j, start),
         });
         end
     }

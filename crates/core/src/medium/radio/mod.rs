@@ -110,6 +110,8 @@ struct AirFrame {
     bytes: Option<Bytes>,
     /// An acknowledgement (of `message`, to `to`).
     ack: bool,
+    /// Its power at every node, W (from the distance as it began).
+    power_w: std::sync::Arc<[f64]>,
 }
 
 /// What a sender's MAC does next.
@@ -250,10 +252,15 @@ impl RadioMedium {
         self.nodes.get(i).copied().unwrap_or_default()
     }
 
-    /// The power of `from`'s frame at `to` at time `t`, W.
-    fn power(&self, from: usize, to: usize, t: Time) -> f64 {
-        let loss = self.radio.path_loss.loss_db(self.world.distance(from, to, t));
-        phy::dbm_to_w(self.radio.tx_dbm - loss)
+    /// The power of `from`'s frame at every node, if it begins at `t`, W.
+    fn powers(&self, from: usize, t: Time) -> std::sync::Arc<[f64]> {
+        let at = self.world.position(from, t);
+        (0..self.world.len())
+            .map(|to| {
+                let loss = self.radio.path_loss.loss_db((self.world.position(to, t) - at).norm());
+                phy::dbm_to_w(self.radio.tx_dbm - loss)
+            })
+            .collect()
     }
 
     /// Run the channel to `until`: every assessment and every frame's end up to it, in time order (a frame's end
@@ -304,7 +311,7 @@ impl RadioMedium {
             .air
             .iter()
             .filter(|f| f.from != i && f.start <= t && f.end > from)
-            .map(|f| (f.start, f.end, self.power(f.from, i, f.start)))
+            .map(|f| (f.start, f.end, f.power_w[i]))
             .collect();
         // The peak energy over the assessment: the sum at its start and at each frame's start within it.
         let peak = std::iter::once(from)
@@ -363,6 +370,7 @@ impl RadioMedium {
             to: q.to,
             bytes: q.bytes,
             ack: false,
+            power_w: self.powers(i, start),
         });
     }
 
@@ -384,7 +392,7 @@ impl RadioMedium {
         };
         let f = self.air[k].clone();
         for j in self.receivers(i, f.to) {
-            let p = self.power(i, j, f.start);
+            let p = f.power_w[j];
             let heard = p >= NEGLIGIBLE * self.noise_w;
             let (success, sinr) = match heard.then(|| self.reception(k, j)) {
                 Some(Reception::Locked { success, sinr_min }) => (success, Some(sinr_min)),
@@ -461,9 +469,11 @@ impl RadioMedium {
     /// frames before it (whose start decides what `j` was locked onto), as [`OnAir`] with their indices in `air`
     /// (frames far below the noise left out), and `j`'s own frames as the times it transmitted.
     fn heard_by(&self, j: usize, (mut lo, hi): (Time, Time)) -> (Vec<OnAir>, Vec<usize>, Vec<(Time, Time)>) {
+        // Only frames it hears decide what it was locked onto; its own frames end any lock.
+        let heard = |g: &AirFrame| g.from != j && g.power_w[j] >= NEGLIGIBLE * self.noise_w;
         let members = loop {
             let members: Vec<usize> = (0..self.air.len())
-                .filter(|&m| self.air[m].start <= hi && self.air[m].end > lo)
+                .filter(|&m| self.air[m].start <= hi && self.air[m].end > lo && heard(&self.air[m]))
                 .collect();
             let first = members.iter().map(|&m| self.air[m].start).min().unwrap_or(lo);
             if first >= lo {
@@ -471,25 +481,21 @@ impl RadioMedium {
             }
             lo = first;
         };
-        let (mut frames, mut ids, mut sending) = (Vec::new(), Vec::new(), Vec::new());
-        for m in members {
-            let g = &self.air[m];
-            if g.from == j {
-                sending.push((g.start, g.end));
-                continue;
-            }
-            let p = self.power(g.from, j, g.start);
-            if p < NEGLIGIBLE * self.noise_w {
-                continue;
-            }
-            frames.push(OnAir {
-                start: g.start,
-                end: g.end,
-                power_w: p,
-            });
-            ids.push(m);
-        }
-        (frames, ids, sending)
+        let sending = self
+            .air
+            .iter()
+            .filter(|g| g.from == j && g.start <= hi && g.end > lo)
+            .map(|g| (g.start, g.end))
+            .collect();
+        let frames = members
+            .iter()
+            .map(|&m| OnAir {
+                start: self.air[m].start,
+                end: self.air[m].end,
+                power_w: self.air[m].power_w[j],
+            })
+            .collect();
+        (frames, members, sending)
     }
 }
 
