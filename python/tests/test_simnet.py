@@ -52,6 +52,7 @@ CASES = [
     ),
     ("sinopoli-scalar", {"loss": 0.5, "duration": 20}, ["--loss", "0.5", "--duration", "20"]),
     ("ring3-attacked", {"duration": 25}, ["--duration", "25"]),
+    ("ring3-radio", {"duration": 3}, ["--duration", "3"]),
 ]
 
 

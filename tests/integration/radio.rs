@@ -105,13 +105,114 @@ fn a_radio_run_refuses_what_it_cannot_honour() {
         (&["-t", "ring3-radio", "--realtime"], "not yet on wall clocks"),
     ];
     for (args, names) in cases {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_simnet"))
-            .args(["-q", "--duration", "1"])
-            .args(args)
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
-        assert!(err.contains(names), "{args:?}: {err}");
+        refused(&[&["-q", "--duration", "1"][..], args].concat(), names);
+    }
+}
+
+/// `simnet ARGS` exits 2 with an error that contains `names`.
+fn refused(args: &[&str], names: &str) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_simnet"))
+        .args(args)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+    assert!(err.contains(names), "{args:?}: {err}");
+}
+
+/// `simnet compare` on a radio runs each estimator alone on the channel: each row's figures are the mean over the
+/// seeds of a plain run holding that estimator and the reference (its error ratio, the channel's load, the radios'
+/// power), and what a run cannot honour on a radio exits 2 naming the flag.
+#[test]
+fn compare_on_a_radio_runs_each_estimator_alone() {
+    let dir = std::env::temp_dir().join(format!("simnet-test-{}-radio-compare", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let plot = dir.join("budget.svg");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_simnet"))
+        .args([
+            "-q",
+            "compare",
+            "-t",
+            "rgg50-radio",
+            "--seeds",
+            "2",
+            "--rounds",
+            "1,2",
+            "--duration",
+            "2",
+        ])
+        .args(["--estimators", "sequeira,icf", "--json", "--plot"])
+        .arg(&plot)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    let names: Vec<(u64, &str)> = rows
+        .iter()
+        .map(|r| (r["rounds"].as_u64().unwrap(), r["estimator"].as_str().unwrap()))
+        .collect();
+    assert_eq!(names, [(1, "sequeira"), (1, "icf"), (2, "sequeira"), (2, "icf")]);
+    for r in rows {
+        let (rounds, est) = (r["rounds"].as_u64().unwrap(), r["estimator"].as_str().unwrap());
+        let runs: Vec<serde_json::Value> = (1..=2u64)
+            .map(|seed| {
+                let o = Overrides {
+                    duration_s: Some(2.0),
+                    seed: Some(seed),
+                    rounds: Some(rounds),
+                    estimators: Some(vec![
+                        simnet::estimators::Kind::from_name(est).unwrap(),
+                        simnet::estimators::Kind::Centralized,
+                    ]),
+                    ..Default::default()
+                };
+                let s = Scenario::resolve("rgg50-radio").unwrap().with(&o).unwrap();
+                serde_json::to_value(Sim::new(&s).unwrap().run().unwrap().summary()).unwrap()
+            })
+            .collect();
+        let mean = |f: &dyn Fn(&serde_json::Value) -> f64| runs.iter().map(f).sum::<f64>() / 2.0;
+        let close = |a: f64, b: f64, what: &str| {
+            assert!(
+                (a - b).abs() <= 1e-12 * b.abs().max(1.0),
+                "{est} L={rounds} {what}: {a} vs {b}"
+            )
+        };
+        close(
+            r["ratio_to_centralized"]["mean"].as_f64().unwrap(),
+            mean(&|s| s["estimators"][est]["ratio_to_centralized"].as_f64().unwrap()),
+            "ratio",
+        );
+        close(
+            r["channel_load"]["mean"].as_f64().unwrap(),
+            mean(&|s| s["radio"]["channel_load"].as_f64().unwrap()),
+            "channel load",
+        );
+        let power = |s: &serde_json::Value| {
+            let n = s["radio"]["nodes"].as_array().unwrap();
+            n.iter().map(|n| n["mean_power_mw"].as_f64().unwrap()).sum::<f64>() / n.len() as f64
+        };
+        close(r["mean_power_mw"]["mean"].as_f64().unwrap(), mean(&power), "power");
+    }
+    // icf's estimates take air beside the measurements: more load than sequeira's measurements alone.
+    assert!(rows[1]["channel_load"]["mean"].as_f64() > rows[0]["channel_load"]["mean"].as_f64());
+    let svg = std::fs::read_to_string(&plot).unwrap();
+    assert!(
+        svg.contains("\nicf\n</text>") && svg.contains("\nsequeira\n</text>"),
+        "the plot's legend"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+    for (args, names) in [
+        (&["compare", "-t", "rgg50-radio", "--loss", "0.1"][..], "--loss"),
+        (
+            &["compare", "-t", "rgg50-radio", "--estimators", "centralized"][..],
+            "--estimators",
+        ),
+        (
+            &["compare", "-t", "ring3", "--plot", "/nonexistent/b.svg"][..],
+            "--plot",
+        ),
+    ] {
+        refused(args, names);
     }
 }

@@ -2,7 +2,7 @@
 # ns-3's own numbers for the radio cross-checks: ns-3 3.44 with lr-wpan from its wheel, in a venv of its own
 # (target/ns3/venv). Writes target/ns3/phy.json (the PHY's arithmetic, from Python) and target/ns3/star.json and
 # star-ack.json (a star of senders around a coordinator, unacknowledged and with ACKs, a C++ program built against
-# the wheel's headers and libraries);
+# the wheel's headers and libraries) and prr.json (one sender's delivery ratio against distance, the same program);
 # `cargo test --test integration -- --ignored ns3::` compares.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -42,6 +42,23 @@ for ack in 0 1; do
   } > "$out"
   echo "wrote $out: $(tr -d '\n ' < "$out")"
 done
+# The delivery ratio against distance: one sender at r m, unacknowledged, 1000 packets of 20 and of 100 octets at
+# each distance, across the edge of the range (30–50 m).
+{
+  echo "["
+  first=1
+  for payload in 20 100; do
+    for r in 30 36 38 39 40 41 42 45 47 50; do
+      read -r n sent received < <(target/ns3/star --n=1 --radius="$r" --payload="$payload" --seconds=50 | tail -1)
+      [ "$first" = 1 ] || echo ","
+      first=0
+      printf '  [%s, %s, %s, %s]' "$payload" "$r" "$sent" "$received"
+    done
+  done
+  echo
+  echo "]"
+} > target/ns3/prr.json
+echo "wrote target/ns3/prr.json: $(tr -d '\n ' < target/ns3/prr.json)"
 # Its speed on the largest star (printed beside simnet's by the test; never asserted: the machine is shared).
 start=$(date +%s%N)
 target/ns3/star --n=20 --radius=5 >/dev/null

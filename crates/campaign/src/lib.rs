@@ -38,7 +38,7 @@ use simnet_engine::Summary;
 pub use outputs::{figure, finish, record_shard, Finished, Manifest, ShardInfo};
 pub use plan::{cell, parse_shard, shard, Axis, Plan, Point, RunSpec, MAX_RUNS, MAX_VALUES};
 pub use points::{estimators_of, mean_error_table, points, PointStat, LEVEL, NETWORK};
-pub use record::{RunRecord, ESTIMATOR_METRICS, NETWORK_METRICS};
+pub use record::{RunRecord, ESTIMATOR_METRICS, NETWORK_METRICS, RADIO_METRICS};
 pub use stack::{stack_file, StackOptions};
 pub use store::{read_capped, write_atomic, Store};
 pub use tables::{estimator_names, write_points, write_runs};

@@ -3,7 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::record::{RunRecord, ESTIMATOR_METRICS, NETWORK_METRICS};
+use super::record::{RunRecord, ESTIMATOR_METRICS, NETWORK_METRICS, RADIO_METRICS};
 use simnet_engine::stats::MeanCi;
 
 /// The confidence level of every interval.
@@ -44,8 +44,13 @@ pub fn points(records: &[RunRecord], points: usize) -> Vec<PointStat> {
             .collect();
         estimators.sort();
         estimators.dedup();
-        let groups = std::iter::once((NETWORK, &NETWORK_METRICS[..]))
-            .chain(estimators.iter().map(|e| (*e, &ESTIMATOR_METRICS[..])));
+        let network: Vec<&str> = if runs.iter().any(|r| r.on_radio()) {
+            NETWORK_METRICS.iter().chain(&RADIO_METRICS).copied().collect()
+        } else {
+            NETWORK_METRICS.to_vec()
+        };
+        let groups =
+            std::iter::once((NETWORK, &network[..])).chain(estimators.iter().map(|e| (*e, &ESTIMATOR_METRICS[..])));
         for (estimator, metrics) in groups {
             for metric in metrics {
                 let column = if estimator == NETWORK {

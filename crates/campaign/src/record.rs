@@ -25,6 +25,10 @@ pub const ESTIMATOR_METRICS: [&str; 11] = [
 /// The figures of the whole network in one run.
 pub const NETWORK_METRICS: [&str; 4] = ["loss_rate", "arrival_rate", "fused_error", "socket_losses"];
 
+/// The figures of a radio channel in one run (a run over the pairwise medium has none, and a campaign of such runs
+/// no column of them).
+pub const RADIO_METRICS: [&str; 4] = ["channel_load", "airtime_s", "energy_j", "mean_power_mw"];
+
 /// One run of a campaign: which, and what it found (`runs/KEY.json` in the store).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct RunRecord {
@@ -53,12 +57,22 @@ impl RunRecord {
         let sent: u64 = s.links.iter().map(|l| l.sent).sum();
         let lost: u64 = s.links.iter().map(|l| l.lost).sum();
         let arrival: Vec<f64> = s.links.iter().filter_map(|l| l.arrival_rate).collect();
-        let network = BTreeMap::from([
+        let mut network = BTreeMap::from([
             ("loss_rate".to_string(), (sent > 0).then(|| lost as f64 / sent as f64)),
             ("arrival_rate".to_string(), mean(&arrival)),
             ("fused_error".to_string(), s.fused.as_ref().and_then(|f| f.mean_error)),
             ("socket_losses".to_string(), Some(s.socket_losses as f64)),
         ]);
+        if let Some(r) = &s.radio {
+            let airtime: f64 = r.nodes.iter().map(|n| n.airtime_s).sum();
+            let power: Vec<f64> = r.nodes.iter().map(|n| n.mean_power_mw).collect();
+            network.extend([
+                ("channel_load".to_string(), Some(r.channel_load)),
+                ("airtime_s".to_string(), Some(airtime)),
+                ("energy_j".to_string(), Some(r.energy_j)),
+                ("mean_power_mw".to_string(), mean(&power)),
+            ]);
+        }
         let estimators = s
             .estimators
             .iter()
@@ -128,6 +142,11 @@ impl RunRecord {
         self.point = run.point;
         self.values = values;
         Ok(())
+    }
+
+    /// Whether the run was over a radio channel (its record carries [`RADIO_METRICS`]).
+    pub fn on_radio(&self) -> bool {
+        self.network.contains_key(RADIO_METRICS[0])
     }
 
     /// A figure by table name: `loss_rate`, or `icf.mean_error`.

@@ -7,7 +7,7 @@ use std::io::Write;
 
 use super::plan::cell;
 use super::points::PointStat;
-use super::record::{RunRecord, ESTIMATOR_METRICS, NETWORK_METRICS};
+use super::record::{RunRecord, ESTIMATOR_METRICS, NETWORK_METRICS, RADIO_METRICS};
 use super::PlanFile;
 
 /// The estimators of `records`, in the order `simnet estimators` lists them (unknown names after, by name).
@@ -22,9 +22,12 @@ fn num(v: Option<f64>) -> String {
     v.filter(|x| x.is_finite()).map_or(String::new(), |x| x.to_string())
 }
 
-/// The columns of `runs.csv` after the swept keys and the seed.
-pub fn run_columns(estimators: &[String]) -> Vec<String> {
+/// The columns of `runs.csv` after the swept keys and the seed (the radio's where a run had one).
+pub fn run_columns(estimators: &[String], radio: bool) -> Vec<String> {
     let mut cols: Vec<String> = NETWORK_METRICS.iter().map(|m| m.to_string()).collect();
+    if radio {
+        cols.extend(RADIO_METRICS.iter().map(|m| m.to_string()));
+    }
     for e in estimators {
         cols.extend(ESTIMATOR_METRICS.iter().map(|m| format!("{e}.{m}")));
     }
@@ -35,7 +38,8 @@ pub fn run_columns(estimators: &[String]) -> Vec<String> {
 pub fn write_runs(w: impl Write, plan: &PlanFile, records: &[RunRecord]) -> csv::Result<()> {
     let mut out = csv::Writer::from_writer(w);
     let estimators = estimator_names(records);
-    let cols = run_columns(&estimators);
+    let radio = records.iter().any(RunRecord::on_radio);
+    let cols = run_columns(&estimators, radio);
     let mut head = vec!["point".to_string()];
     head.extend(plan.axes.iter().map(|a| a.key.clone()));
     head.extend(["seed".to_string(), "run".to_string(), "steps".to_string()]);

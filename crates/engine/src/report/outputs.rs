@@ -157,6 +157,10 @@ const RUNS: &[Field] = &[
     f("arrival_rate", "The mean arrival rate over every link."),
     f("fused_error", "The fused (covariance intersection) estimate's mean error."),
     f("socket_losses", "Frames of the virtual clock lost in the socket layer."),
+    only("channel_load", "A campaign over a radio channel: the channel's load (`radio.channel_load` of summary.json); this column and the next three are written only where a run was over a radio."),
+    only("airtime_s", "Every node's time on the air, summed, s."),
+    only("energy_j", "Every node's radio energy, J."),
+    only("mean_power_mw", "A node's mean radio power, mW (the mean over the nodes)."),
     f("ESTIMATOR.*", "Per estimator: mean_error, median_error, ratio_to_centralized, rms_error, disagreement, fused_error, trace_p, nees, diverged, messages, bytes (as in summary.json)."),
 ];
 

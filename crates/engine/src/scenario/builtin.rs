@@ -17,6 +17,7 @@ pub const ALL: &[(&str, &str)] = &[
     ("ring100", include_str!("../../../../topologies/ring100.toml")),
     ("attitude3", include_str!("../../../../topologies/attitude3.toml")),
     ("rgg50", include_str!("../../../../topologies/rgg50.toml")),
+    ("rgg50-radio", include_str!("../../../../topologies/rgg50-radio.toml")),
     ("ranges4", include_str!("../../../../topologies/ranges4.toml")),
     (
         "ring3-attacked",

@@ -38,6 +38,7 @@ impl RadioMedium {
         self.nodes[j].acks += 1;
         self.nodes[j].airtime_ns += end.since(start).as_nanos() as u64;
         self.nodes[j].last_end_ns = self.nodes[j].last_end_ns.max(end.as_nanos());
+        let (power_w, distance_m) = self.reach(j, start);
         self.air.push(AirFrame {
             from: j,
             start,
@@ -46,7 +47,8 @@ impl RadioMedium {
             to: Dest::Node(i),
             bytes: None,
             ack: true,
-            power_w: self.powers(j, start),
+            power_w,
+            distance_m,
         });
         end
     }

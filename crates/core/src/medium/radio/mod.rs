@@ -112,6 +112,8 @@ struct AirFrame {
     ack: bool,
     /// Its power at every node, W (from the distance as it began).
     power_w: std::sync::Arc<[f64]>,
+    /// Its sender's distance to every node as it began, m.
+    distance_m: std::sync::Arc<[f64]>,
 }
 
 /// What a sender's MAC does next.
@@ -252,15 +254,17 @@ impl RadioMedium {
         self.nodes.get(i).copied().unwrap_or_default()
     }
 
-    /// The power of `from`'s frame at every node, if it begins at `t`, W.
-    fn powers(&self, from: usize, t: Time) -> std::sync::Arc<[f64]> {
+    /// The power of `from`'s frame at every node if it begins at `t`, W, and the distance it crosses to each, m.
+    fn reach(&self, from: usize, t: Time) -> (std::sync::Arc<[f64]>, std::sync::Arc<[f64]>) {
         let at = self.world.position(from, t);
-        (0..self.world.len())
-            .map(|to| {
-                let loss = self.radio.path_loss.loss_db((self.world.position(to, t) - at).norm());
-                phy::dbm_to_w(self.radio.tx_dbm - loss)
-            })
-            .collect()
+        let distance_m: std::sync::Arc<[f64]> = (0..self.world.len())
+            .map(|to| (self.world.position(to, t) - at).norm())
+            .collect();
+        let power_w = distance_m
+            .iter()
+            .map(|&d| phy::dbm_to_w(self.radio.tx_dbm - self.radio.path_loss.loss_db(d)))
+            .collect();
+        (power_w, distance_m)
     }
 
     /// Run the channel to `until`: every assessment and every frame's end up to it, in time order (a frame's end
@@ -362,6 +366,7 @@ impl RadioMedium {
         self.nodes[i].frames += 1;
         self.nodes[i].airtime_ns += end.since(start).as_nanos() as u64;
         self.nodes[i].last_end_ns = end.as_nanos();
+        let (power_w, distance_m) = self.reach(i, start);
         self.air.push(AirFrame {
             from: i,
             start,
@@ -370,7 +375,8 @@ impl RadioMedium {
             to: q.to,
             bytes: q.bytes,
             ack: false,
-            power_w: self.powers(i, start),
+            power_w,
+            distance_m,
         });
     }
 
@@ -400,9 +406,8 @@ impl RadioMedium {
             };
             let u: f64 = rand::Rng::gen(&mut self.fates[i]);
             let down = self.down.contains(&(f.message, j));
-            let distance = self.world.distance(i, j, f.start);
             let quality = self.quality[i].entry(j).or_default();
-            quality.count(p, heard, sinr, u < success && !down, distance);
+            quality.count(p, heard, sinr, u < success && !down, f.distance_m[j]);
             if acked {
                 let received = u < success && !down;
                 if received && f.bytes.is_some() && self.delivered.insert((f.message, j)) {

@@ -1,6 +1,6 @@
 //! SVG plots drawn with plotters and an embedded DejaVu font (no system fonts needed). `run.rs`: one run's
 //! trajectories, error and trace P over time, networked against independent; `analysis.rs`: covariance bounds,
-//! protocol curves and named lines; `estimators.rs`: every distributed estimator's error against time; `map.rs`: where the nodes stand and what each link delivered; `sweep.rs`: a campaign's figures against the swept key with confidence bands. This file: the axes, legends, colours and series they share.
+//! protocol curves and named lines; `estimators.rs`: every distributed estimator's error against time; `map.rs`: where the nodes stand and what each link delivered; `sweep.rs`: a campaign's figures against the swept key with confidence bands; `budget.rs`: error against what each estimator spends on the network. This file: the axes, legends, colours and series they share.
 
 use std::collections::BTreeMap;
 use std::sync::Once;
@@ -386,12 +386,14 @@ mod tests {
 }
 
 mod analysis;
+mod budget;
 mod estimators;
 mod map;
 mod run;
 mod sweep;
 
 pub use analysis::{covariance_bounds, lines, protocol_curve, BoundsRow, ProtocolPoint};
+pub use budget::{budget, BudgetPoint};
 pub use estimators::estimators;
 pub use map::map;
 pub use run::{error, trace_p, trajectory};

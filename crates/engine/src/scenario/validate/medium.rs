@@ -22,24 +22,17 @@ impl Validator {
             return MediumConfig::Pairwise;
         };
         let radio_keys = [
-            ("tx_dbm", m.tx_dbm),
-            ("path_loss_exponent", m.path_loss_exponent),
-            ("reference_loss_db", m.reference_loss_db),
-            ("reference_m", m.reference_m),
-            ("sensitivity_dbm", m.sensitivity_dbm),
+            ("tx_dbm", m.tx_dbm.is_some()),
+            ("path_loss_exponent", m.path_loss_exponent.is_some()),
+            ("reference_loss_db", m.reference_loss_db.is_some()),
+            ("reference_m", m.reference_m.is_some()),
+            ("sensitivity_dbm", m.sensitivity_dbm.is_some()),
+            ("ack", m.ack.is_some()),
+            ("max_frame_retries", m.max_frame_retries.is_some()),
         ];
         match m.kind.as_deref().unwrap_or("pairwise") {
             "pairwise" => {
-                for (key, v) in radio_keys {
-                    if v.is_some() {
-                        self.bad(
-                            format!("medium.{key}"),
-                            "only a radio medium has this setting: give medium.kind = \"radio\"",
-                        );
-                    }
-                }
-                if m.ack.is_some() || m.max_frame_retries.is_some() {
-                    let key = if m.ack.is_some() { "ack" } else { "max_frame_retries" };
+                for (key, _) in radio_keys.iter().filter(|(_, given)| *given) {
                     self.bad(
                         format!("medium.{key}"),
                         "only a radio medium has this setting: give medium.kind = \"radio\"",

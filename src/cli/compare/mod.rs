@@ -1,11 +1,15 @@
 //! `simnet compare`: every estimator on the same scenario over a grid of loss × rounds × seeds, in memory, and
 //! the table of mean errors relative to the centralized reference (mean ± standard deviation over the seeds). It is
 //! a sweep over `loss` and `rounds`: with `--out DIR` its runs are a campaign's, resumable, with `runs.csv`,
-//! `points.csv`, `sweep.svg` and `report.html`.
+//! `points.csv`, `sweep.svg` and `report.html`. On a radio channel ([`radio`]) each estimator runs alone and pays
+//! its airtime and energy; `--plot` draws error against what each one spends.
+
+mod radio;
 
 use super::*;
 use crate::campaign::{self, Axis, Plan, PointStat, RunRecord};
 use crate::estimators::Kind;
+use crate::scenario::MediumConfig;
 use crate::stats::MeanCi;
 
 #[derive(Args, Debug, Clone)]
@@ -13,9 +17,10 @@ pub struct CompareArgs {
     /// Built-in name or a path.
     #[arg(long, short = 't')]
     pub topology: String,
-    /// Loss probabilities, comma-separated (Bernoulli on every link).
-    #[arg(long, value_delimiter = ',', value_parser = probability, default_values_t = [0.0, 0.1, 0.3])]
-    pub loss: Vec<f64>,
+    /// Loss probabilities, comma-separated (Bernoulli on every link) [default: 0,0.1,0.3]; not on a radio channel,
+    /// which decides loss itself.
+    #[arg(long, value_delimiter = ',', value_parser = probability)]
+    pub loss: Option<Vec<f64>>,
     /// Consensus rounds, comma-separated.
     #[arg(long, value_delimiter = ',', default_values_t = [1u64, 3, 10], value_parser = rounds)]
     pub rounds: Vec<u64>,
@@ -39,7 +44,14 @@ pub struct CompareArgs {
     /// With --out, also write runs and points as Parquet (a build with the `parquet` feature).
     #[arg(long, value_enum, default_value = "csv", requires = "out")]
     pub format: Format,
+    /// Write error against what each estimator spends as SVG: the channel's load on a radio, the kB a node sends a
+    /// second otherwise (one --loss value); each estimator × rounds a point.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
 }
+
+/// The loss values of a comparison over the pairwise medium.
+const LOSS: [f64; 3] = [0.0, 0.1, 0.3];
 
 /// One cell of the table: a figure's mean, standard deviation and number of seeds that gave it.
 #[derive(serde::Serialize)]
@@ -67,16 +79,22 @@ impl Figure {
     }
 
     fn text(&self, seeds: usize) -> String {
+        self.text_as(seeds, 3, 1.0, "")
+    }
+
+    /// The figure times `scale`, to `digits` decimals, followed by `unit`.
+    fn text_as(&self, seeds: usize, digits: usize, scale: f64, unit: &str) -> String {
         match (self.mean, self.sd) {
             (None, _) => "diverged".to_string(),
             (Some(m), sd) => {
-                let sd = sd.map_or(String::new(), |sd| format!(" ± {sd:.3}"));
+                let m = m * scale;
+                let sd = sd.map_or(String::new(), |sd| format!(" ± {:.digits$}", sd * scale));
                 let of = if self.n < seeds {
                     format!(" ({} of {seeds})", self.n)
                 } else {
                     String::new()
                 };
-                format!("{m:.3}{sd}{of}")
+                format!("{m:.digits$}{sd}{unit}{of}")
             }
         }
     }
@@ -105,17 +123,33 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
         all.push(Kind::Centralized);
         all.sort();
     }
-    let list = |v: Vec<String>| v.join(",");
-    let axes = [
-        format!("loss={}", list(args.loss.iter().map(f64::to_string).collect())),
-        format!("rounds={}", list(args.rounds.iter().map(u64::to_string).collect())),
-    ]
-    .iter()
-    .map(|a| Axis::parse(a).map_err(|e| UsageError::Option(format!("--loss/--rounds: {e}"))))
-    .collect::<Result<Vec<_>, _>>()?;
+    let radio = matches!(base.medium(), MediumConfig::Radio(_));
     let start = campaign::sweep_base(&base, Some(all), None, args.duration)?;
     // The schemes as validated: "all" is all the model can run.
     let all = start.estimators().run.clone();
+    let names: Vec<&str> = all
+        .iter()
+        .filter(|k| **k != Kind::Centralized)
+        .map(|k| k.name())
+        .collect();
+    let axes = if radio {
+        radio::axes(args, &names)?
+    } else {
+        let list = |v: Vec<String>| v.join(",");
+        [
+            format!("loss={}", list(losses(args).iter().map(f64::to_string).collect())),
+            format!("rounds={}", list(args.rounds.iter().map(u64::to_string).collect())),
+        ]
+        .iter()
+        .map(|a| Axis::parse(a).map_err(|e| UsageError::Option(format!("--loss/--rounds: {e}"))))
+        .collect::<Result<Vec<_>, _>>()?
+    };
+    if !radio && args.plot.is_some() && losses(args).len() != 1 {
+        return Err(UsageError::Option(
+            "--plot: give one --loss value (the plot is error against kB sent at that loss)".into(),
+        )
+        .into());
+    }
     // Every cell's scenario is checked before any run starts.
     let plan = Plan::new(start, axes, args.seeds)?;
     let stats = match &args.out {
@@ -131,30 +165,36 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
         },
         None => in_memory(&plan, quiet),
     };
-    let names: Vec<&str> = all
-        .iter()
-        .filter(|k| **k != Kind::Centralized)
-        .map(|k| k.name())
-        .collect();
+    if radio {
+        return radio::report(args, &base, &names, &stats, quiet);
+    }
     let rows = rows(args, &names, &stats);
+    if let Some(path) = &args.plot {
+        let kb = |point: usize, n: &str| {
+            let nodes = base.nodes().len() as f64;
+            let s = stat(&stats, point, n, "bytes")?;
+            Some(s.mean / nodes / duration(args, &base) / 1e3)
+        };
+        // One loss value: the plan's points are the rounds, every estimator in each run.
+        let points = budget_points(&names, &args.rounds, &stats, |ri, _| ri, kb);
+        let title = format!(
+            "{} — error against kB sent, loss {:.0} %, {} per point",
+            base.name(),
+            100.0 * losses(args)[0],
+            crate::scenario::count(args.seeds as usize, "seed")
+        );
+        write_plot(path, &plot::budget(&points, "kB a node sends a second", &title)?, quiet)?;
+    }
     let mut out = std::io::stdout().lock();
     if args.json {
-        let v = serde_json::json!({
-            "topology": base.name(),
-            "model": base.model().kind(),
-            "duration_s": args.duration.unwrap_or(base.sim().duration_s),
-            "seeds": args.seeds,
-            "rows": rows,
-        });
-        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
-        return Ok(ExitCode::SUCCESS);
+        return json(&mut out, args, &base, None, &rows);
     }
     writeln!(
         out,
         "{} ({} model), {} s per run, {} per cell: mean error / centralized's, mean ± sd over the seeds",
         base.name(),
         base.model().kind(),
-        args.duration.unwrap_or(base.sim().duration_s),
+        duration(args, &base),
         crate::scenario::count(args.seeds as usize, "seed")
     )?;
     writeln!(out)?;
@@ -223,18 +263,60 @@ fn in_memory(plan: &Plan, quiet: bool) -> Vec<PointStat> {
     campaign::points(&records, plan.points.len())
 }
 
+/// The loss values compared over the pairwise medium.
+fn losses(args: &CompareArgs) -> Vec<f64> {
+    args.loss.clone().unwrap_or_else(|| LOSS.to_vec())
+}
+
+/// Each run's simulated duration, s.
+fn duration(args: &CompareArgs, base: &Scenario) -> f64 {
+    args.duration.unwrap_or(base.sim().duration_s)
+}
+
+/// A figure of an estimator (or of `network`) at a point.
+fn stat<'a>(stats: &'a [PointStat], point: usize, est: &str, metric: &str) -> Option<&'a MeanCi> {
+    stats
+        .iter()
+        .find(|s| s.point == point && s.estimator == est && s.metric == metric)
+        .map(|s| &s.stat)
+}
+
+/// Each estimator × rounds a point of the budget plot: `point_of(rounds index, estimator index)` is the plan's
+/// point that ran it, `spent` its x there.
+fn budget_points(
+    names: &[&str],
+    rounds: &[u64],
+    stats: &[PointStat],
+    point_of: impl Fn(usize, usize) -> usize,
+    spent: impl Fn(usize, &str) -> Option<f64>,
+) -> Vec<plot::BudgetPoint> {
+    let mut points = Vec::new();
+    for (ri, &l) in rounds.iter().enumerate() {
+        for (ki, name) in names.iter().enumerate() {
+            let point = point_of(ri, ki);
+            let ratio = stat(stats, point, name, "ratio_to_centralized");
+            let (Some(kind), Some(r), Some(x)) = (Kind::from_name(name), ratio, spent(point, name)) else {
+                continue;
+            };
+            points.push(plot::BudgetPoint {
+                kind,
+                rounds: l,
+                x,
+                y: r.mean,
+                y_low: r.low,
+                y_high: r.high,
+            });
+        }
+    }
+    points
+}
+
 /// The table's rows from the points' statistics, loss outermost as the plan orders its points.
 fn rows(args: &CompareArgs, names: &[&str], stats: &[PointStat]) -> Vec<Row> {
-    let stat = |point: usize, est: &str, metric: &str| {
-        stats
-            .iter()
-            .find(|s| s.point == point && s.estimator == est && s.metric == metric)
-            .map(|s| &s.stat)
-    };
-    let cells = args
-        .loss
-        .iter()
-        .flat_map(|&loss| args.rounds.iter().map(move |&rounds| (loss, rounds)));
+    let stat = |point: usize, est: &str, metric: &str| stat(stats, point, est, metric);
+    let cells = losses(args)
+        .into_iter()
+        .flat_map(|loss| args.rounds.iter().map(move |&rounds| (loss, rounds)));
     cells
         .enumerate()
         .map(|(point, (loss, rounds))| {
@@ -256,4 +338,37 @@ fn rows(args: &CompareArgs, names: &[&str], stats: &[PointStat]) -> Vec<Row> {
             }
         })
         .collect()
+}
+
+/// The comparison as JSON: the scenario, the medium where it is not the pairwise one, and the rows.
+fn json(
+    out: &mut impl Write,
+    args: &CompareArgs,
+    base: &Scenario,
+    medium: Option<&str>,
+    rows: &impl serde::Serialize,
+) -> anyhow::Result<ExitCode> {
+    let mut v = serde_json::json!({
+        "topology": base.name(),
+        "model": base.model().kind(),
+        "duration_s": duration(args, base),
+        "seeds": args.seeds,
+        "rows": rows,
+    });
+    if let Some(m) = medium {
+        v["medium"] = m.into();
+    }
+    writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `svg` written to `path` (atomically), and said.
+fn write_plot(path: &Path, svg: &str, quiet: bool) -> anyhow::Result<()> {
+    anyhow::Context::with_context(crate::report::write_atomic(path, svg.as_bytes()), || {
+        format!("writing {}", path.display())
+    })?;
+    if !quiet {
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
 }
