@@ -216,3 +216,53 @@ fn compare_on_a_radio_runs_each_estimator_alone() {
         refused(args, names);
     }
 }
+
+/// Log-normal shadowing (`medium.shadowing_db`) on rgg50-radio's static nodes: each link's RSSI is 0 dBm less ns-3's
+/// log-distance loss at its distance (computed here) less the pair's shadowing, the same both ways; over the pairs of
+/// five seeds the shadowing's mean is within 3 standard errors of 0 and its variance within 3 of σ² = 36 dB².
+#[test]
+fn shadowing_is_reciprocal_and_normal_around_the_path_loss() {
+    let mut shadow = Vec::new();
+    for seed in 2..=6u64 {
+        let o = Overrides {
+            duration_s: Some(1.0),
+            seed: Some(seed),
+            ..Default::default()
+        };
+        let s = Scenario::resolve("rgg50-radio")
+            .unwrap()
+            .with(&o)
+            .unwrap()
+            .set("medium.shadowing_db", toml::Value::Float(6.0))
+            .unwrap();
+        let sum = Sim::new(&s).unwrap().run().unwrap().summary();
+        let rssi: std::collections::BTreeMap<(u32, u32), (f64, f64)> = sum
+            .links
+            .iter()
+            .filter_map(|l| {
+                let r = l.radio.as_ref()?;
+                Some(((l.from, l.to), (r.rssi_dbm?, r.distance_m?)))
+            })
+            .collect();
+        for (&(from, to), &(dbm, d)) in &rssi {
+            if let Some(&(back, _)) = rssi.get(&(to, from)) {
+                assert!(
+                    (dbm - back).abs() < 1e-9,
+                    "seed {seed}: {from} → {to} {dbm} dBm, back {back} dBm"
+                );
+            }
+            if from < to || !rssi.contains_key(&(to, from)) {
+                shadow.push(-(dbm + 46.6777 + 30.0 * d.log10()));
+            }
+        }
+    }
+    let n = shadow.len() as f64;
+    assert!(n > 500.0, "{n} pairs");
+    let mean = shadow.iter().sum::<f64>() / n;
+    let var = shadow.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    assert!(mean.abs() < 3.0 * 6.0 / n.sqrt(), "mean {mean} dB over {n} pairs");
+    assert!(
+        (var - 36.0).abs() < 3.0 * 36.0 * (2.0 / n).sqrt(),
+        "variance {var} dB² over {n} pairs"
+    );
+}

@@ -93,6 +93,7 @@ pub mod frame;
 mod ingress;
 pub mod phy;
 pub mod radio;
+pub mod shadow;
 
 use bytes::Bytes;
 

@@ -143,6 +143,8 @@ pub const KEYS: &[KeyDoc] = &[
     k("medium.sensitivity_dbm", NUM, "dBm", "-95.0", "-106.58 to 0; radio only", "The receivers' sensitivity, which sets their noise figure as ns-3 does (a CC2420: −95 dBm, its datasheet) and the clear-channel assessment's threshold 10 dB above it.", Some("-120")),
     k("medium.ack", BOOL, "", "true", "true | false; radio only", "Unicasts (a message with one destination: a sealed run's per-link datagrams, centralized-net's to its sink) are acknowledged, and sent again when no ACK comes; broadcasts never are.", None),
     k("medium.max_frame_retries", INT, "", "3", "0 to 7; radio only", "How many times an unacknowledged unicast is sent again (macMaxFrameRetries) before it is given up.", Some("8")),
+    k("medium.shadowing_db", NUM, "dB", "0.0 (none)", "0 to 20; radio only", "Log-normal shadowing's standard deviation σ: each pair's loss gains a normal variable in dB, the same both ways, constant while the pair stands still and decorrelating as it moves (Gudmundson 1991).", Some("-1")),
+    k("medium.shadowing_decorrelation_m", NUM, "m", "8.306", "0.01 to 10000; radio only", "The distance moved over which the shadowing's correlation falls to 1/e (default: Gudmundson's 0.3 at 10 m).", Some("0")),
     // [generate]
     k("generate.graph", "ring | grid | complete | random-geometric", "", "required", "the words listed", "Nodes and edges from a graph instead of [[node]] and [[edge]] lists.", Some("\"tree\"")),
     k("generate.nodes", INT, "", "required", "1 to 10000 (2000 for complete and random-geometric)", "The number of nodes, ids 0 … n − 1.", Some("0")),

@@ -172,6 +172,8 @@ pub struct RawMedium {
     pub sensitivity_dbm: Option<f64>,
     pub ack: Option<bool>,
     pub max_frame_retries: Option<i64>,
+    pub shadowing_db: Option<f64>,
+    pub shadowing_decorrelation_m: Option<f64>,
 }
 
 /// `[generate]`: a graph of `nodes` nodes (ids 0 … n−1) and its undirected edges.

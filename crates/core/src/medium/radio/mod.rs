@@ -2,8 +2,9 @@
 //! one or more frames ([`super::frame`]) that each sender's MAC puts on the air by unslotted CSMA/CA
 //! ([`super::csma`]), every frame heard by every node in range at the power the path loss leaves
 //! ([`super::phy`]), and its fate at each receiver decided by what that receiver makes of all the frames around it
-//! ([`super::air`]). A broadcast is one frame sequence, heard by all; a unicast is the same frames, kept by the one
-//! it names (no acknowledgement yet). Loss here comes from distance, noise and contention, not from a set p.
+//! ([`super::air`]), the path loss with each pair's shadowing ([`super::shadow`]) if the radio has it. A broadcast is
+//! one frame sequence, heard by all; a unicast is the same frames, kept by the one it names and acknowledged
+//! (`ack.rs`). Loss here comes from distance, noise and contention, not from a set p.
 //!
 //! The medium is whole: it decides a frame's fate only once every frame that could overlap it is known, so a
 //! driver hands it every sender's transmissions up to an instant before it asks for deliveries up to that instant
@@ -40,6 +41,7 @@ use super::air::{self, OnAir, Reception};
 use super::csma::{self, Attempt, Csma, CsmaParams};
 use super::frame::{self, Security};
 use super::phy::{self, LogDistance, Receiver};
+use super::shadow::{ShadowField, Shadowing};
 use super::{Delivery, Dest, Medium, Transmission};
 use crate::link::{FaultSchedule, LinkCounters};
 use crate::rng::Rng;
@@ -47,9 +49,11 @@ use crate::time::Time;
 use crate::world::World;
 
 mod ack;
+mod counters;
 mod quality;
 use ack::{ifs, Awaiting};
 pub use ack::{ACK_PSDU, ACK_WAIT};
+pub use counters::RadioCounters;
 pub use quality::LinkQuality;
 
 /// The radios' settings, the same at every node.
@@ -69,6 +73,9 @@ pub struct Radio {
     /// Unicasts are acknowledged and sent again up to this many times when no ACK comes (macMaxFrameRetries);
     /// none: unacknowledged.
     pub max_frame_retries: Option<u8>,
+    /// Log-normal shadowing over the path loss; none: the path loss alone (as ns-3's log-distance model).
+    #[serde(default)]
+    pub shadowing: Option<Shadowing>,
 }
 
 impl Default for Radio {
@@ -82,6 +89,7 @@ impl Default for Radio {
             csma: CsmaParams::STANDARD,
             security: Security::None,
             max_frame_retries: Some(3),
+            shadowing: None,
         }
     }
 }
@@ -141,27 +149,6 @@ struct Mac {
     awaiting: Option<Awaiting>,
 }
 
-/// Per-node figures of the channel.
-#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct RadioCounters {
-    /// Frames sent.
-    pub frames: u64,
-    /// Time on the air sending, ns.
-    pub airtime_ns: u64,
-    /// Frames abandoned after macMaxCSMABackoffs busy assessments.
-    pub csma_failures: u64,
-    /// Busy assessments.
-    pub busy: u64,
-    /// ACK frames it sent (their airtime is in `airtime_ns`).
-    pub acks: u64,
-    /// Frames it sent again for want of an ACK.
-    pub retries: u64,
-    /// Unicast messages it gave up after macMaxFrameRetries retries without an ACK.
-    pub no_ack: u64,
-    /// When its last frame left the air, ns (a run's last step flushes what is queued: this may be past its end).
-    pub last_end_ns: u64,
-}
-
 /// The shared channel.
 #[derive(Debug)]
 pub struct RadioMedium {
@@ -188,6 +175,8 @@ pub struct RadioMedium {
     messages: u64,
     /// The last event done: a datagram handed in later is queued from here at the earliest.
     clock: Time,
+    /// Each pair's shadowing, with the radio's.
+    shadow: Option<ShadowField>,
 }
 
 /// Interference below a hundredth of the noise is left out.
@@ -222,6 +211,7 @@ impl RadioMedium {
             listeners: None,
             messages: 0,
             clock: Time::ZERO,
+            shadow: radio.shadowing.map(|law| ShadowField::new(law, seed)),
             radio,
             world,
         }
@@ -254,15 +244,23 @@ impl RadioMedium {
         self.nodes.get(i).copied().unwrap_or_default()
     }
 
-    /// The power of `from`'s frame at every node if it begins at `t`, W, and the distance it crosses to each, m.
-    fn reach(&self, from: usize, t: Time) -> (std::sync::Arc<[f64]>, std::sync::Arc<[f64]>) {
+    /// The power of `from`'s frame at every node if it begins at `t`, W (the path loss and the pair's shadowing),
+    /// and the distance it crosses to each, m.
+    fn reach(&mut self, from: usize, t: Time) -> (std::sync::Arc<[f64]>, std::sync::Arc<[f64]>) {
         let at = self.world.position(from, t);
-        let distance_m: std::sync::Arc<[f64]> = (0..self.world.len())
-            .map(|to| (self.world.position(to, t) - at).norm())
-            .collect();
-        let power_w = distance_m
+        let places: Vec<_> = (0..self.world.len()).map(|to| self.world.position(to, t)).collect();
+        let distance_m: std::sync::Arc<[f64]> = places.iter().map(|p| (p - at).norm()).collect();
+        let power_w = places
             .iter()
-            .map(|&d| phy::dbm_to_w(self.radio.tx_dbm - self.radio.path_loss.loss_db(d)))
+            .enumerate()
+            .map(|(to, &p)| {
+                let shadow = match &mut self.shadow {
+                    Some(s) if to != from => s.db(from, to, at, p),
+                    _ => 0.0,
+                };
+                let loss = self.radio.path_loss.loss_db(distance_m[to]) + shadow;
+                phy::dbm_to_w(self.radio.tx_dbm - loss)
+            })
             .collect();
         (power_w, distance_m)
     }

@@ -3,6 +3,7 @@
 
 use crate::medium::phy::{LogDistance, Receiver};
 use crate::medium::radio::Radio;
+use crate::medium::shadow::Shadowing;
 use crate::scenario::toml::RawMedium;
 use crate::scenario::{DirectedLink, MediumConfig, NodeConfig, Validator};
 
@@ -29,6 +30,8 @@ impl Validator {
             ("sensitivity_dbm", m.sensitivity_dbm.is_some()),
             ("ack", m.ack.is_some()),
             ("max_frame_retries", m.max_frame_retries.is_some()),
+            ("shadowing_db", m.shadowing_db.is_some()),
+            ("shadowing_decorrelation_m", m.shadowing_decorrelation_m.is_some()),
         ];
         match m.kind.as_deref().unwrap_or("pairwise") {
             "pairwise" => {
@@ -109,8 +112,20 @@ impl Validator {
                         3
                     }
                 };
+                let sigma_db = within(self, "shadowing_db", m.shadowing_db, (0.0, 20.0), 0.0);
+                let decorrelation_m = within(
+                    self,
+                    "shadowing_decorrelation_m",
+                    m.shadowing_decorrelation_m,
+                    (0.01, 1e4),
+                    Shadowing::DECORRELATION_M,
+                );
                 MediumConfig::Radio(Radio {
                     max_frame_retries: m.ack.unwrap_or(true).then_some(retries),
+                    shadowing: (sigma_db > 0.0).then_some(Shadowing {
+                        sigma_db,
+                        decorrelation_m,
+                    }),
                     tx_dbm,
                     path_loss,
                     receiver: Receiver { sensitivity_dbm },
