@@ -201,6 +201,26 @@ fn compare_on_a_radio_runs_each_estimator_alone() {
         svg.contains("\nicf\n</text>") && svg.contains("\nsequeira\n</text>"),
         "the plot's legend"
     );
+    // A plot that cannot be written (its path a directory) fails after the table is out: no figure is lost.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_simnet"))
+        .args([
+            "-q",
+            "compare",
+            "-t",
+            "rgg50-radio",
+            "--seeds",
+            "1",
+            "--rounds",
+            "1",
+            "--duration",
+            "1",
+        ])
+        .args(["--estimators", "sequeira", "--plot"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).contains("| 1 | sequeira |"));
     std::fs::remove_dir_all(&dir).unwrap();
     for (args, names) in [
         (&["compare", "-t", "rgg50-radio", "--loss", "0.1"][..], "--loss"),
@@ -208,9 +228,10 @@ fn compare_on_a_radio_runs_each_estimator_alone() {
             &["compare", "-t", "rgg50-radio", "--estimators", "centralized"][..],
             "--estimators",
         ),
+        (&["compare", "-t", "ring3", "--plot", "b.svg"][..], "--plot"),
         (
-            &["compare", "-t", "ring3", "--plot", "/nonexistent/b.svg"][..],
-            "--plot",
+            &["compare", "-t", "rgg50-radio", "--plot", "/nonexistent/b.svg"][..],
+            "--plot: /nonexistent is not a directory",
         ),
     ] {
         refused(args, names);

@@ -144,6 +144,11 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
         .map(|a| Axis::parse(a).map_err(|e| UsageError::Option(format!("--loss/--rounds: {e}"))))
         .collect::<Result<Vec<_>, _>>()?
     };
+    if let Some(dir) = args.plot.as_deref().and_then(Path::parent) {
+        if !dir.as_os_str().is_empty() && !dir.is_dir() {
+            return Err(UsageError::Option(format!("--plot: {} is not a directory", dir.display())).into());
+        }
+    }
     if !radio && args.plot.is_some() && losses(args).len() != 1 {
         return Err(UsageError::Option(
             "--plot: give one --loss value (the plot is error against kB sent at that loss)".into(),
@@ -169,7 +174,8 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
         return radio::report(args, &base, &names, &stats, quiet);
     }
     let rows = rows(args, &names, &stats);
-    if let Some(path) = &args.plot {
+    let mut svg = None;
+    if args.plot.is_some() {
         let kb = |point: usize, n: &str| {
             let nodes = base.nodes().len() as f64;
             let s = stat(&stats, point, n, "bytes")?;
@@ -183,11 +189,12 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
             100.0 * losses(args)[0],
             crate::scenario::count(args.seeds as usize, "seed")
         );
-        write_plot(path, &plot::budget(&points, "kB a node sends a second", &title)?, quiet)?;
+        svg = Some(plot::budget(&points, "kB a node sends a second", &title)?);
     }
     let mut out = std::io::stdout().lock();
     if args.json {
-        return json(&mut out, args, &base, None, &rows);
+        json(&mut out, args, &base, None, &rows)?;
+        return finish(args, svg, quiet);
     }
     writeln!(
         out,
@@ -224,7 +231,7 @@ pub(super) fn compare(args: &CompareArgs, quiet: bool) -> anyhow::Result<ExitCod
         .collect();
         writeln!(out, "| {} |", cells.join(" | "))?;
     }
-    Ok(ExitCode::SUCCESS)
+    finish(args, svg, quiet)
 }
 
 /// Every run of the plan in memory, on every core, and the statistics of its points (a campaign's, without a store).
@@ -362,13 +369,16 @@ fn json(
     Ok(ExitCode::SUCCESS)
 }
 
-/// `svg` written to `path` (atomically), and said.
-fn write_plot(path: &Path, svg: &str, quiet: bool) -> anyhow::Result<()> {
-    anyhow::Context::with_context(crate::report::write_atomic(path, svg.as_bytes()), || {
-        format!("writing {}", path.display())
-    })?;
-    if !quiet {
-        eprintln!("wrote {}", path.display());
+/// The plot written to `--plot` (atomically, after the table: a plot that cannot be written loses no figure), and
+/// said.
+fn finish(args: &CompareArgs, svg: Option<String>, quiet: bool) -> anyhow::Result<ExitCode> {
+    if let (Some(path), Some(svg)) = (&args.plot, svg) {
+        anyhow::Context::with_context(crate::report::write_atomic(path, svg.as_bytes()), || {
+            format!("writing {}", path.display())
+        })?;
+        if !quiet {
+            eprintln!("wrote {}", path.display());
+        }
     }
-    Ok(())
+    Ok(ExitCode::SUCCESS)
 }

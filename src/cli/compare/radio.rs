@@ -80,7 +80,8 @@ pub(super) fn report(
             })
         })
         .collect();
-    if let Some(path) = &args.plot {
+    let mut svg = None;
+    if args.plot.is_some() {
         let load = |point: usize, _: &str| stat(stats, point, campaign::NETWORK, "channel_load").map(|s| s.mean);
         let points = budget_points(names, &args.rounds, stats, point_of, load);
         let title = format!(
@@ -88,15 +89,12 @@ pub(super) fn report(
             base.name(),
             crate::scenario::count(args.seeds as usize, "seed")
         );
-        write_plot(
-            path,
-            &plot::budget(&points, "channel load (airtime / time)", &title)?,
-            quiet,
-        )?;
+        svg = Some(plot::budget(&points, "channel load (airtime / time)", &title)?);
     }
     let mut out = std::io::stdout().lock();
     if args.json {
-        return json(&mut out, args, base, Some("radio"), &rows);
+        json(&mut out, args, base, Some("radio"), &rows)?;
+        return finish(args, svg, quiet);
     }
     writeln!(
         out,
@@ -138,5 +136,5 @@ pub(super) fn report(
             "centralized (every measurement at one center, no radio): mean error {c:.4}"
         )?;
     }
-    Ok(ExitCode::SUCCESS)
+    finish(args, svg, quiet)
 }
