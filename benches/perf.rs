@@ -789,8 +789,8 @@ fn radio_ratios() {
 
 fn main() {
     // `cargo bench --bench perf -- MODE` runs one part: `lockstep [N]` (the lockstep ratios, of the ring of N),
-    // `estimation` (the kernel and node-step ratios), `radio`, `realtime`, `scale`, `scaling`; `kf-loop` and
-    // `sim-loop` are loops for a profiler. No mode: everything.
+    // `estimation` (the kernel and node-step ratios), `radio`, `realtime`, `scale`, `scaling`; `kf-loop`,
+    // `sim-loop` and `radio-loop [rate]` are loops for a profiler. No mode: everything.
     let args: Vec<String> = std::env::args().collect();
     if let Some(i) = args.iter().position(|a| a == "scaling-one") {
         scaling_one(args[i + 1].parse().unwrap(), &args[i + 2]);
@@ -831,6 +831,21 @@ fn main() {
                 duration_s: Some(10.0),
                 ..Default::default()
             })
+            .unwrap();
+        simnet::Sim::new(&s).unwrap().run().unwrap();
+        return;
+    }
+    if let Some(i) = args.iter().position(|a| a == "radio-loop") {
+        // For a profiler: rgg50 over the radio at the rate given (10 or 100 Hz), 10 s.
+        let rate: f64 = args.get(i + 1).and_then(|r| r.parse().ok()).unwrap_or(100.0);
+        let s = Scenario::resolve("rgg50-radio")
+            .unwrap()
+            .with(&Overrides {
+                duration_s: Some(10.0),
+                ..Default::default()
+            })
+            .unwrap()
+            .set("sim.rate_hz", toml::Value::Float(rate))
             .unwrap();
         simnet::Sim::new(&s).unwrap().run().unwrap();
         return;

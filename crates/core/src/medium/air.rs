@@ -82,6 +82,34 @@ pub enum Reception {
 /// intervals). One entry per frame, in the order given. Frames that start at the same instant are taken in the
 /// order given.
 pub fn receive(frames: &[OnAir], transmitting: &[(Time, Time)], noise_w: f64) -> Vec<Reception> {
+    timeline(frames, transmitting, noise_w, |_| true)
+}
+
+/// What one receiver makes of `frames[k]`: [`receive`]'s entry for it, the other frames' chances not worked out.
+pub fn receive_one(frames: &[OnAir], transmitting: &[(Time, Time)], noise_w: f64, k: usize) -> Reception {
+    timeline(frames, transmitting, noise_w, |i| i == k)
+        .get(k)
+        .copied()
+        .unwrap_or(Reception::Weak { sinr: 0.0 })
+}
+
+/// Which of `frames` one receiver locks onto and keeps to their end or to its own transmission (a
+/// [`Reception::Locked`] of [`receive`]), their chances not worked out.
+pub fn locks(frames: &[OnAir], transmitting: &[(Time, Time)], noise_w: f64) -> Vec<bool> {
+    timeline(frames, transmitting, noise_w, |_| false)
+        .into_iter()
+        .map(|r| matches!(r, Reception::Locked { .. }))
+        .collect()
+}
+
+/// [`receive`], working out the chance of success only of the frames `wanted` (the others locked onto come out
+/// as `Locked` with success 1 and no SINR): which frame is locked onto never depends on a chance.
+fn timeline(
+    frames: &[OnAir],
+    transmitting: &[(Time, Time)],
+    noise_w: f64,
+    wanted: impl Fn(usize) -> bool,
+) -> Vec<Reception> {
     // Events at one instant: ends before starts (a frame that ends as another starts does not overlap it), the
     // receiver's own transmissions ending before frames start, and starting after frames end.
     #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -111,7 +139,7 @@ pub fn receive(frames: &[OnAir], transmitting: &[(Time, Time)], noise_w: f64) ->
     let mut sending = 0usize;
     // Close the locked frame's stretch at `t` under the interference on the air until then.
     let close = |locked: &mut Option<(usize, f64, f64, Time)>, active_w: f64, t: Time| {
-        if let Some((i, success, sinr_min, since)) = locked {
+        if let Some((i, success, sinr_min, since)) = locked.as_mut().filter(|l| wanted(l.0)) {
             let p = frames[*i].power_w;
             let sinr = p / (noise_w + (active_w - p).max(0.0));
             let bits = (t.as_nanos() - since.as_nanos()) as f64 * 1e-9 * BIT_RATE;
@@ -356,5 +384,26 @@ mod tests {
         assert!((success(got[0]) - want).abs() <= 1e-12, "{got:?} against {want}");
         assert!(want > 0.5 && want < 0.99, "{want}");
         assert_eq!(got[1], Reception::Busy);
+    }
+
+    proptest::proptest! {
+        /// One frame's reception, and which frames are locked onto, worked out alone equal [`receive`]'s, exactly.
+        #[test]
+        fn one_frame_alone_is_the_whole_timelines_entry(
+            spec in proptest::collection::vec((0u64..3000, 1u64..1500, -105.0f64..-60.0), 1..12),
+            tx in proptest::collection::vec((0u64..3000, 1u64..800), 0..3),
+        ) {
+            let frames: Vec<OnAir> = spec
+                .iter()
+                .map(|&(s, len, dbm)| OnAir { start: us(s), end: us(s + len), power_w: dbm_to_w(dbm) })
+                .collect();
+            let sending: Vec<(Time, Time)> = tx.iter().map(|&(s, len)| (us(s), us(s + len))).collect();
+            let all = receive(&frames, &sending, noise());
+            let locks = locks(&frames, &sending, noise());
+            for k in 0..frames.len() {
+                proptest::prop_assert_eq!(receive_one(&frames, &sending, noise(), k), all[k]);
+                proptest::prop_assert_eq!(locks[k], matches!(all[k], Reception::Locked { .. }));
+            }
+        }
     }
 }

@@ -106,6 +106,10 @@ const C16: [f64; 17] = [
 /// BER = (8/15)(1/16) Σ_{k=2}^{16} (−1)^k C(16, k) exp(20 · SINR · (1/k − 1)) (IEEE 802.15.4-2020 Annex E, eq. E.1;
 /// ns-3's `LrWpanErrorModel`), at most 1.
 pub fn bit_error_rate(sinr: f64) -> f64 {
+    // Above 80 (19 dB) every term's exponent is below −800, where exp is 0 in f64: the sum is exactly 0.
+    if sinr >= 80.0 {
+        return 0.0;
+    }
     let sum: f64 = (2..=16)
         .map(|k| {
             let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
@@ -150,6 +154,25 @@ pub fn airtime(psdu_octets: u32) -> Duration {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The shortcut above 80 changes nothing: the sum itself is exactly 0 there, and the rate is continuous at it.
+    #[test]
+    fn the_rate_is_exactly_zero_where_the_sum_underflows() {
+        let sum = |sinr: f64| {
+            (2..=16)
+                .map(|k| {
+                    let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+                    sign * C16[k] * (20.0 * sinr * (1.0 / k as f64 - 1.0)).exp()
+                })
+                .sum::<f64>()
+        };
+        for sinr in [80.0, 80.5, 1e3, 1e9] {
+            assert_eq!(sum(sinr), 0.0, "{sinr}");
+            assert_eq!(bit_error_rate(sinr), 0.0);
+        }
+        // Just below it the sum is subnormal, not yet 0: its rate rounds to nothing a frame could show.
+        assert!(bit_error_rate(74.0) > 0.0 && bit_error_rate(79.99) < 1e-320);
+    }
 
     /// ns-3's own test values of its error model (`lr-wpan-error-model-test.cc`), within the tolerances that test
     /// gives them (the values are printed to three figures).

@@ -39,7 +39,7 @@ impl RadioMedium {
         self.nodes[j].airtime_ns += end.since(start).as_nanos() as u64;
         self.nodes[j].last_end_ns = self.nodes[j].last_end_ns.max(end.as_nanos());
         let (power_w, distance_m) = self.reach(j, start);
-        self.air.push(AirFrame {
+        self.put_on_air(AirFrame {
             from: j,
             start,
             end,

@@ -177,6 +177,8 @@ pub struct RadioMedium {
     clock: Time,
     /// Each pair's shadowing, with the radio's.
     shadow: Option<ShadowField>,
+    /// The longest frame put on the air: a frame that began that long before an instant has ended by it.
+    longest: std::time::Duration,
 }
 
 /// Interference below a hundredth of the noise is left out.
@@ -212,6 +214,7 @@ impl RadioMedium {
             messages: 0,
             clock: Time::ZERO,
             shadow: radio.shadowing.map(|law| ShadowField::new(law, seed)),
+            longest: std::time::Duration::ZERO,
             radio,
             world,
         }
@@ -309,8 +312,7 @@ impl RadioMedium {
     fn assess(&mut self, i: usize, t: Time) {
         let from = Time::from_nanos(t.as_nanos().saturating_sub(csma::CCA.as_nanos() as u64));
         let threshold = phy::dbm_to_w(self.radio.receiver.sensitivity_dbm + 10.0);
-        let heard: Vec<(Time, Time, f64)> = self
-            .air
+        let heard: Vec<(Time, Time, f64)> = self.air[self.window(from, t)]
             .iter()
             .filter(|f| f.from != i && f.start <= t && f.end > from)
             .map(|f| (f.start, f.end, f.power_w[i]))
@@ -324,10 +326,8 @@ impl RadioMedium {
         // as at any receiver).
         let receiving = {
             let (frames, ids, sending) = self.heard_by(i, (t, t));
-            let got = air::receive(&frames, &sending, self.noise_w);
-            ids.iter()
-                .zip(got)
-                .any(|(&m, r)| self.air[m].end > t && matches!(r, Reception::Locked { .. }))
+            let locks = air::locks(&frames, &sending, self.noise_w);
+            ids.iter().zip(locks).any(|(&m, locked)| self.air[m].end > t && locked)
         };
         let mac = &mut self.macs[i];
         let mut csma = mac.csma.take().expect("an assessment belongs to an access");
@@ -365,7 +365,7 @@ impl RadioMedium {
         self.nodes[i].airtime_ns += end.since(start).as_nanos() as u64;
         self.nodes[i].last_end_ns = end.as_nanos();
         let (power_w, distance_m) = self.reach(i, start);
-        self.air.push(AirFrame {
+        self.put_on_air(AirFrame {
             from: i,
             start,
             end,
@@ -458,12 +458,27 @@ impl RadioMedium {
         }
     }
 
+    /// Frame `f` goes on the air: `air` stays in the order frames begin (they begin in the order of the events that
+    /// start them, so this appends; frames that begin together keep the order they were sent in).
+    fn put_on_air(&mut self, f: AirFrame) {
+        self.longest = self.longest.max(f.end.since(f.start));
+        let at = self.air.partition_point(|g| g.start <= f.start);
+        self.air.insert(at, f);
+    }
+
+    /// The frames of `air` that can overlap `[lo, hi]` (a range holding every frame with start ≤ hi and end > lo).
+    fn window(&self, lo: Time, hi: Time) -> std::ops::Range<usize> {
+        let first = self.air.partition_point(|g| g.start + self.longest <= lo);
+        let last = self.air.partition_point(|g| g.start <= hi);
+        first..last.max(first)
+    }
+
     /// What receiver `j` makes of frame `k` ([`air::receive`] over what it heard around it, [`Self::heard_by`]).
     fn reception(&self, k: usize, j: usize) -> Reception {
         let f = &self.air[k];
         let (frames, ids, sending) = self.heard_by(j, (f.start, f.end));
         match ids.iter().position(|&m| m == k) {
-            Some(index) => air::receive(&frames, &sending, self.noise_w)[index],
+            Some(index) => air::receive_one(&frames, &sending, self.noise_w, index),
             None => Reception::Weak { sinr: 0.0 },
         }
     }
@@ -475,7 +490,8 @@ impl RadioMedium {
         // Only frames it hears decide what it was locked onto; its own frames end any lock.
         let heard = |g: &AirFrame| g.from != j && g.power_w[j] >= NEGLIGIBLE * self.noise_w;
         let members = loop {
-            let members: Vec<usize> = (0..self.air.len())
+            let members: Vec<usize> = self
+                .window(lo, hi)
                 .filter(|&m| self.air[m].start <= hi && self.air[m].end > lo && heard(&self.air[m]))
                 .collect();
             let first = members.iter().map(|&m| self.air[m].start).min().unwrap_or(lo);
@@ -484,8 +500,7 @@ impl RadioMedium {
             }
             lo = first;
         };
-        let sending = self
-            .air
+        let sending = self.air[self.window(lo, hi)]
             .iter()
             .filter(|g| g.from == j && g.start <= hi && g.end > lo)
             .map(|g| (g.start, g.end))
