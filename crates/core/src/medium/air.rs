@@ -82,113 +82,173 @@ pub enum Reception {
 /// intervals). One entry per frame, in the order given. Frames that start at the same instant are taken in the
 /// order given.
 pub fn receive(frames: &[OnAir], transmitting: &[(Time, Time)], noise_w: f64) -> Vec<Reception> {
-    timeline(frames, transmitting, noise_w, |_| true)
-}
-
-/// What one receiver makes of `frames[k]`: [`receive`]'s entry for it, the other frames' chances not worked out.
-pub fn receive_one(frames: &[OnAir], transmitting: &[(Time, Time)], noise_w: f64, k: usize) -> Reception {
-    timeline(frames, transmitting, noise_w, |i| i == k)
-        .get(k)
-        .copied()
-        .unwrap_or(Reception::Weak { sinr: 0.0 })
-}
-
-/// Which of `frames` one receiver locks onto and keeps to their end or to its own transmission (a
-/// [`Reception::Locked`] of [`receive`]), their chances not worked out.
-pub fn locks(frames: &[OnAir], transmitting: &[(Time, Time)], noise_w: f64) -> Vec<bool> {
-    timeline(frames, transmitting, noise_w, |_| false)
-        .into_iter()
-        .map(|r| matches!(r, Reception::Locked { .. }))
-        .collect()
-}
-
-/// [`receive`], working out the chance of success only of the frames `wanted` (the others locked onto come out
-/// as `Locked` with success 1 and no SINR): which frame is locked onto never depends on a chance.
-fn timeline(
-    frames: &[OnAir],
-    transmitting: &[(Time, Time)],
-    noise_w: f64,
-    wanted: impl Fn(usize) -> bool,
-) -> Vec<Reception> {
-    // Events at one instant: ends before starts (a frame that ends as another starts does not overlap it), the
-    // receiver's own transmissions ending before frames start, and starting after frames end.
-    #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
-    enum Ev {
-        FrameEnd(usize),
-        TxEnd,
-        TxStart,
-        FrameStart(usize),
-    }
-    let mut events: Vec<(Time, Ev)> = Vec::with_capacity(2 * (frames.len() + transmitting.len()));
+    let mut events: Vec<(Time, Event)> = Vec::with_capacity(2 * (frames.len() + transmitting.len()));
     for (i, f) in frames.iter().enumerate() {
         if f.end > f.start {
-            events.push((f.start, Ev::FrameStart(i)));
-            events.push((f.end, Ev::FrameEnd(i)));
+            events.push((f.start, Event::FrameStart(i as u64)));
+            events.push((f.end, Event::FrameEnd(i as u64)));
         }
     }
     for &(a, b) in transmitting.iter().filter(|(a, b)| b > a) {
-        events.push((a, Ev::TxStart));
-        events.push((b, Ev::TxEnd));
+        events.push((a, Event::TxStart));
+        events.push((b, Event::TxEnd));
     }
     events.sort();
     let mut out: Vec<Reception> = frames.iter().map(|_| Reception::Weak { sinr: 0.0 }).collect();
-    // The interference on the air (every frame started and not ended), the frame locked onto (its success so far,
-    // the lowest SINR, the start of the stretch not yet counted), and how many own transmissions are under way.
-    let mut active_w = 0.0;
-    let mut locked: Option<(usize, f64, f64, Time)> = None;
-    let mut sending = 0usize;
-    // Close the locked frame's stretch at `t` under the interference on the air until then.
-    let close = |locked: &mut Option<(usize, f64, f64, Time)>, active_w: f64, t: Time| {
-        if let Some((i, success, sinr_min, since)) = locked.as_mut().filter(|l| wanted(l.0)) {
-            let p = frames[*i].power_w;
-            let sinr = p / (noise_w + (active_w - p).max(0.0));
-            let bits = (t.as_nanos() - since.as_nanos()) as f64 * 1e-9 * BIT_RATE;
-            *success *= (bits * (-phy::bit_error_rate(sinr)).ln_1p()).exp();
-            *sinr_min = sinr_min.min(sinr);
-            *since = t;
-        }
-    };
-    for (t, ev) in events {
-        match ev {
-            Ev::FrameStart(i) => {
-                close(&mut locked, active_w, t);
-                let p = frames[i].power_w;
-                out[i] = if sending > 0 {
-                    Reception::Transmitting
-                } else if locked.is_some() {
-                    Reception::Busy
-                } else {
-                    let sinr = p / (noise_w + active_w);
-                    if 10.0 * sinr.log10() > LOCK_SINR_DB {
-                        locked = Some((i, 1.0, f64::INFINITY, t));
-                    }
-                    Reception::Weak { sinr }
-                };
-                active_w += p;
-            }
-            Ev::FrameEnd(i) => {
-                close(&mut locked, active_w, t);
-                if let Some((j, success, sinr_min, _)) = locked.filter(|(j, ..)| *j == i) {
-                    out[j] = Reception::Locked { success, sinr_min };
-                    locked = None;
-                }
-                active_w -= frames[i].power_w;
-                if active_w < 0.0 || !active_w.is_finite() {
-                    active_w = 0.0;
-                }
-            }
-            Ev::TxStart => {
-                // Half-duplex: what it was receiving is lost (its SINR as far as it came).
-                close(&mut locked, active_w, t);
-                if let Some((j, _, sinr_min, _)) = locked.take() {
-                    out[j] = Reception::Locked { success: 0.0, sinr_min };
-                }
-                sending += 1;
-            }
-            Ev::TxEnd => sending -= 1,
+    let mut ear = Listener::new(noise_w);
+    for (t, event) in events {
+        let power_w = match event {
+            Event::FrameStart(i) | Event::FrameEnd(i) => frames[i as usize].power_w,
+            _ => 0.0,
+        };
+        if let Some((i, r)) = ear.hear(t, event, power_w, true) {
+            out[i as usize] = r;
         }
     }
     out
+}
+
+/// What happens at a receiver. At one instant they are taken in this order: frames end (a frame that ends as
+/// another starts does not overlap it), its own transmission ends, one begins, frames start; frames in the order
+/// they were sent.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Event {
+    /// Frame `id` leaves the air.
+    FrameEnd(u64),
+    /// The receiver's own transmission ends.
+    TxEnd,
+    /// The receiver begins to transmit.
+    TxStart,
+    /// Frame `id` reaches the receiver.
+    FrameStart(u64),
+}
+
+/// One receiver, fed what happens around it in time order ([`Event`]'s order at an instant): what it locks onto
+/// and the chance it survives, as [`receive`] works out over a whole timeline, one event at a time.
+#[derive(Debug, Clone)]
+pub struct Listener {
+    noise_w: f64,
+    /// Frames on the air it hears, and their power summed since the air was last silent (so that no rounding
+    /// residue outlives a silence).
+    active: usize,
+    active_w: f64,
+    locked: Option<Lock>,
+    /// Its own transmissions under way.
+    sending: usize,
+}
+
+/// The frame a receiver is locked onto: its power, its chance so far, its lowest SINR, and the start of the
+/// stretch not yet counted; its chance is only worked out when `wanted`.
+#[derive(Debug, Clone, Copy)]
+struct Lock {
+    id: u64,
+    power_w: f64,
+    success: f64,
+    sinr_min: f64,
+    since: Time,
+    wanted: bool,
+}
+
+impl Listener {
+    /// A receiver listening over a noise floor of `noise_w` watts, the air silent.
+    pub fn new(noise_w: f64) -> Listener {
+        Listener {
+            noise_w,
+            active: 0,
+            active_w: 0.0,
+            locked: None,
+            sending: 0,
+        }
+    }
+
+    /// The frame it is locked onto.
+    pub fn locked(&self) -> Option<u64> {
+        self.locked.map(|l| l.id)
+    }
+
+    /// `event` at `t` (of a frame at `power_w` watts here; its chance worked out if `wanted`): the fate of a frame
+    /// it settles — at a frame's start if the receiver does not lock onto it, at its end if it does, as it begins to
+    /// transmit for one it was receiving.
+    pub fn hear(&mut self, t: Time, event: Event, power_w: f64, wanted: bool) -> Option<(u64, Reception)> {
+        match event {
+            Event::FrameStart(id) => {
+                self.close(t);
+                let r = if self.sending > 0 {
+                    Some(Reception::Transmitting)
+                } else if self.locked.is_some() {
+                    Some(Reception::Busy)
+                } else {
+                    let sinr = power_w / (self.noise_w + self.active_w);
+                    if 10.0 * sinr.log10() > LOCK_SINR_DB {
+                        self.locked = Some(Lock {
+                            id,
+                            power_w,
+                            success: 1.0,
+                            sinr_min: f64::INFINITY,
+                            since: t,
+                            wanted,
+                        });
+                        None
+                    } else {
+                        Some(Reception::Weak { sinr })
+                    }
+                };
+                self.active += 1;
+                self.active_w += power_w;
+                r.map(|r| (id, r))
+            }
+            Event::FrameEnd(id) => {
+                self.close(t);
+                let done = self.locked.filter(|l| l.id == id).map(|l| {
+                    self.locked = None;
+                    (
+                        id,
+                        Reception::Locked {
+                            success: l.success,
+                            sinr_min: l.sinr_min,
+                        },
+                    )
+                });
+                self.active = self.active.saturating_sub(1);
+                self.active_w -= power_w;
+                if self.active == 0 || self.active_w < 0.0 || !self.active_w.is_finite() {
+                    self.active_w = 0.0;
+                }
+                done
+            }
+            Event::TxStart => {
+                // Half-duplex: what it was receiving is lost (its SINR as far as it came).
+                self.close(t);
+                self.sending += 1;
+                self.locked.take().map(|l| {
+                    (
+                        l.id,
+                        Reception::Locked {
+                            success: 0.0,
+                            sinr_min: l.sinr_min,
+                        },
+                    )
+                })
+            }
+            Event::TxEnd => {
+                self.sending = self.sending.saturating_sub(1);
+                None
+            }
+        }
+    }
+
+    /// Close the locked frame's stretch at `t` under the interference on the air until then: it survives the
+    /// stretch's bits with probability (1 − BER(SINR))^bits.
+    fn close(&mut self, t: Time) {
+        let (noise_w, active_w) = (self.noise_w, self.active_w);
+        if let Some(l) = self.locked.as_mut().filter(|l| l.wanted) {
+            let sinr = l.power_w / (noise_w + (active_w - l.power_w).max(0.0));
+            let bits = (t.as_nanos() - l.since.as_nanos()) as f64 * 1e-9 * BIT_RATE;
+            l.success *= (bits * (-phy::bit_error_rate(sinr)).ln_1p()).exp();
+            l.sinr_min = l.sinr_min.min(sinr);
+            l.since = t;
+        }
+    }
 }
 
 #[cfg(test)]
@@ -384,26 +444,5 @@ mod tests {
         assert!((success(got[0]) - want).abs() <= 1e-12, "{got:?} against {want}");
         assert!(want > 0.5 && want < 0.99, "{want}");
         assert_eq!(got[1], Reception::Busy);
-    }
-
-    proptest::proptest! {
-        /// One frame's reception, and which frames are locked onto, worked out alone equal [`receive`]'s, exactly.
-        #[test]
-        fn one_frame_alone_is_the_whole_timelines_entry(
-            spec in proptest::collection::vec((0u64..3000, 1u64..1500, -105.0f64..-60.0), 1..12),
-            tx in proptest::collection::vec((0u64..3000, 1u64..800), 0..3),
-        ) {
-            let frames: Vec<OnAir> = spec
-                .iter()
-                .map(|&(s, len, dbm)| OnAir { start: us(s), end: us(s + len), power_w: dbm_to_w(dbm) })
-                .collect();
-            let sending: Vec<(Time, Time)> = tx.iter().map(|&(s, len)| (us(s), us(s + len))).collect();
-            let all = receive(&frames, &sending, noise());
-            let locks = locks(&frames, &sending, noise());
-            for k in 0..frames.len() {
-                proptest::prop_assert_eq!(receive_one(&frames, &sending, noise(), k), all[k]);
-                proptest::prop_assert_eq!(locks[k], matches!(all[k], Reception::Locked { .. }));
-            }
-        }
     }
 }

@@ -38,18 +38,7 @@ impl RadioMedium {
         self.nodes[j].acks += 1;
         self.nodes[j].airtime_ns += end.since(start).as_nanos() as u64;
         self.nodes[j].last_end_ns = self.nodes[j].last_end_ns.max(end.as_nanos());
-        let (power_w, distance_m) = self.reach(j, start);
-        self.put_on_air(AirFrame {
-            from: j,
-            start,
-            end,
-            message,
-            to: Dest::Node(i),
-            bytes: None,
-            ack: true,
-            power_w,
-            distance_m,
-        });
+        self.put_on_air(j, (start, end), (message, Dest::Node(i), None), true);
         end
     }
 

@@ -33,12 +33,13 @@
 //! assert!(got[0].at >= Time::from_nanos(2_176_000) && got[0].at <= Time::from_nanos(4_416_000), "{:?}", got[0].at);
 //! ```
 
-use std::collections::{HashSet, VecDeque};
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, HashSet, VecDeque};
 
 use bytes::Bytes;
 
-use super::air::{self, OnAir, Reception};
-use super::csma::{self, Attempt, Csma, CsmaParams};
+use super::air::Reception;
+use super::csma::{self, Csma, CsmaParams};
 use super::frame::{self, Security};
 use super::phy::{self, LogDistance, Receiver};
 use super::shadow::{ShadowField, Shadowing};
@@ -48,12 +49,15 @@ use crate::rng::Rng;
 use crate::time::Time;
 use crate::world::World;
 
+mod access;
 mod ack;
 mod counters;
+mod ears;
 mod quality;
 use ack::{ifs, Awaiting};
 pub use ack::{ACK_PSDU, ACK_WAIT};
 pub use counters::RadioCounters;
+use ears::Ear;
 pub use quality::LinkQuality;
 
 /// The radios' settings, the same at every node.
@@ -110,6 +114,8 @@ struct Queued {
 /// A frame on the air.
 #[derive(Debug, Clone)]
 struct AirFrame {
+    /// Frames are numbered in the order they go on the air.
+    seq: u64,
     from: usize,
     start: Time,
     end: Time,
@@ -179,6 +185,14 @@ pub struct RadioMedium {
     shadow: Option<ShadowField>,
     /// The longest frame put on the air: a frame that began that long before an instant has ended by it.
     longest: std::time::Duration,
+    /// Each node's receiver, and the frames put on the air so far.
+    ears: Vec<Ear>,
+    frames_sent: u64,
+    /// Every sender's next step, earliest first.
+    agenda: BinaryHeap<Reverse<(Time, u8, usize)>>,
+    /// The latest end of a frame no longer kept in `air`.
+    #[cfg(test)]
+    dropped_until: Time,
 }
 
 /// Interference below a hundredth of the noise is left out.
@@ -215,6 +229,11 @@ impl RadioMedium {
             clock: Time::ZERO,
             shadow: radio.shadowing.map(|law| ShadowField::new(law, seed)),
             longest: std::time::Duration::ZERO,
+            ears: (0..n).map(|_| Ear::new(radio.receiver.noise_w())).collect(),
+            frames_sent: 0,
+            agenda: BinaryHeap::new(),
+            #[cfg(test)]
+            dropped_until: Time::ZERO,
             radio,
             world,
         }
@@ -266,116 +285,6 @@ impl RadioMedium {
             })
             .collect();
         (power_w, distance_m)
-    }
-
-    /// Run the channel to `until`: every assessment and every frame's end up to it, in time order (a frame's end
-    /// before an assessment at the same instant; senders in index order).
-    fn advance(&mut self, until: Time) {
-        loop {
-            for i in 0..self.macs.len() {
-                self.begin_access(i);
-            }
-            let next = (0..self.macs.len())
-                .filter_map(|i| match self.macs[i].next {
-                    Next::TxEnd(t) => Some((t, 0, i)),
-                    Next::AckWait(t) => Some((t, 1, i)),
-                    Next::Cca(t) => Some((t, 2, i)),
-                    Next::Idle => None,
-                })
-                .min();
-            let Some((t, kind, i)) = next.filter(|(t, ..)| *t <= until) else {
-                break;
-            };
-            self.clock = self.clock.max(t);
-            match kind {
-                0 => self.end_frame(i, t),
-                1 => self.ack_wait(i, t),
-                _ => self.assess(i, t),
-            }
-        }
-    }
-
-    /// A sender with a frame queued and nothing under way backs off before its first assessment.
-    fn begin_access(&mut self, i: usize) {
-        let mac = &mut self.macs[i];
-        let (Next::Idle, Some(head)) = (mac.next, mac.queue.front()) else {
-            return;
-        };
-        let csma = Csma::new(self.radio.csma);
-        let from = head.ready.max(mac.free_at);
-        mac.next = Next::Cca(from + csma.backoff(&mut mac.rng) + csma::CCA);
-        mac.csma = Some(csma);
-    }
-
-    /// Sender `i`'s assessment ends at `t`: busy (ED over the threshold, or a frame it would be receiving), or
-    /// clear and the frame goes on the air after the turnaround.
-    fn assess(&mut self, i: usize, t: Time) {
-        let from = Time::from_nanos(t.as_nanos().saturating_sub(csma::CCA.as_nanos() as u64));
-        let threshold = phy::dbm_to_w(self.radio.receiver.sensitivity_dbm + 10.0);
-        let heard: Vec<(Time, Time, f64)> = self.air[self.window(from, t)]
-            .iter()
-            .filter(|f| f.from != i && f.start <= t && f.end > from)
-            .map(|f| (f.start, f.end, f.power_w[i]))
-            .collect();
-        // The peak energy over the assessment: the sum at its start and at each frame's start within it.
-        let peak = std::iter::once(from)
-            .chain(heard.iter().map(|h| h.0).filter(|s| *s > from))
-            .map(|at| heard.iter().filter(|h| h.0 <= at && h.1 > at).map(|h| h.2).sum::<f64>())
-            .fold(0.0, f64::max);
-        // Receiving: a frame still on the air that it locked onto as it began (what it makes of the frames around it,
-        // as at any receiver).
-        let receiving = {
-            let (frames, ids, sending) = self.heard_by(i, (t, t));
-            let locks = air::locks(&frames, &sending, self.noise_w);
-            ids.iter().zip(locks).any(|(&m, locked)| self.air[m].end > t && locked)
-        };
-        let mac = &mut self.macs[i];
-        let mut csma = mac.csma.take().expect("an assessment belongs to an access");
-        if peak >= threshold || receiving {
-            self.nodes[i].busy += 1;
-            match csma.busy() {
-                Attempt::BackOff => {
-                    mac.next = Next::Cca(t + csma.backoff(&mut mac.rng) + csma::CCA);
-                    mac.csma = Some(csma);
-                }
-                Attempt::Fail => {
-                    // The frame is abandoned, and with it the rest of its message: lost wherever it was going.
-                    let q = mac.queue.pop_front().expect("a queued frame");
-                    while mac.queue.front().is_some_and(|r| r.message == q.message) {
-                        mac.queue.pop_front();
-                    }
-                    self.nodes[i].csma_failures += 1;
-                    mac.next = Next::Idle;
-                    mac.free_at = t;
-                    for j in self.receivers(i, q.to) {
-                        self.lost.remove(&(q.message, j));
-                        if !self.down.remove(&(q.message, j)) {
-                            self.links[i][j].lost_random += 1;
-                        }
-                    }
-                }
-            }
-            return;
-        }
-        let q = mac.queue.front().expect("a queued frame").clone();
-        let start = t + csma::TURNAROUND;
-        let end = start + phy::airtime(q.psdu);
-        mac.next = Next::TxEnd(end);
-        self.nodes[i].frames += 1;
-        self.nodes[i].airtime_ns += end.since(start).as_nanos() as u64;
-        self.nodes[i].last_end_ns = end.as_nanos();
-        let (power_w, distance_m) = self.reach(i, start);
-        self.put_on_air(AirFrame {
-            from: i,
-            start,
-            end,
-            message: q.message,
-            to: q.to,
-            bytes: q.bytes,
-            ack: false,
-            power_w,
-            distance_m,
-        });
     }
 
     /// Sender `i`'s frame leaves the air at `t`: its fate at every receiver it was for, then the interframe spacing
@@ -443,6 +352,10 @@ impl RadioMedium {
             .min()
             .unwrap_or(t);
         let keep_from = Time::from_nanos(horizon.as_nanos().saturating_sub(50_000_000));
+        #[cfg(test)]
+        for f in self.air.iter().filter(|f| f.end < keep_from) {
+            self.dropped_until = self.dropped_until.max(f.end);
+        }
         self.air.retain(|f| f.end >= keep_from);
     }
 
@@ -458,12 +371,45 @@ impl RadioMedium {
         }
     }
 
-    /// Frame `f` goes on the air: `air` stays in the order frames begin (they begin in the order of the events that
-    /// start them, so this appends; frames that begin together keep the order they were sent in).
-    fn put_on_air(&mut self, f: AirFrame) {
-        self.longest = self.longest.max(f.end.since(f.start));
-        let at = self.air.partition_point(|g| g.start <= f.start);
-        self.air.insert(at, f);
+    /// Node `from` puts a frame on the air from `start` to `end` (of `message`, to `to`, the datagram on its
+    /// last frame; an ACK if `ack`): it reaches every node at the power the path loss leaves, and every node that
+    /// hears it above the negligible is told. `air` stays in the order frames begin: they begin in the order of
+    /// the events that start them, so this appends.
+    fn put_on_air(&mut self, from: usize, (start, end): (Time, Time), what: (u64, Dest, Option<Bytes>), ack: bool) {
+        let (message, to, bytes) = what;
+        let (power_w, distance_m) = self.reach(from, start);
+        let seq = self.frames_sent;
+        self.frames_sent += 1;
+        let mut meant = self.receivers(from, to);
+        meant.sort_unstable();
+        for (j, ear) in self.ears.iter_mut().enumerate() {
+            if j == from {
+                ear.transmit((start, end));
+            } else if power_w[j] >= NEGLIGIBLE * self.noise_w {
+                ear.frame(seq, (start, end), power_w[j], meant.binary_search(&j).is_ok());
+            }
+        }
+        self.longest = self.longest.max(end.since(start));
+        debug_assert!(
+            self.air.last().is_none_or(|g| g.start <= start),
+            "frames begin in order"
+        );
+        let at = self.air.partition_point(|g| g.start <= start);
+        self.air.insert(
+            at,
+            AirFrame {
+                seq,
+                from,
+                start,
+                end,
+                message,
+                to,
+                bytes,
+                ack,
+                power_w,
+                distance_m,
+            },
+        );
     }
 
     /// The frames of `air` that can overlap `[lo, hi]` (a range holding every frame with start ≤ hi and end > lo).
@@ -473,47 +419,15 @@ impl RadioMedium {
         first..last.max(first)
     }
 
-    /// What receiver `j` makes of frame `k` ([`air::receive`] over what it heard around it, [`Self::heard_by`]).
-    fn reception(&self, k: usize, j: usize) -> Reception {
+    /// What receiver `j` makes of frame `k`, meant for it, as the frame ends.
+    fn reception(&mut self, k: usize, j: usize) -> Reception {
         let f = &self.air[k];
-        let (frames, ids, sending) = self.heard_by(j, (f.start, f.end));
-        match ids.iter().position(|&m| m == k) {
-            Some(index) => air::receive_one(&frames, &sending, self.noise_w, index),
-            None => Reception::Weak { sinr: 0.0 },
+        let got = self.ears[j].fate(f.seq, f.end);
+        #[cfg(test)]
+        if let Some(want) = self.reception_by_chain(k, j) {
+            assert_eq!(got, want, "frame {k} at {j}");
         }
-    }
-
-    /// What receiver `j` heard around the interval `[lo, hi]`: every frame overlapping it or, one after another, the
-    /// frames before it (whose start decides what `j` was locked onto), as [`OnAir`] with their indices in `air`
-    /// (frames far below the noise left out), and `j`'s own frames as the times it transmitted.
-    fn heard_by(&self, j: usize, (mut lo, hi): (Time, Time)) -> (Vec<OnAir>, Vec<usize>, Vec<(Time, Time)>) {
-        // Only frames it hears decide what it was locked onto; its own frames end any lock.
-        let heard = |g: &AirFrame| g.from != j && g.power_w[j] >= NEGLIGIBLE * self.noise_w;
-        let members = loop {
-            let members: Vec<usize> = self
-                .window(lo, hi)
-                .filter(|&m| self.air[m].start <= hi && self.air[m].end > lo && heard(&self.air[m]))
-                .collect();
-            let first = members.iter().map(|&m| self.air[m].start).min().unwrap_or(lo);
-            if first >= lo {
-                break members;
-            }
-            lo = first;
-        };
-        let sending = self.air[self.window(lo, hi)]
-            .iter()
-            .filter(|g| g.from == j && g.start <= hi && g.end > lo)
-            .map(|g| (g.start, g.end))
-            .collect();
-        let frames = members
-            .iter()
-            .map(|&m| OnAir {
-                start: self.air[m].start,
-                end: self.air[m].end,
-                power_w: self.air[m].power_w[j],
-            })
-            .collect();
-        (frames, members, sending)
+        got
     }
 }
 
@@ -555,6 +469,9 @@ impl Medium for RadioMedium {
                     retries: 0,
                 });
             }
+        }
+        if self.macs[from].next == Next::Idle {
+            self.schedule(from);
         }
     }
 

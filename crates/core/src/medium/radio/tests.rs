@@ -1,6 +1,7 @@
 //! The shared channel's tests: frames in turn, hidden terminals, seeds, distance.
 use super::*;
 use crate::link::Stream;
+use crate::medium::air;
 use crate::world::Place;
 use nalgebra::Vector3;
 
@@ -207,4 +208,98 @@ fn a_unicast_out_of_range_is_retried_then_given_up() {
         let c = m.counters(0)[0].1;
         assert_eq!((c.sent, c.lost_random), (1, 1));
     }
+}
+
+/// The fate of a frame worked out as it was before each node kept its receiver's state: [`air::receive`] over
+/// every frame the receiver heard back to the last silence before it. In test builds the medium checks every fate
+/// and every assessment against it, where that silence is still among the frames the medium keeps (none when
+/// the air was busy longer than it keeps frames: then the kept state is the one to trust).
+impl RadioMedium {
+    /// What receiver `j` heard around `[lo, hi]`: every frame overlapping it or, one after another, the frames
+    /// before it (whose start decides what `j` was locked onto), with their indices in `air`, and `j`'s own frames.
+    #[allow(clippy::type_complexity)]
+    fn heard_by(
+        &self,
+        j: usize,
+        (mut lo, hi): (Time, Time),
+    ) -> Option<(Vec<air::OnAir>, Vec<usize>, Vec<(Time, Time)>)> {
+        let heard = |g: &AirFrame| g.from != j && g.power_w[j] >= NEGLIGIBLE * self.noise_w;
+        let members = loop {
+            let members: Vec<usize> = (0..self.air.len())
+                .filter(|&m| self.air[m].start <= hi && self.air[m].end > lo && heard(&self.air[m]))
+                .collect();
+            let first = members.iter().map(|&m| self.air[m].start).min().unwrap_or(lo);
+            if first >= lo {
+                break members;
+            }
+            if first <= self.dropped_until {
+                return None;
+            }
+            lo = first;
+        };
+        let sending = (self.air.iter())
+            .filter(|g| g.from == j && g.start <= hi && g.end > lo)
+            .map(|g| (g.start, g.end))
+            .collect();
+        let frames = (members.iter())
+            .map(|&m| air::OnAir {
+                start: self.air[m].start,
+                end: self.air[m].end,
+                power_w: self.air[m].power_w[j],
+            })
+            .collect();
+        Some((frames, members, sending))
+    }
+
+    pub(super) fn reception_by_chain(&self, k: usize, j: usize) -> Option<Reception> {
+        let f = &self.air[k];
+        let (frames, ids, sending) = self.heard_by(j, (f.start, f.end))?;
+        CHECKED.with(|c| c.set(c.get() + 1));
+        Some(match ids.iter().position(|&m| m == k) {
+            Some(index) => air::receive(&frames, &sending, self.noise_w)[index],
+            None => Reception::Weak { sinr: 0.0 },
+        })
+    }
+
+    pub(super) fn receiving_by_chain(&self, i: usize, t: Time) -> Option<bool> {
+        let (frames, ids, sending) = self.heard_by(i, (t, t))?;
+        let got = air::receive(&frames, &sending, self.noise_w);
+        Some((ids.iter().zip(got)).any(|(&m, r)| self.air[m].end > t && matches!(r, Reception::Locked { .. })))
+    }
+}
+
+thread_local! {
+    /// Fates checked against the whole timeline, in this thread.
+    pub(super) static CHECKED: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
+/// A saturated channel — 24 nodes within 60 m, hidden terminals among them, each broadcasting and sending
+/// acknowledged unicasts of up to three frames every 4 ms — where every fate and every assessment the receivers'
+/// kept state gives equals the one worked out over the whole timeline (checked as the medium runs, in test builds).
+#[test]
+fn each_receivers_state_gives_the_fates_the_whole_timeline_gives() {
+    let at: Vec<(f64, f64)> = (0..24)
+        .map(|i| ((i % 6) as f64 * 12.0, (i / 6) as f64 * 15.0))
+        .collect();
+    let mut m = RadioMedium::new(Radio::default(), world(&at), 7);
+    let mut rng = crate::rng::stream(7, "test", 0, 0);
+    let mut got = 0;
+    for step in 0..250u64 {
+        let now = Time::from_nanos(step * 4_000_000);
+        for i in 0..24 {
+            let len = rand::Rng::gen_range(&mut rng, 10..300);
+            let to = match rand::Rng::gen_range(&mut rng, 0..3) {
+                0 => Dest::Node(rand::Rng::gen_range(&mut rng, 0..24)),
+                _ => Dest::Broadcast,
+            };
+            send(&mut m, i, to, now, len);
+        }
+        got += all(&mut m, now + std::time::Duration::from_millis(4)).len();
+    }
+    let busy: u64 = (0..24).map(|i| m.node_counters(i).busy).sum();
+    let checked = CHECKED.with(|c| c.get());
+    assert!(
+        got > 300 && busy > 1000 && checked > 1000,
+        "delivered {got}, busy {busy} times, {checked} checked"
+    );
 }
