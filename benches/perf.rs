@@ -16,7 +16,7 @@ use simnet::estimate::{consensus_update, kalman_update, Gaussian, MissingChannel
 use simnet::link::{FaultSchedule, Link, LinkConfig, LossModel};
 use simnet::model::{Attitude, Dynamics, Linear, Pose, Sensing};
 use simnet::net::{self, RunOptions};
-use simnet::scenario::{Overrides, Scenario};
+use simnet::scenario::{LinkSpec, Overrides, Scenario};
 use simnet::sensor::{ImuInterval, ImuSample};
 use simnet::wire::{Datagram, Header, Payload};
 
@@ -787,9 +787,57 @@ fn radio_ratios() {
     }
 }
 
+/// A static radio network of `RADIO_N` nodes (10,000 by default) in memory: a square lattice at rgg50's density
+/// (one node per 200 m², 14.1 m apart), each node's consensus neighbours the lattice's four, 10 Hz, 2 s; the radio
+/// against the same network over the pairwise links, and the cost of a node-step.
+fn radio_scale() {
+    let n: usize = std::env::var("RADIO_N")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(10_000);
+    let side = (n as f64).sqrt().ceil() as usize;
+    let spacing = 200f64.sqrt();
+    let one = |v: f64| DMatrix::from_element(1, 1, v);
+    let model = Linear::new(one(0.9), one(1.0), one(0.1), one(0.5), DVector::zeros(1), one(1.0));
+    let mut b = Scenario::builder()
+        .name(&format!("radio-lattice{n}"))
+        .rate_hz(10.0)
+        .duration_s(2.0)
+        .burn_in_s(0.0)
+        .model(model);
+    for i in 0..n {
+        let (x, y) = ((i % side) as f64 * spacing, (i / side) as f64 * spacing);
+        b = b.peer(i as u32).position(i as u32, [x, y, 0.0]);
+    }
+    for i in 0..n {
+        for j in [i + 1, i + side] {
+            let neighbour = if j == i + 1 { (i + 1) % side != 0 } else { j < n };
+            if neighbour && j < n {
+                b = b.edge(i as u32, j as u32, LinkSpec::default());
+            }
+        }
+    }
+    let pairwise = b.build().unwrap();
+    let radio = pairwise
+        .set("medium.kind", toml::Value::String("radio".into()))
+        .unwrap();
+    let time = |s: &Scenario| {
+        let t = Instant::now();
+        let out = black_box(simnet::Sim::new(s).unwrap().run().unwrap());
+        (t.elapsed().as_secs_f64(), out.steps_done)
+    };
+    let (a, steps) = time(&pairwise);
+    let (r, _) = time(&radio);
+    println!(
+        "| a {n}-node static lattice in memory at 10 Hz (2 s simulated): radio channel / pairwise links, wall | {:.2} ({r:.2} s / {a:.2} s; {:.1} µs per node-step on the radio) |",
+        r / a,
+        r / (n as f64 * steps as f64) * 1e6
+    );
+}
+
 fn main() {
     // `cargo bench --bench perf -- MODE` runs one part: `lockstep [N]` (the lockstep ratios, of the ring of N),
-    // `estimation` (the kernel and node-step ratios), `radio`, `realtime`, `scale`, `scaling`; `kf-loop`,
+    // `estimation` (the kernel and node-step ratios), `radio`, `radio-scale`, `realtime`, `scale`, `scaling`; `kf-loop`,
     // `sim-loop` and `radio-loop [rate]` are loops for a profiler. No mode: everything.
     let args: Vec<String> = std::env::args().collect();
     if let Some(i) = args.iter().position(|a| a == "scaling-one") {
@@ -813,6 +861,10 @@ fn main() {
     }
     if args.iter().any(|a| a == "realtime") {
         realtime();
+        return;
+    }
+    if args.iter().any(|a| a == "radio-scale") {
+        radio_scale();
         return;
     }
     if args.iter().any(|a| a == "radio") {
@@ -987,6 +1039,7 @@ fn main() {
     kernel_ratios();
     estimation_ratios();
     radio_ratios();
+    radio_scale();
     realtime();
     scale();
     scaling();

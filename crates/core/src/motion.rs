@@ -86,6 +86,11 @@ pub struct PoseTruth {
 }
 
 impl Trajectory {
+    /// Whether it stays where it starts, turned as it starts.
+    pub fn is_still(self) -> bool {
+        self == Trajectory::Rest
+    }
+
     /// The truth at time `t` (s).
     pub fn at(self, t: f64) -> PoseTruth {
         let (p, v, a) = self.translation(t);

@@ -99,6 +99,15 @@ impl World {
         }
     }
 
+    /// Whether node `node` stands still: fixed, or on a body that does not move (a node the world does not have
+    /// stands at the origin).
+    pub fn is_still(&self, node: usize) -> bool {
+        match self.places.get(node) {
+            Some(Place::Mounted { body, .. }) => self.bodies.get(*body).is_none_or(|tr| tr.is_still()),
+            _ => true,
+        }
+    }
+
     /// The distance between nodes `a` and `b` at time `t`, m.
     pub fn distance(&self, a: usize, b: usize, t: Time) -> f64 {
         (self.position(a, t) - self.position(b, t)).norm()

@@ -54,6 +54,18 @@ impl LogDistance {
         }
         self.reference_loss_db + 10.0 * self.exponent * (distance_m / self.reference_m).log10()
     }
+
+    /// The distance over which the loss reaches `loss_db`, m: d₀ 10^((L − PL₀) / 10n); d₀ for a loss at most PL₀,
+    /// infinite for a loss that does not grow.
+    pub fn distance_for(&self, loss_db: f64) -> f64 {
+        if loss_db <= self.reference_loss_db {
+            return self.reference_m;
+        }
+        if self.exponent <= 0.0 {
+            return f64::INFINITY;
+        }
+        self.reference_m * 10f64.powf((loss_db - self.reference_loss_db) / (10.0 * self.exponent))
+    }
 }
 
 /// Boltzmann's constant, J/K (CODATA 2018, exact).

@@ -67,11 +67,7 @@ impl RadioMedium {
     fn assess(&mut self, i: usize, t: Time) {
         let from = Time::from_nanos(t.as_nanos().saturating_sub(csma::CCA.as_nanos() as u64));
         let threshold = phy::dbm_to_w(self.radio.receiver.sensitivity_dbm + 10.0);
-        let heard: Vec<(Time, Time, f64)> = self.air[self.window(from, t)]
-            .iter()
-            .filter(|f| f.from != i && f.start <= t && f.end > from)
-            .map(|f| (f.start, f.end, f.power_w[i]))
-            .collect();
+        let heard = self.ears[i].heard_during(from, t);
         // The peak energy over the assessment: the sum at its start and at each frame's start within it.
         let peak = std::iter::once(from)
             .chain(heard.iter().map(|h| h.0).filter(|s| *s > from))
@@ -105,7 +101,7 @@ impl RadioMedium {
                     for j in self.receivers(i, q.to) {
                         self.lost.remove(&(q.message, j));
                         if !self.down.remove(&(q.message, j)) {
-                            self.links[i][j].lost_random += 1;
+                            self.links[i].entry(j).or_default().lost_random += 1;
                         }
                     }
                 }
@@ -119,6 +115,7 @@ impl RadioMedium {
         self.nodes[i].frames += 1;
         self.nodes[i].airtime_ns += end.since(start).as_nanos() as u64;
         self.nodes[i].last_end_ns = end.as_nanos();
-        self.put_on_air(i, (start, end), (q.message, q.to, q.bytes), false);
+        let seq = self.put_on_air(i, (start, end), (q.message, q.to, q.bytes));
+        self.macs[i].on_air = Some(seq);
     }
 }

@@ -20,8 +20,8 @@ pub const ACK_WAIT: Duration = Duration::from_micros(54 * 16);
 pub(super) struct Awaiting {
     /// The frame left the air.
     pub(super) data_end: Time,
-    /// When its receiver's ACK began, if it sent one.
-    pub(super) ack_start: Option<Time>,
+    /// Its receiver's ACK, if it sent one.
+    pub(super) ack: Option<u64>,
 }
 
 impl RadioMedium {
@@ -31,15 +31,15 @@ impl RadioMedium {
     }
 
     /// Receiver `j` got sender `i`'s frame of `message` intact as it ended at `t`: its ACK, on the air after the
-    /// turnaround; when it ends.
-    pub(super) fn send_ack(&mut self, j: usize, i: usize, message: u64, t: Time) -> Time {
+    /// turnaround; when it ends, and the frame.
+    pub(super) fn send_ack(&mut self, j: usize, i: usize, message: u64, t: Time) -> (Time, u64) {
         let start = t + csma::TURNAROUND;
         let end = start + phy::airtime(ACK_PSDU);
         self.nodes[j].acks += 1;
         self.nodes[j].airtime_ns += end.since(start).as_nanos() as u64;
         self.nodes[j].last_end_ns = self.nodes[j].last_end_ns.max(end.as_nanos());
-        self.put_on_air(j, (start, end), (message, Dest::Node(i), None), true);
-        end
+        let seq = self.put_on_air(j, (start, end), (message, Dest::Node(i), None));
+        (end, seq)
     }
 
     /// Sender `i`'s wait for the ACK of the frame at the head of its queue ends at `t` (as the ACK ends, or
@@ -53,11 +53,7 @@ impl RadioMedium {
         let Dest::Node(j) = head.to else {
             unreachable!("only unicasts are acknowledged")
         };
-        let ack = w.ack_start.and_then(|s| {
-            self.air
-                .iter()
-                .position(|f| f.ack && f.from == j && f.start == s && f.message == head.message)
-        });
+        let ack = w.ack.and_then(|seq| self.air_index(seq));
         let got = ack.is_some_and(|m| {
             let success = match self.reception(m, i) {
                 Reception::Locked { success, .. } => success,
@@ -90,7 +86,7 @@ impl RadioMedium {
         self.nodes[i].no_ack += 1;
         let delivered = self.delivered.remove(&(head.message, j));
         if !self.down.remove(&(head.message, j)) && !delivered {
-            self.links[i][j].lost_random += 1;
+            self.links[i].entry(j).or_default().lost_random += 1;
         }
     }
 }

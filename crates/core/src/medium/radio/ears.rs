@@ -5,9 +5,10 @@
 //! silence.
 
 use std::cmp::{Ordering, Reverse};
-use std::collections::{BinaryHeap, HashMap, VecDeque};
+use std::collections::{BinaryHeap, VecDeque};
 
 use crate::medium::air::{Event, Listener, Reception};
+use crate::medium::csma;
 use crate::time::Time;
 
 /// One node's receiver and what it has not yet heard: frames' starts and its own transmissions come in the
@@ -21,10 +22,12 @@ pub(super) struct Ear {
     own: VecDeque<(Time, Event)>,
     /// The end of the frame it is locked onto, and whether it is meant for it.
     locked: (Time, bool),
-    /// Fates settled of frames meant for it, until asked for.
-    fates: HashMap<u64, Reception>,
+    /// Fates settled of frames meant for it, until asked for (a few at a time).
+    fates: Vec<(u64, Reception)>,
     /// Frames it was receiving when it began to transmit, until they end (an assessment still counts them).
     aborted: Vec<Time>,
+    /// Frames begun and not ended an assessment ago, in the order they began: what its energy detection sums.
+    around: Vec<Heard>,
 }
 
 /// A frame as this node hears it, on the air from `start` to `end`: waiting to start, or (`begun`) to end.
@@ -73,8 +76,9 @@ impl Ear {
             ends: BinaryHeap::new(),
             own: VecDeque::new(),
             locked: (Time::ZERO, false),
-            fates: HashMap::new(),
+            fates: Vec::new(),
             aborted: Vec::new(),
+            around: Vec::new(),
         }
     }
 
@@ -115,6 +119,7 @@ impl Ear {
             } else {
                 let h = self.starts.pop_front().expect("a start");
                 self.ends.push(Reverse(Heard { begun: true, ..h }));
+                self.around.push(h);
                 (Some(h), next.1)
             };
             let (power_w, wanted) = h.map_or((0.0, false), |h| (h.power_w, h.wanted));
@@ -130,19 +135,39 @@ impl Ear {
                 _ => {}
             }
         }
-        self.aborted.retain(|end| *end > t);
+        if !self.aborted.is_empty() {
+            self.aborted.retain(|end| *end > t);
+        }
+        // An assessment from now on begins at t − CCA at the earliest.
+        let horizon = Time::from_nanos(t.as_nanos().saturating_sub(csma::CCA.as_nanos() as u64));
+        if self.around.first().is_some_and(|h| h.end <= horizon) || self.around.len() > 32 {
+            self.around.retain(|h| h.end > horizon);
+        }
+    }
+
+    /// The frames it hears on the air at some time in `(from, t]` or at `from` (begun by `t`, not ended by
+    /// `from`), in the order they began: start, end and power.
+    pub(super) fn heard_during(&mut self, from: Time, t: Time) -> Vec<(Time, Time, f64)> {
+        self.run_to(t);
+        (self.around.iter())
+            .filter(|h| h.start <= t && h.end > from)
+            .map(|h| (h.start, h.end, h.power_w))
+            .collect()
     }
 
     fn keep(&mut self, wanted: bool, id: u64, r: Reception) {
         if wanted {
-            self.fates.insert(id, r);
+            self.fates.push((id, r));
         }
     }
 
     /// The fate here of frame `id`, meant for this node and ended at `end` (weak if it was not heard).
     pub(super) fn fate(&mut self, id: u64, end: Time) -> Reception {
         self.run_to(end);
-        self.fates.remove(&id).unwrap_or(Reception::Weak { sinr: 0.0 })
+        match self.fates.iter().position(|f| f.0 == id) {
+            Some(k) => self.fates.swap_remove(k).1,
+            None => Reception::Weak { sinr: 0.0 },
+        }
     }
 
     /// Whether, at `t`, it is receiving a frame: locked onto one, or one it was locked onto when it began to

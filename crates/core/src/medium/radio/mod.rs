@@ -1,10 +1,12 @@
 //! One shared IEEE 802.15.4 channel as a [`Medium`]: every node a radio at its place in the [`World`], every datagram
 //! one or more frames ([`super::frame`]) that each sender's MAC puts on the air by unslotted CSMA/CA
-//! ([`super::csma`]), every frame heard by every node in range at the power the path loss leaves
-//! ([`super::phy`]), and its fate at each receiver decided by what that receiver makes of all the frames around it
-//! ([`super::air`]), the path loss with each pair's shadowing ([`super::shadow`]) if the radio has it. A broadcast is
-//! one frame sequence, heard by all; a unicast is the same frames, kept by the one it names and acknowledged
-//! (`ack.rs`). Loss here comes from distance, noise and contention, not from a set p.
+//! ([`super::csma`]) over one agenda of every sender's next step (`access.rs`), every frame heard by every node in
+//! range at the power the path loss leaves ([`super::phy`]; who hears whom: `reach.rs`), and its fate at each
+//! receiver decided by what that receiver makes of all the frames around it ([`super::air`]), each node's receiver
+//! keeping its state as frames begin and end (`ears.rs`), the path loss with each pair's shadowing
+//! ([`super::shadow`]) if the radio has it. A broadcast is one frame sequence, heard by all; a unicast is the same
+//! frames, kept by the one it names and acknowledged (`ack.rs`). Loss here comes from distance, noise and
+//! contention, not from a set p.
 //!
 //! The medium is whole: it decides a frame's fate only once every frame that could overlap it is known, so a
 //! driver hands it every sender's transmissions up to an instant before it asks for deliveries up to that instant
@@ -54,11 +56,13 @@ mod ack;
 mod counters;
 mod ears;
 mod quality;
+mod reach;
 use ack::{ifs, Awaiting};
 pub use ack::{ACK_PSDU, ACK_WAIT};
 pub use counters::RadioCounters;
 use ears::Ear;
 pub use quality::LinkQuality;
+use reach::{Hearers, Reach};
 
 /// The radios' settings, the same at every node.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -122,12 +126,8 @@ struct AirFrame {
     message: u64,
     to: Dest,
     bytes: Option<Bytes>,
-    /// An acknowledgement (of `message`, to `to`).
-    ack: bool,
-    /// Its power at every node, W (from the distance as it began).
-    power_w: std::sync::Arc<[f64]>,
-    /// Its sender's distance to every node as it began, m.
-    distance_m: std::sync::Arc<[f64]>,
+    /// The nodes that hear it, and its power at each (from the distance as it began).
+    hearers: std::sync::Arc<Hearers>,
 }
 
 /// What a sender's MAC does next.
@@ -153,6 +153,8 @@ struct Mac {
     rng: Rng,
     /// The head frame's ACK, awaited.
     awaiting: Option<Awaiting>,
+    /// Its frame on the air.
+    on_air: Option<u64>,
 }
 
 /// The shared channel.
@@ -160,9 +162,8 @@ struct Mac {
 pub struct RadioMedium {
     radio: Radio,
     world: World,
-    noise_w: f64,
     macs: Vec<Mac>,
-    air: Vec<AirFrame>,
+    air: VecDeque<AirFrame>,
     /// Frames decided, oldest first: `air[..decided]` have reached every receiver.
     deliveries: Vec<VecDeque<Delivery>>,
     /// (message, receiver): a frame of the message was lost there.
@@ -171,7 +172,7 @@ pub struct RadioMedium {
     down: HashSet<(u64, usize)>,
     /// (message, receiver): an acknowledged message delivered, until its sender is done with it.
     delivered: HashSet<(u64, usize)>,
-    links: Vec<Vec<LinkCounters>>,
+    links: Vec<std::collections::BTreeMap<usize, LinkCounters>>,
     nodes: Vec<RadioCounters>,
     fates: Vec<Rng>,
     /// Each sender's frames at each receiver they were for.
@@ -183,8 +184,8 @@ pub struct RadioMedium {
     clock: Time,
     /// Each pair's shadowing, with the radio's.
     shadow: Option<ShadowField>,
-    /// The longest frame put on the air: a frame that began that long before an instant has ended by it.
-    longest: std::time::Duration,
+    /// Who hears whom.
+    reach: Reach,
     /// Each node's receiver, and the frames put on the air so far.
     ears: Vec<Ear>,
     frames_sent: u64,
@@ -195,16 +196,12 @@ pub struct RadioMedium {
     dropped_until: Time,
 }
 
-/// Interference below a hundredth of the noise is left out.
-const NEGLIGIBLE: f64 = 0.01;
-
 impl RadioMedium {
     /// A channel shared by the nodes `world` places, each drawing its backoffs and its frames' fates from streams
     /// of `seed`.
     pub fn new(radio: Radio, world: World, seed: u64) -> RadioMedium {
         let n = world.len();
         RadioMedium {
-            noise_w: radio.receiver.noise_w(),
             macs: (0..n)
                 .map(|i| Mac {
                     queue: VecDeque::new(),
@@ -213,14 +210,15 @@ impl RadioMedium {
                     free_at: Time::ZERO,
                     rng: crate::rng::stream(seed, "csma", i as u64, 0),
                     awaiting: None,
+                    on_air: None,
                 })
                 .collect(),
-            air: Vec::new(),
+            air: VecDeque::new(),
             deliveries: (0..n).map(|_| VecDeque::new()).collect(),
             lost: HashSet::new(),
             down: HashSet::new(),
             delivered: HashSet::new(),
-            links: vec![vec![LinkCounters::default(); n]; n],
+            links: vec![Default::default(); n],
             nodes: vec![RadioCounters::default(); n],
             fates: (0..n).map(|i| crate::rng::stream(seed, "air", i as u64, 0)).collect(),
             quality: (0..n).map(|_| Default::default()).collect(),
@@ -228,7 +226,7 @@ impl RadioMedium {
             messages: 0,
             clock: Time::ZERO,
             shadow: radio.shadowing.map(|law| ShadowField::new(law, seed)),
-            longest: std::time::Duration::ZERO,
+            reach: Reach::new(&radio, &world, radio.receiver.noise_w()),
             ears: (0..n).map(|_| Ear::new(radio.receiver.noise_w())).collect(),
             frames_sent: 0,
             agenda: BinaryHeap::new(),
@@ -266,27 +264,6 @@ impl RadioMedium {
         self.nodes.get(i).copied().unwrap_or_default()
     }
 
-    /// The power of `from`'s frame at every node if it begins at `t`, W (the path loss and the pair's shadowing),
-    /// and the distance it crosses to each, m.
-    fn reach(&mut self, from: usize, t: Time) -> (std::sync::Arc<[f64]>, std::sync::Arc<[f64]>) {
-        let at = self.world.position(from, t);
-        let places: Vec<_> = (0..self.world.len()).map(|to| self.world.position(to, t)).collect();
-        let distance_m: std::sync::Arc<[f64]> = places.iter().map(|p| (p - at).norm()).collect();
-        let power_w = places
-            .iter()
-            .enumerate()
-            .map(|(to, &p)| {
-                let shadow = match &mut self.shadow {
-                    Some(s) if to != from => s.db(from, to, at, p),
-                    _ => 0.0,
-                };
-                let loss = self.radio.path_loss.loss_db(distance_m[to]) + shadow;
-                phy::dbm_to_w(self.radio.tx_dbm - loss)
-            })
-            .collect();
-        (power_w, distance_m)
-    }
-
     /// Sender `i`'s frame leaves the air at `t`: its fate at every receiver it was for, then the interframe spacing
     /// (or, for an acknowledged unicast, the wait for its ACK).
     fn end_frame(&mut self, i: usize, t: Time) {
@@ -297,35 +274,37 @@ impl RadioMedium {
             let q = mac.queue.pop_front().expect("a frame on the air");
             mac.free_at = t + ifs(q.psdu);
         }
-        let Some(k) = self.air.iter().rposition(|f| f.from == i && f.end == t && !f.ack) else {
+        let Some(k) = self.macs[i].on_air.take().and_then(|seq| self.air_index(seq)) else {
             if acked {
                 self.macs[i].queue.pop_front();
             }
             return;
         };
         let f = self.air[k].clone();
+        debug_assert_eq!(f.from, i, "its own frame");
         for j in self.receivers(i, f.to) {
-            let p = f.power_w[j];
-            let heard = p >= NEGLIGIBLE * self.noise_w;
+            let p = f.hearers.power(j);
+            let heard = p.is_some();
             let (success, sinr) = match heard.then(|| self.reception(k, j)) {
                 Some(Reception::Locked { success, sinr_min }) => (success, Some(sinr_min)),
                 _ => (0.0, None),
             };
             let u: f64 = rand::Rng::gen(&mut self.fates[i]);
             let down = self.down.contains(&(f.message, j));
+            let distance_m = self.world.distance(i, j, f.start);
             let quality = self.quality[i].entry(j).or_default();
-            quality.count(p, heard, sinr, u < success && !down, f.distance_m[j]);
+            quality.count(p.unwrap_or(0.0), heard, sinr, u < success && !down, distance_m);
             if acked {
                 let received = u < success && !down;
                 if received && f.bytes.is_some() && self.delivered.insert((f.message, j)) {
                     self.deliver(i, j, t, f.bytes.clone());
                 }
-                let ack_end = received.then(|| self.send_ack(j, i, f.message, t));
+                let ack = received.then(|| self.send_ack(j, i, f.message, t));
                 self.macs[i].awaiting = Some(Awaiting {
                     data_end: t,
-                    ack_start: ack_end.map(|_| t + csma::TURNAROUND),
+                    ack: ack.map(|a| a.1),
                 });
-                self.macs[i].next = Next::AckWait(ack_end.unwrap_or(t + ACK_WAIT));
+                self.macs[i].next = Next::AckWait(ack.map_or(t + ACK_WAIT, |a| a.0));
                 continue;
             }
             if u >= success {
@@ -337,26 +316,22 @@ impl RadioMedium {
                     continue;
                 }
                 if lost {
-                    self.links[i][j].lost_random += 1;
+                    self.links[i].entry(j).or_default().lost_random += 1;
                 } else {
                     self.deliver(i, j, t, f.bytes.clone());
                 }
             }
         }
-        // Frames that ended long before the earliest frame still on the air can no longer overlap a decision.
-        let horizon = self
-            .air
-            .iter()
-            .filter(|f| f.end > t)
-            .map(|f| f.start)
-            .min()
-            .unwrap_or(t);
-        let keep_from = Time::from_nanos(horizon.as_nanos().saturating_sub(50_000_000));
-        #[cfg(test)]
-        for f in self.air.iter().filter(|f| f.end < keep_from) {
-            self.dropped_until = self.dropped_until.max(f.end);
+        // Every fate is decided by the receivers' own state: the air keeps the frames of the last 50 ms for the
+        // frames' ends and ACKs to find them (and test builds to check the fates against).
+        let keep_from = Time::from_nanos(t.as_nanos().saturating_sub(50_000_000));
+        while self.air.front().is_some_and(|f| f.end < keep_from) {
+            let _f = self.air.pop_front();
+            #[cfg(test)]
+            if let Some(f) = _f {
+                self.dropped_until = self.dropped_until.max(f.end);
+            }
         }
-        self.air.retain(|f| f.end >= keep_from);
     }
 
     /// Sender `i`'s datagram `bytes` reaches `j` at `t`.
@@ -372,51 +347,42 @@ impl RadioMedium {
     }
 
     /// Node `from` puts a frame on the air from `start` to `end` (of `message`, to `to`, the datagram on its
-    /// last frame; an ACK if `ack`): it reaches every node at the power the path loss leaves, and every node that
+    /// last frame): it reaches every node at the power the path loss leaves, and every node that
     /// hears it above the negligible is told. `air` stays in the order frames begin: they begin in the order of
     /// the events that start them, so this appends.
-    fn put_on_air(&mut self, from: usize, (start, end): (Time, Time), what: (u64, Dest, Option<Bytes>), ack: bool) {
+    fn put_on_air(&mut self, from: usize, (start, end): (Time, Time), what: (u64, Dest, Option<Bytes>)) -> u64 {
         let (message, to, bytes) = what;
-        let (power_w, distance_m) = self.reach(from, start);
+        let hearers = self
+            .reach
+            .hearers(&self.radio, &self.world, &mut self.shadow, from, start);
         let seq = self.frames_sent;
         self.frames_sent += 1;
         let mut meant = self.receivers(from, to);
         meant.sort_unstable();
-        for (j, ear) in self.ears.iter_mut().enumerate() {
-            if j == from {
-                ear.transmit((start, end));
-            } else if power_w[j] >= NEGLIGIBLE * self.noise_w {
-                ear.frame(seq, (start, end), power_w[j], meant.binary_search(&j).is_ok());
-            }
+        self.ears[from].transmit((start, end));
+        for (j, power_w) in hearers.iter() {
+            self.ears[j].frame(seq, (start, end), power_w, meant.binary_search(&j).is_ok());
         }
-        self.longest = self.longest.max(end.since(start));
         debug_assert!(
-            self.air.last().is_none_or(|g| g.start <= start),
+            self.air.back().is_none_or(|g| g.start <= start),
             "frames begin in order"
         );
-        let at = self.air.partition_point(|g| g.start <= start);
-        self.air.insert(
-            at,
-            AirFrame {
-                seq,
-                from,
-                start,
-                end,
-                message,
-                to,
-                bytes,
-                ack,
-                power_w,
-                distance_m,
-            },
-        );
+        self.air.push_back(AirFrame {
+            seq,
+            from,
+            start,
+            end,
+            message,
+            to,
+            bytes,
+            hearers,
+        });
+        seq
     }
 
-    /// The frames of `air` that can overlap `[lo, hi]` (a range holding every frame with start ≤ hi and end > lo).
-    fn window(&self, lo: Time, hi: Time) -> std::ops::Range<usize> {
-        let first = self.air.partition_point(|g| g.start + self.longest <= lo);
-        let last = self.air.partition_point(|g| g.start <= hi);
-        first..last.max(first)
+    /// Where frame `seq` is in `air` (in the order they were put there), if it is still kept.
+    fn air_index(&self, seq: u64) -> Option<usize> {
+        self.air.binary_search_by_key(&seq, |f| f.seq).ok()
     }
 
     /// What receiver `j` makes of frame `k`, meant for it, as the frame ends.
@@ -444,7 +410,7 @@ impl Medium for RadioMedium {
             let message = self.messages;
             self.messages += 1;
             for j in self.receivers(from, tx.to) {
-                let link = &mut self.links[from][j];
+                let link = self.links[from].entry(j).or_default();
                 link.sent += 1;
                 link.bytes += bytes.len() as u64;
                 if !faults.link_up(from, j, tx.at) {
@@ -498,11 +464,9 @@ impl Medium for RadioMedium {
         let Some(links) = self.links.get(from) else {
             return Vec::new();
         };
-        links
-            .iter()
-            .enumerate()
-            .filter(|(j, c)| *j != from && c.sent > 0)
-            .map(|(j, c)| (j, *c))
+        (links.iter())
+            .filter(|(j, c)| **j != from && c.sent > 0)
+            .map(|(j, c)| (*j, *c))
             .collect()
     }
     fn radio(&self, node: usize) -> Option<RadioCounters> {

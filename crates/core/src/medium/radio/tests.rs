@@ -223,7 +223,7 @@ impl RadioMedium {
         j: usize,
         (mut lo, hi): (Time, Time),
     ) -> Option<(Vec<air::OnAir>, Vec<usize>, Vec<(Time, Time)>)> {
-        let heard = |g: &AirFrame| g.from != j && g.power_w[j] >= NEGLIGIBLE * self.noise_w;
+        let heard = |g: &AirFrame| g.from != j && g.hearers.power(j).is_some();
         let members = loop {
             let members: Vec<usize> = (0..self.air.len())
                 .filter(|&m| self.air[m].start <= hi && self.air[m].end > lo && heard(&self.air[m]))
@@ -245,7 +245,7 @@ impl RadioMedium {
             .map(|&m| air::OnAir {
                 start: self.air[m].start,
                 end: self.air[m].end,
-                power_w: self.air[m].power_w[j],
+                power_w: self.air[m].hearers.power(j).expect("heard"),
             })
             .collect();
         Some((frames, members, sending))
@@ -256,14 +256,14 @@ impl RadioMedium {
         let (frames, ids, sending) = self.heard_by(j, (f.start, f.end))?;
         CHECKED.with(|c| c.set(c.get() + 1));
         Some(match ids.iter().position(|&m| m == k) {
-            Some(index) => air::receive(&frames, &sending, self.noise_w)[index],
+            Some(index) => air::receive(&frames, &sending, self.radio.receiver.noise_w())[index],
             None => Reception::Weak { sinr: 0.0 },
         })
     }
 
     pub(super) fn receiving_by_chain(&self, i: usize, t: Time) -> Option<bool> {
         let (frames, ids, sending) = self.heard_by(i, (t, t))?;
-        let got = air::receive(&frames, &sending, self.noise_w);
+        let got = air::receive(&frames, &sending, self.radio.receiver.noise_w());
         Some((ids.iter().zip(got)).any(|(&m, r)| self.air[m].end > t && matches!(r, Reception::Locked { .. })))
     }
 }
@@ -302,4 +302,46 @@ fn each_receivers_state_gives_the_fates_the_whole_timeline_gives() {
         got > 300 && busy > 1000 && checked > 1000,
         "delivered {got}, busy {busy} times, {checked} checked"
     );
+}
+
+/// The grid finds every node that hears a sender and no other: in a still world of 400 nodes over 1.2 km, each
+/// sender's hearers equal those of a pass over every node at the same floor.
+#[test]
+fn the_grid_finds_exactly_the_nodes_that_hear() {
+    let mut rng = crate::rng::stream(3, "test", 0, 0);
+    let at: Vec<(f64, f64)> = (0..400)
+        .map(|_| {
+            (
+                rand::Rng::gen_range(&mut rng, 0.0..1200.0),
+                rand::Rng::gen_range(&mut rng, 0.0..1200.0),
+            )
+        })
+        .collect();
+    let (radio, w) = (Radio::default(), world(&at));
+    let noise_w = radio.receiver.noise_w();
+    let mut reach = Reach::new(&radio, &w, noise_w);
+    let mut total = 0;
+    for from in 0..at.len() {
+        let got: Vec<(usize, f64)> = reach.hearers(&radio, &w, &mut None, from, Time::ZERO).iter().collect();
+        let want: Vec<(usize, f64)> = (0..at.len())
+            .filter(|&j| j != from)
+            .map(|j| {
+                (
+                    j,
+                    phy::dbm_to_w(radio.tx_dbm - radio.path_loss.loss_db(w.distance(from, j, Time::ZERO))),
+                )
+            })
+            .filter(|&(_, p)| p >= reach::NEGLIGIBLE * noise_w)
+            .collect();
+        assert_eq!(got, want, "sender {from}");
+        total += got.len();
+    }
+    // About π·195² / (1200²) of the others, less at the edges.
+    assert!(total > 400 * 20 && total < 400 * 80, "{total}");
+    // The distance where the loss reaches a value is its inverse.
+    let pl = radio.path_loss;
+    for loss in [50.0, 80.0, 115.4] {
+        assert!((pl.loss_db(pl.distance_for(loss)) - loss).abs() < 1e-9);
+    }
+    assert_eq!(pl.distance_for(10.0), pl.reference_m);
 }
