@@ -109,12 +109,17 @@ fn a_radio_run_refuses_what_it_cannot_honour() {
     }
 }
 
-/// `simnet ARGS` exits 2 with an error that contains `names`.
-fn refused(args: &[&str], names: &str) {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_simnet"))
+/// `simnet ARGS`, run to its end.
+fn simnet<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_simnet"))
         .args(args)
         .output()
-        .unwrap();
+        .unwrap()
+}
+
+/// `simnet ARGS` exits 2 with an error that contains `names`.
+fn refused(args: &[&str], names: &str) {
+    let out = simnet(args);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
     assert!(err.contains(names), "{args:?}: {err}");
@@ -128,23 +133,15 @@ fn compare_on_a_radio_runs_each_estimator_alone() {
     let dir = std::env::temp_dir().join(format!("simnet-test-{}-radio-compare", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let plot = dir.join("budget.svg");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_simnet"))
-        .args([
-            "-q",
-            "compare",
-            "-t",
-            "rgg50-radio",
-            "--seeds",
-            "2",
-            "--rounds",
-            "1,2",
-            "--duration",
-            "2",
-        ])
-        .args(["--estimators", "sequeira,icf", "--json", "--plot"])
-        .arg(&plot)
-        .output()
-        .unwrap();
+    let compare =
+        "-q compare -t rgg50-radio --seeds 2 --rounds 1,2 --duration 2 --estimators sequeira,icf --json --plot";
+    let out = simnet(
+        &[
+            compare.split(' ').map(Into::into).collect(),
+            vec![plot.clone().into_os_string()],
+        ]
+        .concat(),
+    );
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let rows = v["rows"].as_array().unwrap();
@@ -202,23 +199,14 @@ fn compare_on_a_radio_runs_each_estimator_alone() {
         "the plot's legend"
     );
     // A plot that cannot be written (its path a directory) fails after the table is out: no figure is lost.
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_simnet"))
-        .args([
-            "-q",
-            "compare",
-            "-t",
-            "rgg50-radio",
-            "--seeds",
-            "1",
-            "--rounds",
-            "1",
-            "--duration",
-            "1",
-        ])
-        .args(["--estimators", "sequeira", "--plot"])
-        .arg(&dir)
-        .output()
-        .unwrap();
+    let compare = "-q compare -t rgg50-radio --seeds 1 --rounds 1 --duration 1 --estimators sequeira --plot";
+    let out = simnet(
+        &[
+            compare.split(' ').map(Into::into).collect(),
+            vec![dir.clone().into_os_string()],
+        ]
+        .concat(),
+    );
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stdout).contains("| 1 | sequeira |"));
     std::fs::remove_dir_all(&dir).unwrap();
