@@ -78,6 +78,7 @@ const LINKS: &[Field] = &[
     only("distance_m", "Radio runs: their mean distance as each began, m."),
     only("rssi_dbm", "Radio runs: the mean power at the receiver of the frames it heard (above a hundredth of its noise), dBm."),
     only("sinr_db", "Radio runs: the mean of the lowest SINR over each frame it locked onto, dB."),
+    only("lqi", "Radio runs: the mean link quality indication (0–255) of the frames it locked onto: each frame's chance to arrive intact scaled to 0–255, as ns-3 gives it."),
     only("prr", "Radio runs: frames that arrived intact over frames sent (by frame; `loss_rate` counts messages)."),
 ];
 

@@ -61,7 +61,7 @@ use ack::{ifs, Awaiting};
 pub use ack::{ACK_PSDU, ACK_WAIT};
 pub use counters::RadioCounters;
 use ears::Ear;
-pub use quality::LinkQuality;
+pub use quality::{lqi, LinkQuality};
 use reach::{Hearers, Reach};
 
 /// The radios' settings, the same at every node.
@@ -285,15 +285,15 @@ impl RadioMedium {
         for j in self.receivers(i, f.to) {
             let p = f.hearers.power(j);
             let heard = p.is_some();
-            let (success, sinr) = match heard.then(|| self.reception(k, j)) {
-                Some(Reception::Locked { success, sinr_min }) => (success, Some(sinr_min)),
+            let (success, locked) = match heard.then(|| self.reception(k, j)) {
+                Some(Reception::Locked { success, sinr_min }) => (success, Some((sinr_min, success))),
                 _ => (0.0, None),
             };
             let u: f64 = rand::Rng::gen(&mut self.fates[i]);
             let down = self.down.contains(&(f.message, j));
             let distance_m = self.world.distance(i, j, f.start);
             let quality = self.quality[i].entry(j).or_default();
-            quality.count(p.unwrap_or(0.0), heard, sinr, u < success && !down, distance_m);
+            quality.count(p.unwrap_or(0.0), heard, locked, u < success && !down, distance_m);
             if acked {
                 let received = u < success && !down;
                 if received && f.bytes.is_some() && self.delivered.insert((f.message, j)) {

@@ -3,7 +3,8 @@
 use super::*;
 use std::io::{self, Write};
 
-/// `links.csv`: the per-link counters; on a radio channel also each pair's frames, distance, RSSI, SINR and PRR.
+/// `links.csv`: the per-link counters; on a radio channel also each pair's frames, distance, RSSI, SINR, LQI and
+/// PRR.
 pub fn write_links(w: &mut impl Write, links: &[LinkSummary]) -> io::Result<()> {
     use crate::report::trace::num;
     let opt = |v: Option<f64>| v.map_or(String::new(), num);
@@ -13,7 +14,7 @@ pub fn write_links(w: &mut impl Write, links: &[LinkSummary]) -> io::Result<()> 
         w,
         "{}",
         if radio {
-            ",frames,distance_m,rssi_dbm,sinr_db,prr"
+            ",frames,distance_m,rssi_dbm,sinr_db,lqi,prr"
         } else {
             ""
         }
@@ -40,14 +41,15 @@ pub fn write_links(w: &mut impl Write, links: &[LinkSummary]) -> io::Result<()> 
         match (&l.radio, radio) {
             (Some(r), _) => writeln!(
                 w,
-                ",{},{},{},{},{}",
+                ",{},{},{},{},{},{}",
                 r.frames,
                 opt(r.distance_m),
                 opt(r.rssi_dbm),
                 opt(r.sinr_db),
+                opt(r.lqi),
                 opt(r.prr)
             )?,
-            (None, true) => writeln!(w, ",0,,,,")?,
+            (None, true) => writeln!(w, ",0,,,,,")?,
             (None, false) => writeln!(w)?,
         }
     }

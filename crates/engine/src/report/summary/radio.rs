@@ -38,6 +38,10 @@ pub struct LinkRadio {
     pub rssi_dbm: Option<f64>,
     /// The mean of the lowest SINR over each frame it locked onto, dB.
     pub sinr_db: Option<f64>,
+    /// The mean link quality indication (0–255) of the frames it locked onto: each frame's chance to arrive intact
+    /// scaled to 0–255, as ns-3 gives it.
+    #[serde(default)]
+    pub lqi: Option<f64>,
     /// Frames that arrived intact over frames sent (by frame; `loss_rate` counts messages).
     pub prr: Option<f64>,
 }
@@ -50,6 +54,7 @@ impl LinkRadio {
             distance_m: q.mean_distance_m(),
             rssi_dbm: q.mean_rssi_dbm(),
             sinr_db: q.mean_sinr_db(),
+            lqi: q.mean_lqi(),
             prr: q.prr(),
         }
     }
