@@ -83,8 +83,12 @@ impl Ear {
     }
 
     /// Frame `id` reaches this node from `start` to `end` (after every frame told before it) at `power_w` watts;
-    /// its fate is kept if `wanted`.
-    pub(super) fn frame(&mut self, id: u64, (start, end): (Time, Time), power_w: f64, wanted: bool) {
+    /// its fate is kept if `wanted`. `now`, the medium's time, is no later than any question still to come: a node
+    /// nobody asks about hears what is queued up to it once a thousand frames wait, so that its inbox stays bounded.
+    pub(super) fn frame(&mut self, id: u64, (start, end): (Time, Time), power_w: f64, wanted: bool, now: Time) {
+        if self.starts.len() >= 1024 {
+            self.run_to(now);
+        }
         debug_assert!(self.starts.back().is_none_or(|h| h.start <= start));
         self.starts.push_back(Heard {
             begun: false,
@@ -153,6 +157,12 @@ impl Ear {
             .filter(|h| h.start <= t && h.end > from)
             .map(|h| (h.start, h.end, h.power_w))
             .collect()
+    }
+
+    /// Frames told and not yet begun to be heard.
+    #[cfg(test)]
+    pub(super) fn queued(&self) -> usize {
+        self.starts.len()
     }
 
     fn keep(&mut self, wanted: bool, id: u64, r: Reception) {

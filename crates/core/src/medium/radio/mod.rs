@@ -361,7 +361,7 @@ impl RadioMedium {
         meant.sort_unstable();
         self.ears[from].transmit((start, end));
         for (j, power_w) in hearers.iter() {
-            self.ears[j].frame(seq, (start, end), power_w, meant.binary_search(&j).is_ok());
+            self.ears[j].frame(seq, (start, end), power_w, meant.binary_search(&j).is_ok(), self.clock);
         }
         debug_assert!(
             self.air.back().is_none_or(|g| g.start <= start),

@@ -388,3 +388,16 @@ fn delivery_over_time_follows_a_moving_pairs_distance() {
     }
     assert!(got[0] >= 198 && got[got.len() - 1] <= 5, "{got:?}");
 }
+
+/// A node nobody asks about (it never sends, and no broadcast is for it) still hears: its inbox stays bounded.
+#[test]
+fn an_ear_nobody_asks_stays_bounded() {
+    let mut m = RadioMedium::new(unacked(), world(&[(0.0, 0.0), (10.0, 0.0)]), 1).with_listeners(vec![vec![], vec![]]);
+    for k in 0..3000u64 {
+        let at = Time::from_nanos(k * 5_000_000);
+        send(&mut m, 0, Dest::Broadcast, at, 20);
+        assert!(all(&mut m, at + std::time::Duration::from_millis(5)).is_empty());
+    }
+    assert_eq!(m.node_counters(0).frames, 3000);
+    assert!(m.ears[1].queued() <= 1024, "{}", m.ears[1].queued());
+}
